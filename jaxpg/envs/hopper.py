@@ -1,0 +1,87 @@
+"""Hopper with the semantics of Gymnasium's ``Hopper-v5``.
+
+Observation ``[11]``: ``qpos[1:]`` (torso height, torso angle, thigh, leg, foot angles) then
+``clip(qvel, -10, 10)`` (6 velocities). Action ``[3]`` in ``[-1, 1]``: torques on thigh, leg, foot
+(gear 200). Reward: forward velocity of the torso + 1 while healthy - 1e-3 * |action|^2.
+Healthy: ``z > 0.7``, ``|angle| < 0.2`` and every entry of ``(qpos, qvel)[2:]`` inside (-100, 100);
+an unhealthy state terminates the episode. Reset noise: uniform +-5e-3 on qpos and qvel.
+Frame skip 4 (dt 0.008 s), 1000-step limit. The eval metric is the forward distance ``qpos[0]``.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+
+from jaxpg.envs.base import State
+from jaxpg.envs.mjx_env import Fidelity, Impl, MjxEnv
+
+
+class Hopper(MjxEnv):
+    """MJX Hopper; see the module docstring for the task definition."""
+
+    eval_metric_name = "forward_distance"
+
+    def __init__(
+        self,
+        fidelity: Fidelity = "fast",
+        impl: Impl | None = None,
+        max_episode_steps: int = 1000,
+        forward_reward_weight: float = 1.0,
+        ctrl_cost_weight: float = 1e-3,
+        healthy_reward: float = 1.0,
+        healthy_z_min: float = 0.7,
+        healthy_angle_max: float = 0.2,
+        healthy_state_max: float = 100.0,
+        reset_noise_scale: float = 5e-3,
+    ):
+        super().__init__("hopper.xml", frame_skip=4, fidelity=fidelity, impl=impl, max_episode_steps=max_episode_steps)
+        self.observation_size = self.nq - 1 + self.nv
+        self.action_size = self.mj_model.nu
+        self.forward_reward_weight = forward_reward_weight
+        self.ctrl_cost_weight = ctrl_cost_weight
+        self.healthy_reward = healthy_reward
+        self.healthy_z_min = healthy_z_min
+        self.healthy_angle_max = healthy_angle_max
+        self.healthy_state_max = healthy_state_max
+        self.reset_noise_scale = reset_noise_scale
+
+    def observation(self, qpos: jax.Array, qvel: jax.Array) -> jax.Array:
+        """``[11]`` observation from ``qpos [6]`` and ``qvel [6]``."""
+        return jnp.concatenate([qpos[1:], jnp.clip(qvel, -10.0, 10.0)])
+
+    def is_healthy(self, qpos: jax.Array, qvel: jax.Array) -> jax.Array:
+        """``[]`` bool: the hopper is upright, high enough and its state bounded."""
+        z, angle = qpos[1], qpos[2]
+        state = jnp.concatenate([qpos, qvel])[2:]
+        bounded = jnp.all(jnp.abs(state) < self.healthy_state_max)
+        return bounded & (z > self.healthy_z_min) & (jnp.abs(angle) < self.healthy_angle_max)
+
+    def _reset(self, key: jax.Array) -> tuple[Any, jax.Array, dict[str, jax.Array]]:
+        kq, kv = jax.random.split(key)
+        s = self.reset_noise_scale
+        qpos = self.init_qpos + jax.random.uniform(kq, (self.nq,), minval=-s, maxval=s)
+        qvel = self.init_qvel + jax.random.uniform(kv, (self.nv,), minval=-s, maxval=s)
+        data = self.physics_state(qpos, qvel)
+        zero = jnp.zeros((), jnp.float32)
+        metrics = {"reward_forward": zero, "reward_ctrl": zero, "reward_survive": zero, "eval_metric": qpos[0]}
+        return data, self.observation(qpos, qvel), metrics
+
+    def _step(self, state: State, action: jax.Array) -> tuple[Any, jax.Array, jax.Array, jax.Array, dict]:
+        x_before = state.data.qpos[0]
+        data = self.physics_step(state.data, action)
+        x_velocity = (data.qpos[0] - x_before) / self.dt
+        healthy = self.is_healthy(data.qpos, data.qvel)
+        forward = self.forward_reward_weight * x_velocity
+        survive = self.healthy_reward * healthy.astype(jnp.float32)
+        ctrl_cost = self.ctrl_cost_weight * jnp.sum(jnp.square(action))
+        reward = forward + survive - ctrl_cost
+        metrics = {
+            "reward_forward": forward,
+            "reward_ctrl": -ctrl_cost,
+            "reward_survive": survive,
+            "eval_metric": data.qpos[0],
+        }
+        return data, self.observation(data.qpos, data.qvel), reward, ~healthy, metrics

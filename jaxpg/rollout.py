@@ -1,0 +1,143 @@
+"""Batched sampling: ``lax.scan`` over time, ``vmap`` over environments.
+
+Two modes, both pure and jittable, both usable under an outer ``vmap`` (several seeds in one
+program) and with the env batch sharded over devices (the batch axis is the one to shard):
+
+* ``rollout`` -- *continuing* sampling (Brax, PureJaxRL): envs reset themselves when an episode
+  ends (the env must be wrapped in ``AutoReset``), the env state is carried from one iteration to
+  the next, and every iteration samples a fixed ``horizon``.
+* ``rollout_episodes`` -- *episodic* sampling (LyceumAI, mjrl): every env is reset at the start,
+  runs ``horizon`` steps without reset, and ``valid`` masks the steps after its episode ended.
+
+The policy enters as ``act_fn(params, obs [B, obs_dim], key) -> (action [B, ...], log_prob [B])``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+from flax import struct
+
+from jaxpg.envs.base import Env, State
+
+ActFn = Callable[[Any, jax.Array, jax.Array], tuple[jax.Array, jax.Array]]
+
+
+@struct.dataclass
+class Trajectory:
+    """A batch of transitions, time-major: every field is ``[T, B, ...]``.
+
+    Attributes:
+      obs: ``[T, B, obs_dim]`` observation the action was taken in.
+      actions: ``[T, B, act_dim]`` (continuous) or ``[T, B]`` int32 (discrete).
+      log_probs: ``[T, B]`` log-probability of the action under the sampling policy.
+      rewards: ``[T, B]``.
+      terminated: ``[T, B]`` bool, the task ended at this step (no bootstrap).
+      truncated: ``[T, B]`` bool, the time limit ended the episode (bootstrap from ``next_obs``).
+      next_obs: ``[T, B, obs_dim]`` observation after the step, *before* any automatic reset:
+        the final observation of an episode that ended here.
+      valid: ``[T, B]`` float32, 1 for real transitions, 0 for steps after an episode ended in
+        episodic sampling (always 1 in continuing sampling).
+      metrics: ``[T, B]`` per-step env metrics (``episode_return``, ``episode_done`` ...).
+    """
+
+    obs: jax.Array
+    actions: jax.Array
+    log_probs: jax.Array
+    rewards: jax.Array
+    terminated: jax.Array
+    truncated: jax.Array
+    next_obs: jax.Array
+    valid: jax.Array
+    metrics: dict[str, jax.Array]
+
+    @property
+    def dones(self) -> jax.Array:
+        """``[T, B]`` bool: an episode ended at this step."""
+        return jnp.logical_or(self.terminated, self.truncated)
+
+
+def reset_batch(env: Env, key: jax.Array, num_envs: int) -> State:
+    """``num_envs`` independent initial states, ``[num_envs, ...]`` on every leaf."""
+    return jax.vmap(env.reset)(jax.random.split(key, num_envs))
+
+
+def _transition(env: Env, act_fn: ActFn, params: Any, state: State, key: jax.Array) -> tuple[State, dict]:
+    """One batched env step from ``state [B]``; returns the new state and the step's record."""
+    actions, log_probs = act_fn(params, state.obs, key)
+    next_state = jax.vmap(env.step)(state, actions)
+    next_obs = next_state.info.get("final_obs", next_state.obs)
+    record = dict(
+        obs=state.obs,
+        actions=actions,
+        log_probs=log_probs,
+        rewards=next_state.reward,
+        terminated=next_state.terminated,
+        truncated=next_state.truncated,
+        next_obs=next_obs,
+        metrics=next_state.metrics,
+    )
+    return next_state, record
+
+
+def rollout(
+    env: Env, act_fn: ActFn, params: Any, env_state: State, key: jax.Array, horizon: int
+) -> tuple[State, Trajectory]:
+    """Continuing sampling of ``horizon`` steps from ``env_state [B]``.
+
+    ``env`` must reset itself (``AutoReset``). Returns the env state to continue from and a
+    ``Trajectory`` of ``[horizon, B]`` transitions with ``valid`` all ones.
+    """
+
+    def body(state: State, step_key: jax.Array) -> tuple[State, dict]:
+        return _transition(env, act_fn, params, state, step_key)
+
+    env_state, records = jax.lax.scan(body, env_state, jax.random.split(key, horizon))
+    valid = jnp.ones_like(records["rewards"])
+    return env_state, Trajectory(valid=valid, **records)
+
+
+def rollout_episodes(
+    env: Env, act_fn: ActFn, params: Any, key: jax.Array, num_envs: int, horizon: int
+) -> Trajectory:
+    """Episodic sampling: reset ``num_envs`` envs, run ``horizon`` steps, mask after each end.
+
+    ``env`` must *not* reset itself. Returns a ``[horizon, num_envs]`` ``Trajectory`` whose
+    ``valid`` is 1 up to and including the step where each env's first episode ended.
+    """
+    reset_key, steps_key = jax.random.split(key)
+    state = reset_batch(env, reset_key, num_envs)
+
+    def body(carry: tuple[State, jax.Array], step_key: jax.Array) -> tuple[tuple[State, jax.Array], dict]:
+        state, alive = carry
+        next_state, record = _transition(env, act_fn, params, state, step_key)
+        record["valid"] = alive.astype(jnp.float32)
+        alive = jnp.logical_and(alive, ~next_state.done)
+        return (next_state, alive), record
+
+    alive = jnp.ones((num_envs,), bool)
+    _, records = jax.lax.scan(body, (state, alive), jax.random.split(steps_key, horizon))
+    return Trajectory(**records)
+
+
+def episode_summary(traj: Trajectory) -> dict[str, jax.Array]:
+    """Means over the episodes that ended inside ``traj`` (NaN where none did).
+
+    Needs the ``EpisodeStats`` wrapper. Returns ``episode_return``, ``episode_length``,
+    ``episode_eval_metric`` and ``episodes`` (how many ended), all scalars.
+    """
+    ended = traj.metrics["episode_done"] * traj.valid
+    count = jnp.sum(ended)
+
+    def mean(x: jax.Array) -> jax.Array:
+        return jnp.where(count > 0, jnp.sum(x * ended) / jnp.maximum(count, 1.0), jnp.nan)
+
+    return {
+        "episode_return": mean(traj.metrics["episode_return"]),
+        "episode_length": mean(traj.metrics["episode_length"]),
+        "episode_eval_metric": mean(traj.metrics["episode_eval_metric"]),
+        "episodes": count,
+    }

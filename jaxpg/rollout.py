@@ -100,9 +100,7 @@ def rollout(
     return env_state, Trajectory(valid=valid, **records)
 
 
-def rollout_episodes(
-    env: Env, act_fn: ActFn, params: Any, key: jax.Array, num_envs: int, horizon: int
-) -> Trajectory:
+def rollout_episodes(env: Env, act_fn: ActFn, params: Any, key: jax.Array, num_envs: int, horizon: int) -> Trajectory:
     """Episodic sampling: reset ``num_envs`` envs, run ``horizon`` steps, mask after each end.
 
     ``env`` must *not* reset itself. Returns a ``[horizon, num_envs]`` ``Trajectory`` whose

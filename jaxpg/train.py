@@ -49,6 +49,11 @@ def compiled_block(update: UpdateFn, block_size: int, seeds: bool) -> Callable:
     return jax.jit(functools.partial(scan_updates, step, num_iterations=block_size), donate_argnums=0)
 
 
+@jax.jit
+def _private_copy(tree: Any) -> Any:
+    return jax.tree.map(jnp.copy, tree)
+
+
 def train(
     update: UpdateFn,
     train_state: TrainState,
@@ -73,6 +78,10 @@ def train(
         rejected as non-finite.
     Returns the final ``TrainState``.
     """
+    # Donation needs every leaf in its own buffer (states built eagerly can alias, e.g. an
+    # observation stored twice), and a jitted copy also commits the leaves to their device the way
+    # the block's outputs are, so the second block reuses the first block's compilation.
+    train_state = _private_copy(train_state)
     done = 0
     while done < num_iterations:
         n = min(block_size, num_iterations - done)

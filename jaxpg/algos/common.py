@@ -230,19 +230,33 @@ def sample(ts: TrainState, key: jax.Array) -> tuple[State, rollout_lib.Trajector
 def evaluate(ts: TrainState, key: jax.Array, deterministic: bool = True) -> dict[str, jax.Array]:
     """Mean return, length and eval metric of ``config.eval_envs`` fresh episodes.
 
-    ``deterministic=True`` runs the mode of the policy (LyceumAI's ``meantraj_reward``).
+    ``deterministic=True`` runs the mode of the policy (LyceumAI's ``meantraj_reward``). An
+    episode still running after ``eval_horizon`` steps counts with what it reached by then.
     """
     config = ts.config
     horizon = config.eval_horizon or ts.env.max_episode_steps
     traj = rollout_lib.rollout_episodes(ts.env, act_fn(ts, deterministic), ts.params, key, config.eval_envs, horizon)
-    return rollout_lib.episode_summary(traj)
+    lengths = jnp.sum(traj.valid, axis=0)
+    last = jnp.maximum(lengths.astype(jnp.int32) - 1, 0)
+    final_metric = jnp.take_along_axis(traj.metrics["eval_metric"], last[None, :], axis=0)[0]
+    return {
+        "episode_return": jnp.mean(jnp.sum(traj.rewards * traj.valid, axis=0)),
+        "episode_length": jnp.mean(lengths),
+        "episode_eval_metric": jnp.mean(final_metric),
+        "episodes": jnp.asarray(config.eval_envs, jnp.float32),
+    }
 
 
 def maybe_evaluate(ts: TrainState, key: jax.Array) -> dict[str, jax.Array]:
     """``evaluate`` on the iterations ``eval_every`` selects (NaN metrics on the others)."""
     config = ts.config
     nan = jnp.full((), jnp.nan)
-    skipped = {"episode_return": nan, "episode_length": nan, "episode_eval_metric": nan, "episodes": nan * 0}
+    skipped = {
+        "episode_return": nan,
+        "episode_length": nan,
+        "episode_eval_metric": nan,
+        "episodes": jnp.zeros(()),
+    }
     if config.eval_envs == 0:
         return skipped
     if config.eval_every == 1:
@@ -268,7 +282,9 @@ def sampling_metrics(ts: TrainState, traj: rollout_lib.Trajectory, eval_summary:
 
 def all_finite(tree: Any) -> jax.Array:
     """``[]`` bool: every floating leaf of ``tree`` is finite."""
-    leaves = [jnp.all(jnp.isfinite(x)) for x in jax.tree.leaves(tree) if jnp.issubdtype(jnp.asarray(x).dtype, jnp.inexact)]
+    leaves = [
+        jnp.all(jnp.isfinite(x)) for x in jax.tree.leaves(tree) if jnp.issubdtype(jnp.asarray(x).dtype, jnp.inexact)
+    ]
     return jnp.all(jnp.stack(leaves)) if leaves else jnp.array(True)
 
 
@@ -286,6 +302,10 @@ def accept_if_finite(old: TrainState, new: TrainState, loss: jax.Array) -> tuple
     )
     failures = jnp.where(ok, 0, new.failures + 1)
     state = new.replace(
-        params=params, value_params=value_params, opt_state=opt_state, value_opt_state=value_opt_state, failures=failures
+        params=params,
+        value_params=value_params,
+        opt_state=opt_state,
+        value_opt_state=value_opt_state,
+        failures=failures,
     )
     return state, (~ok).astype(jnp.float32)

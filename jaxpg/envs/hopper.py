@@ -36,8 +36,16 @@ class Hopper(MjxEnv):
         healthy_angle_max: float = 0.2,
         healthy_state_max: float = 100.0,
         reset_noise_scale: float = 5e-3,
+        **mjx_kwargs: Any,
     ):
-        super().__init__("hopper.xml", frame_skip=4, fidelity=fidelity, impl=impl, max_episode_steps=max_episode_steps)
+        super().__init__(
+            "hopper.xml",
+            frame_skip=4,
+            fidelity=fidelity,
+            impl=impl,
+            max_episode_steps=max_episode_steps,
+            **mjx_kwargs,
+        )
         self.observation_size = self.nq - 1 + self.nv
         self.action_size = self.mj_model.nu
         self.forward_reward_weight = forward_reward_weight
@@ -66,7 +74,12 @@ class Hopper(MjxEnv):
         qvel = self.init_qvel + jax.random.uniform(kv, (self.nv,), minval=-s, maxval=s)
         data = self.physics_state(qpos, qvel)
         zero = jnp.zeros((), jnp.float32)
-        metrics = {"reward_forward": zero, "reward_ctrl": zero, "reward_survive": zero, "eval_metric": qpos[0]}
+        metrics = {
+            "reward_forward": zero,
+            "reward_ctrl": zero,
+            "reward_survive": zero,
+            "eval_metric": qpos[0],
+        }
         return data, self.observation(qpos, qvel), metrics
 
     def _step(self, state: State, action: jax.Array) -> tuple[Any, jax.Array, jax.Array, jax.Array, dict]:

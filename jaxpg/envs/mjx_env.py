@@ -63,6 +63,11 @@ class MjxEnv(Env):
       impl: ``"jax"`` or ``"warp"`` (MuJoCo Warp behind MJX); ``None`` picks ``default_impl()``.
       max_episode_steps: time limit (1000 for the Gymnasium v5 tasks).
       naconmax, njmax: per-env contact and constraint capacities for the warp implementation.
+      max_batch: warp only: the most envs stepped together in one vmapped call (all nested vmaps,
+        e.g. seeds x envs, multiplied). MuJoCo Warp keeps constraint rows per env (``njmax``) but
+        one contact buffer for the whole batch, which MJX does not batch under ``vmap``; it gets
+        ``naconmax * max_batch`` slots. A larger batch drops contacts (Warp prints an overflow
+        warning); a smaller one only wastes a little memory and idle GPU threads.
     """
 
     def __init__(
@@ -74,6 +79,7 @@ class MjxEnv(Env):
         max_episode_steps: int = 1000,
         naconmax: int = 16,
         njmax: int = 64,
+        max_batch: int = 8192,
     ):
         impl = impl or default_impl()
         if impl not in ("jax", "warp"):
@@ -87,7 +93,10 @@ class MjxEnv(Env):
         self.mj_model = load_model(xml_file, fidelity)
         self.dt = float(self.mj_model.opt.timestep) * frame_skip
         self.mjx_model = mjx.put_model(self.mj_model, impl=impl)
-        make_kwargs: dict[str, Any] = {"naconmax": naconmax, "njmax": njmax} if impl == "warp" else {}
+        # naconmax is per batch in MJX's warp Data (see `max_batch`), njmax per env.
+        make_kwargs: dict[str, Any] = {}
+        if impl == "warp":
+            make_kwargs = {"naconmax": naconmax * max_batch, "njmax": njmax}
         self._data0 = mjx.make_data(self.mj_model, impl=impl, **make_kwargs)
         self.init_qpos = jnp.asarray(self.mj_model.qpos0, jnp.float32)
         self.init_qvel = jnp.zeros(self.mj_model.nv, jnp.float32)

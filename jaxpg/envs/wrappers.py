@@ -7,6 +7,7 @@ built by ``jaxpg.envs.make``, is ``EpisodeStats(ClipAction(task))``; the continu
 
 from __future__ import annotations
 
+import sys
 from typing import Any
 
 import jax
@@ -25,6 +26,12 @@ class Wrapper(Env):
         if name == "env":  # not yet set: avoid infinite recursion during unpickling/copying
             raise AttributeError(name)
         return getattr(self.env, name)
+
+    # `Env` gives these class-level defaults, which `__getattr__` would never see past.
+    discrete = property(lambda self: self.env.discrete)
+    eval_metric_name = property(lambda self: self.env.eval_metric_name)
+    action_low = property(lambda self: self.env.action_low)
+    action_high = property(lambda self: self.env.action_high)
 
     def _reset(self, key: jax.Array) -> Any:  # pragma: no cover - wrappers override reset
         raise NotImplementedError
@@ -125,7 +132,13 @@ class AutoReset(Wrapper):
         def pick(new: jax.Array, old: jax.Array) -> jax.Array:
             return jnp.where(jnp.reshape(done, done.shape + (1,) * (old.ndim - done.ndim)), new, old)
 
-        data = jax.tree.map(pick, fresh.data, stepped.data)
+        mjx = sys.modules.get("mujoco.mjx")  # no MJX data without MJX imported
+        if mjx is not None and isinstance(stepped.data, mjx.Data):
+            # With the warp implementation, the contact buffer is one for the whole batch: it must
+            # not be selected per env (jax.tree.map over it leaks a tracer out of MJX's vmap rule).
+            data = stepped.data.where(done, fresh.data)
+        else:
+            data = jax.tree.map(pick, fresh.data, stepped.data)
         obs = pick(fresh.obs, stepped.obs)
         info = jax.tree.map(pick, fresh.info, stepped.info)
         return stepped.replace(data=data, obs=obs, info={**info, "final_obs": stepped.obs})

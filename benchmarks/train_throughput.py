@@ -1,0 +1,160 @@
+"""Training throughput against raw simulation, side by side, per implementation and batch size.
+
+For each (impl, num_envs) this measures, in a fresh process (so that peak memory is its own):
+  raw    env steps/s of the simulation a training iteration needs: the same env (auto-reset
+         included), batch and horizon, random actions, ``lax.scan`` over the horizon;
+  train  env steps/s of full training iterations (sampling, GAE, policy step, value fit), several
+         iterations per compiled call exactly as ``jaxpg.train`` runs them;
+and reports their ratio, both compile times and the peak device memory per env.
+
+    python benchmarks/train_throughput.py --task hopper --impl warp jax \
+        --batch-sizes 256 1024 4096 16384 65536 --horizon 32 --algo npg
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import sys
+import time
+
+import jax
+import jax.numpy as jnp
+
+
+def algo_config(algo: str, num_envs: int, horizon: int) -> object:
+    """A throughput-oriented config: no evaluation rollouts, large value minibatches."""
+    from jaxpg import algos
+
+    module = algos.get(algo)
+    samples = num_envs * horizon
+    fields = module.Config.__dataclass_fields__
+    overrides = dict(num_envs=num_envs, horizon=horizon, eval_envs=0, normalize_observations=True)
+    if "value_batch_size" in fields:
+        overrides.update(value_batch_size=max(64, samples // 8), value_epochs=2)
+    if "num_minibatches" in fields:
+        overrides.update(num_minibatches=8, num_epochs=2)
+    return module.Config(**overrides)
+
+
+def time_call(fn, *args, repeats: int) -> tuple[float, float, object]:  # noqa: ANN001
+    """Compile time of the first call and mean time of ``repeats`` later calls."""
+    start = time.perf_counter()
+    out = jax.block_until_ready(fn(*args))
+    compile_s = time.perf_counter() - start
+    start = time.perf_counter()
+    for _ in range(repeats):
+        out = jax.block_until_ready(fn(*args))
+    return compile_s, (time.perf_counter() - start) / repeats, out
+
+
+def measure(task: str, impl: str, fidelity: str, num_envs: int, horizon: int, algo: str, iterations: int) -> dict:
+    """One row of the table (runs in its own process)."""
+    from jaxpg import algos, envs
+    from jaxpg import rollout as rollout_lib
+    from jaxpg import train as train_lib
+
+    env = envs.make(task, impl=impl, fidelity=fidelity)
+    sampler = envs.AutoReset(env)
+    state = rollout_lib.reset_batch(sampler, jax.random.PRNGKey(0), num_envs)
+
+    def random_act(params, obs, key):  # noqa: ANN001, ANN202
+        del params
+        if env.discrete:
+            return jax.random.randint(key, obs.shape[:1], 0, env.action_size), jnp.zeros(obs.shape[0])
+        shape = (obs.shape[0], env.action_size)
+        return jax.random.uniform(key, shape, minval=-1.0, maxval=1.0), jnp.zeros(obs.shape[0])
+
+    @jax.jit
+    def raw(state, key):  # noqa: ANN001, ANN202
+        state, traj = rollout_lib.rollout(sampler, random_act, None, state, key, horizon)
+        return state, jnp.sum(traj.rewards)
+
+    raw_compile, raw_s, _ = time_call(raw, state, jax.random.PRNGKey(1), repeats=3)
+
+    module = algos.get(algo)
+    config = algo_config(algo, num_envs, horizon)
+    ts = module.init(jax.random.PRNGKey(0), env, config)
+    block = jax.jit(lambda ts: train_lib.scan_updates(module.update, ts, iterations))
+    start = time.perf_counter()
+    ts2, metrics = jax.block_until_ready(block(ts))
+    train_compile = time.perf_counter() - start
+    start = time.perf_counter()
+    ts2, metrics = jax.block_until_ready(block(ts2))
+    train_s = (time.perf_counter() - start) / iterations
+
+    samples = num_envs * horizon
+    stats = jax.devices()[0].memory_stats() or {}
+    peak = stats.get("peak_bytes_in_use", 0)
+    return {
+        "task": task,
+        "impl": env.unwrapped.impl,
+        "fidelity": fidelity,
+        "algo": algo,
+        "num_envs": num_envs,
+        "horizon": horizon,
+        "raw_steps_per_s": samples / raw_s,
+        "train_steps_per_s": samples / train_s,
+        "ratio": raw_s / train_s,
+        "raw_compile_s": raw_compile,
+        "train_compile_s": train_compile,
+        "peak_bytes_per_env": peak / num_envs,
+        "device": jax.devices()[0].device_kind,
+    }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--task", default="hopper")
+    parser.add_argument("--algo", default="npg")
+    parser.add_argument("--impl", nargs="+", default=["jax"])
+    parser.add_argument("--fidelity", default="fast")
+    parser.add_argument("--batch-sizes", nargs="+", type=int, default=[256, 1024])
+    parser.add_argument("--horizon", type=int, default=32)
+    parser.add_argument("--iterations", type=int, default=5, help="iterations per timed compiled call")
+    parser.add_argument("--json", help="write all rows to this file")
+    parser.add_argument("--single", help=argparse.SUPPRESS)
+    args = parser.parse_args()
+
+    if args.single:
+        impl, num_envs = args.single.split(":")
+        row = measure(args.task, impl, args.fidelity, int(num_envs), args.horizon, args.algo, args.iterations)
+        print("ROW " + json.dumps(row), flush=True)
+        return
+
+    rows = []
+    for impl in args.impl:
+        for num_envs in args.batch_sizes:
+            cmd = [sys.executable, __file__, "--single", f"{impl}:{num_envs}"]
+            cmd += ["--task", args.task, "--algo", args.algo, "--fidelity", args.fidelity]
+            cmd += ["--horizon", str(args.horizon), "--iterations", str(args.iterations)]
+            proc = subprocess.run(cmd, capture_output=True, text=True)
+            found = [line for line in proc.stdout.splitlines() if line.startswith("ROW ")]
+            if proc.returncode != 0 or not found:
+                print(f"# {impl} {num_envs}: failed\n{proc.stderr[-2000:]}", flush=True)
+                continue
+            row = json.loads(found[0][4:])
+            rows.append(row)
+            print(f"# {json.dumps(row)}", flush=True)
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump(rows, f, indent=1)
+    print(
+        f"\n{args.task} {args.algo}, horizon {args.horizon}, fidelity {args.fidelity}, {rows[0]['device'] if rows else ''}"
+    )
+    print(
+        "| impl | envs | raw env steps/s | train env steps/s | train/raw | compile raw s | compile train s | peak MiB/env |"
+    )
+    print("|---|---|---|---|---|---|---|---|")
+    for r in rows:
+        print(
+            f"| {r['impl']} | {r['num_envs']} | {r['raw_steps_per_s'] / 1e6:.3f} M "
+            f"| {r['train_steps_per_s'] / 1e6:.3f} M "
+            f"| {r['ratio']:.2f} | {r['raw_compile_s']:.1f} | {r['train_compile_s']:.1f} | "
+            f"{r['peak_bytes_per_env'] / 2**20:.3f} |"
+        )
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,153 @@
+"""NPG and TRPO: the step obeys its trust region, updates are guarded, and NPG learns.
+
+Learning budget (stated, checked): NPG must bring the mean (deterministic) policy of
+``inverted_pendulum`` to a return >= 950 of 1000 within 120 iterations of 32 envs x 128 steps
+(491 k env steps); on 2 CPU cores this takes about a minute including compilation.
+"""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from jax.flatten_util import ravel_pytree
+
+import jaxpg.envs as envs
+from jaxpg import train as train_lib
+from jaxpg.algos import npg, trpo
+
+SMALL = dict(num_envs=8, horizon=32, eval_envs=2, eval_horizon=32, value_batch_size=64)
+
+
+@pytest.fixture(scope="module")
+def pendulum():
+    return envs.make("inverted_pendulum")
+
+
+@pytest.fixture(scope="module")
+def small_state(pendulum):
+    return npg.init(jax.random.PRNGKey(3), pendulum, npg.Config(**SMALL))
+
+
+@pytest.fixture(scope="module")
+def batch_and_direction(small_state):
+    """Phases of one NPG iteration on a small batch: ``(ts, batch, grad, cg_result)``."""
+
+    @jax.jit
+    def phases(ts):
+        ts, traj, _ = npg.phase_sample(ts)
+        batch = npg.phase_advantages(ts, traj)
+        grad = npg.phase_gradient(ts, batch)
+        return ts, batch, grad, npg.phase_natural_gradient(ts, batch, grad)
+
+    return phases(small_state)
+
+
+def test_normalized_step_meets_kl_to_first_order(batch_and_direction):
+    """With step ``s = sqrt(delta / g'x)``, the quadratic KL model ``0.5 s^2 x'Fx`` equals
+    ``delta / 2``, and for a small delta the true mean KL matches it to within 5 %."""
+    ts, batch, grad, cg = batch_and_direction
+    delta = 1e-4
+    step = npg.normalized_step(grad, cg.x, delta)
+    flat, unravel = ravel_pytree(ts.params)
+    new_params = unravel(flat + step * cg.x)
+    kl = float(npg.mean_kl(ts, ts.params, new_params, batch))
+    np.testing.assert_allclose(kl, delta / 2, rtol=0.05)
+    assert float(cg.residual_norm) < 1e-2 * float(jnp.linalg.norm(grad))
+
+
+def test_npg_direction_improves_surrogate(batch_and_direction):
+    ts, batch, grad, cg = batch_and_direction
+    assert float(jnp.dot(grad, cg.x)) > 0  # F^-1 is positive definite: an ascent direction
+    flat, unravel = ravel_pytree(ts.params)
+    step = npg.normalized_step(grad, cg.x, 1e-3)
+    before = npg.surrogate(ts, ts.params, batch)
+    after = npg.surrogate(ts, unravel(flat + step * cg.x), batch)
+    assert float(after) > float(before)
+
+
+def test_trpo_line_search_respects_max_kl(batch_and_direction):
+    ts, batch, grad, cg = batch_and_direction
+    ts = ts.replace(config=trpo.Config(**SMALL, max_kl=0.01))
+    new_params, info = jax.jit(trpo.line_search)(ts, batch, grad, cg.x)
+    kl = float(npg.mean_kl(ts, ts.params, new_params, batch))
+    assert kl <= 0.01 + 1e-6
+    if float(info["line_search_accepted"]):
+        assert float(info["surrogate_improvement"]) > 0
+        np.testing.assert_allclose(kl, float(info["kl"]), rtol=1e-4)
+
+
+def test_nonfinite_update_is_rejected(small_state):
+    """An update that produces NaN parameters leaves the learned state untouched and is counted."""
+    old = small_state
+    poisoned = old.replace(params=jax.tree.map(lambda x: x * jnp.nan, old.params))
+    kept, rejected = npg.common.accept_if_finite(old, poisoned, jnp.array(0.0))
+    assert float(rejected) == 1.0 and int(kept.failures) == 1
+    for a, b in zip(jax.tree.leaves(kept.params), jax.tree.leaves(old.params), strict=True):
+        np.testing.assert_array_equal(a, b)
+    kept, rejected = npg.common.accept_if_finite(old, old, jnp.array(jnp.inf))
+    assert float(rejected) == 1.0
+
+
+def test_diverging_run_stops_with_clear_error(small_state):
+    """A run whose updates keep failing raises ``TrainingDiverged`` instead of training on."""
+
+    def failing_update(ts):
+        return ts.replace(failures=ts.failures + 1), {"return_stochastic": jnp.nan}
+
+    with pytest.raises(train_lib.TrainingDiverged, match="non-finite"):
+        train_lib.train(failing_update, small_state, 10, block_size=5, max_consecutive_failures=3)
+
+
+def test_profile_phases_times_every_phase(small_state):
+    ts, timings = npg.profile_phases(small_state)
+    assert set(timings) == {"sampling", "advantages", "gradient", "cg", "value_fit"}
+    assert all(t > 0 for t in timings.values())
+    assert int(ts.iteration) == int(small_state.iteration) + 1
+
+
+def test_same_seed_same_numbers_and_seed_vmap_matches(pendulum):
+    """Training is deterministic for a seed, and two seeds trained in one vmapped program give
+    the numbers of training each alone."""
+    config = npg.Config(**SMALL)
+    alone = []
+    for seed in (1, 2):
+        ts = npg.init(jax.random.PRNGKey(seed), pendulum, config)
+        _, metrics = train_lib.compiled_block(npg.update, 2, False)(ts)
+        alone.append(metrics)
+    ts = npg.init(jax.random.PRNGKey(1), pendulum, config)
+    _, again = train_lib.compiled_block(npg.update, 2, False)(ts)
+    for key in alone[0]:
+        np.testing.assert_array_equal(alone[0][key], again[key])
+    stacked = train_lib.init_seeds(npg.init, (1, 2), pendulum, config)
+    _, together = train_lib.compiled_block(npg.update, 2, True)(stacked)
+    for key in ("return_stochastic", "kl", "value_loss", "grad_norm", "step_size"):
+        for i in range(2):
+            np.testing.assert_allclose(together[key][:, i], alone[i][key], rtol=2e-4, atol=1e-5, err_msg=key)
+
+
+@pytest.mark.slow
+def test_npg_solves_inverted_pendulum(pendulum):
+    config = npg.Config(
+        num_envs=32,
+        horizon=128,
+        gamma=0.99,
+        step_size=0.1,
+        policy_hidden=(32, 32),
+        value_hidden=(64, 64),
+        value_batch_size=512,
+        eval_envs=8,
+        eval_every=10,
+    )
+    ts = npg.init(jax.random.PRNGKey(0), pendulum, config)
+    best = []
+
+    def record(ts, metrics, first):
+        best.append(float(np.nanmax(metrics["return_mean_policy"])))
+
+    for _ in range(12):
+        ts = train_lib.train(npg.update, ts, 10, block_size=10, callbacks=[record])
+        if best[-1] >= 950:
+            break
+    assert best[-1] >= 950, f"mean-policy returns per block: {best}"

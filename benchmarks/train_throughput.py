@@ -140,12 +140,10 @@ def main() -> None:
     if args.json:
         with open(args.json, "w") as f:
             json.dump(rows, f, indent=1)
-    print(
-        f"\n{args.task} {args.algo}, horizon {args.horizon}, fidelity {args.fidelity}, {rows[0]['device'] if rows else ''}"
-    )
-    print(
-        "| impl | envs | raw env steps/s | train env steps/s | train/raw | compile raw s | compile train s | peak MiB/env |"
-    )
+    device = rows[0]["device"] if rows else ""
+    print(f"\n{args.task} {args.algo}, horizon {args.horizon}, fidelity {args.fidelity}, {device}")
+    print("| impl | envs | raw env steps/s | train env steps/s | train/raw | compile raw s | compile train s", end="")
+    print(" | peak MiB/env |")
     print("|---|---|---|---|---|---|---|---|")
     for r in rows:
         print(

@@ -29,9 +29,7 @@ PyTree = Any
 
 def tree_vdot(a: PyTree, b: PyTree) -> jax.Array:
     """``<a, b>``: the sum over leaves of the elementwise products, ``[]``."""
-    return sum(
-        (jnp.vdot(x, y) for x, y in zip(jax.tree.leaves(a), jax.tree.leaves(b), strict=True)), jnp.zeros(())
-    )
+    return sum((jnp.vdot(x, y) for x, y in zip(jax.tree.leaves(a), jax.tree.leaves(b), strict=True)), jnp.zeros(()))
 
 
 def tree_axpy(alpha: jax.Array, x: PyTree, y: PyTree) -> PyTree:

@@ -107,9 +107,7 @@ class MLP:
             raise ValueError(f"layer_sizes must be non-empty positive sizes, got {self.layer_sizes}")
         activation_fn(self.activation)
         if self.kernel_init not in KERNEL_INITS:
-            raise ValueError(
-                f"unknown kernel_init {self.kernel_init!r}; expected one of {', '.join(KERNEL_INITS)}"
-            )
+            raise ValueError(f"unknown kernel_init {self.kernel_init!r}; expected one of {', '.join(KERNEL_INITS)}")
         if self.bias_init not in BIAS_INITS:
             raise ValueError(f"unknown bias_init {self.bias_init!r}; expected one of {', '.join(BIAS_INITS)}")
 
@@ -141,9 +139,7 @@ class MLP:
             u_b = unif[u_at + n_in * n_out : u_at + (n_in + 1) * n_out]
             n_w = None if normal is None else normal[n_at : n_at + n_in * n_out]
             u_at, n_at = u_at + (n_in + 1) * n_out, n_at + n_in * n_out
-            scale = (
-                self.final_kernel_scale if last and self.final_kernel_scale is not None else self.kernel_scale
-            )
+            scale = self.final_kernel_scale if last and self.final_kernel_scale is not None else self.kernel_scale
             w = _kernel(u_w, n_w, self.kernel_init, scale)
             b = _bias(u_b, n_in, self.bias_init)
             if last and self.final_kernel_scale is not None:

@@ -37,9 +37,7 @@ def test_cg_flat_matches_solve(use_jit):
     res = cg(jnp.asarray(b, jnp.float32))
     np.testing.assert_allclose(res.x, np.linalg.solve(a, b), rtol=1e-3, atol=1e-4)
     assert res.residual_norm.shape == () and float(res.residual_norm) <= 1e-4
-    np.testing.assert_allclose(
-        res.residual_norm, np.linalg.norm(b - a @ np.asarray(res.x, np.float64)), atol=1e-4
-    )
+    np.testing.assert_allclose(res.residual_norm, np.linalg.norm(b - a @ np.asarray(res.x, np.float64)), atol=1e-4)
     assert 10 <= int(res.iterations) < 30  # converged, then frozen
 
 
@@ -72,9 +70,7 @@ def test_cg_early_stop_freezes_iterate():
     # A zero right-hand side takes no steps; vmap over right-hand sides works.
     zero = L.conjugate_gradient(lambda v: a32 @ v, jnp.zeros(12), iters=5)
     assert int(zero.iterations) == 0 and not np.any(zero.x)
-    batched = jax.vmap(lambda b: L.conjugate_gradient(lambda v: a32 @ v, b, iters=40).x)(
-        jnp.stack([b32, 2 * b32])
-    )
+    batched = jax.vmap(lambda b: L.conjugate_gradient(lambda v: a32 @ v, b, iters=40).x)(jnp.stack([b32, 2 * b32]))
     np.testing.assert_allclose(batched[1], 2 * batched[0], rtol=1e-3, atol=1e-4)
 
 
@@ -114,9 +110,7 @@ def fisher_blocks(name):
     dist = policy.dist(params, obs)
 
     def per_sample(f):  # [N, D]: each sample's distribution parameters, leaves in sorted-key order
-        return jnp.concatenate(
-            [x.reshape(N, -1) for x in jax.tree.leaves(policy.dist(unravel(f), obs))], axis=1
-        )
+        return jnp.concatenate([x.reshape(N, -1) for x in jax.tree.leaves(policy.dist(unravel(f), obs))], axis=1)
 
     jac = np.asarray(jax.jit(jax.jacobian(per_sample))(flat), np.float64)  # [N, D, P]
     blocks = []
@@ -175,9 +169,7 @@ def test_standalone_products_match_explicit():
 
     @jax.jit
     def products(v):
-        gn = L.gauss_newton_vector_product(
-            lambda p: policy.dist(p, obs), policy.fisher_metric, params, v, 0.5, weights
-        )
+        gn = L.gauss_newton_vector_product(lambda p: policy.dist(p, obs), policy.fisher_metric, params, v, 0.5, weights)
         kl_fn = lambda p: jnp.sum(weights * policy.dist_kl(old, policy.dist(p, obs))) / jnp.sum(weights)
         return gn, L.kl_hessian_vector_product(kl_fn, params, v, 0.5)
 

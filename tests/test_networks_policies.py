@@ -58,9 +58,7 @@ def test_mlp_apply_matches_numpy(activation, use_jit):
 
 def test_mlp_glorot_and_pytorch_bounds():
     n_in, n_out = 50, 200
-    (layer,) = MLP((n_out,), kernel_init="glorot_uniform", bias_init="glorot_uniform").init(
-        jax.random.key(1), n_in
-    )
+    (layer,) = MLP((n_out,), kernel_init="glorot_uniform", bias_init="glorot_uniform").init(jax.random.key(1), n_in)
     w_lim, b_lim = math.sqrt(6 / (n_in + n_out)), math.sqrt(6 / (1 + n_out))
     assert np.abs(layer["w"]).max() <= w_lim and np.abs(layer["w"]).max() > 0.95 * w_lim
     assert np.abs(layer["b"]).max() <= b_lim and np.abs(layer["b"]).max() > 0.9 * b_lim
@@ -155,15 +153,9 @@ def test_categorical_functions_match_numpy(use_jit):
     p, q = {"logits": jnp.asarray(lp)}, {"logits": jnp.asarray(lq)}
     pp, pq = special.softmax(lp.astype(np.float64), -1), special.softmax(lq.astype(np.float64), -1)
     a = rng.integers(0, 4, size=5)
-    np.testing.assert_allclose(
-        maybe_jit(D.categorical_log_prob, use_jit)(p, a), np.log(pp[np.arange(5), a]), rtol=1e-5
-    )
-    np.testing.assert_allclose(
-        maybe_jit(D.categorical_entropy, use_jit)(p), stats.entropy(pp, axis=-1), rtol=1e-5
-    )
-    np.testing.assert_allclose(
-        maybe_jit(D.categorical_kl, use_jit)(p, q), stats.entropy(pp, pq, axis=-1), rtol=1e-5
-    )
+    np.testing.assert_allclose(maybe_jit(D.categorical_log_prob, use_jit)(p, a), np.log(pp[np.arange(5), a]), rtol=1e-5)
+    np.testing.assert_allclose(maybe_jit(D.categorical_entropy, use_jit)(p), stats.entropy(pp, axis=-1), rtol=1e-5)
+    np.testing.assert_allclose(maybe_jit(D.categorical_kl, use_jit)(p, q), stats.entropy(pp, pq, axis=-1), rtol=1e-5)
     np.testing.assert_array_equal(D.categorical_mode(p), lp.argmax(-1))
     assert D.categorical_mode(p).dtype == jnp.int32
 

@@ -70,9 +70,7 @@ def test_discounted_returns(use_jit):
     rewards, _, next_values, terminated, truncated = random_batch()
     fn = maybe_jit(R.discounted_returns, use_jit)
     got = fn(rewards, terminated, truncated, GAMMA)
-    np.testing.assert_allclose(
-        got, np_discounted_returns(rewards, terminated, truncated, GAMMA), rtol=1e-5, atol=1e-5
-    )
+    np.testing.assert_allclose(got, np_discounted_returns(rewards, terminated, truncated, GAMMA), rtol=1e-5, atol=1e-5)
     got = fn(rewards, terminated, truncated, GAMMA, next_values)
     ref = np_discounted_returns(rewards, terminated, truncated, GAMMA, next_values)
     np.testing.assert_allclose(got, ref, rtol=1e-5, atol=1e-5)

@@ -65,9 +65,7 @@ def test_masked_samples_are_ignored():
     weights = (np.arange(N) % 3 != 0).astype(np.float32)
     garbage = jnp.where(weights > 0, targets, 1e4)
     params = VF.init(jax.random.key(6), OBS)
-    run = functools.partial(
-        fit, params, OPT.init(params), obs, key=jax.random.key(7), weights=weights, epochs=3
-    )
+    run = functools.partial(fit, params, OPT.init(params), obs, key=jax.random.key(7), weights=weights, epochs=3)
     results = jax.jit(jax.vmap(run))(jnp.stack([targets, garbage]))
     assert np.all(np.isfinite(results[2]))
     for leaf in jax.tree.leaves(results):

@@ -1,0 +1,157 @@
+"""Wall-clock time for a policy to reach a target mean-policy return, compilation included.
+
+Each seed runs in a fresh process (so every run pays its own JAX compilation; MuJoCo Warp's
+kernel cache under ~/.cache/warp stays warm after the first run on a machine, which the table
+marks). The clock starts before the env is built and stops at the first evaluation whose
+deterministic (mean-policy) return over ``--eval-envs`` full episodes reaches ``--target``.
+Evaluation time is inside the clock, as in Brax's own reports.
+
+    python benchmarks/time_to_return.py --task hopper --algo ppo --target 3000 --seeds 0 1 2 \
+        --set num_envs=8192 horizon=32 --max-seconds 300
+"""
+
+from __future__ import annotations
+
+import argparse
+import ast
+import json
+import os
+import subprocess
+import sys
+import time
+
+
+def parse_overrides(items: list[str]) -> dict:
+    """``["num_envs=4096", "policy_hidden=(64,64)"]`` -> dict with Python literals."""
+    out = {}
+    for item in items:
+        name, _, text = item.partition("=")
+        try:
+            out[name] = ast.literal_eval(text)
+        except (ValueError, SyntaxError):
+            out[name] = text
+    return out
+
+
+def run_one(args: argparse.Namespace, seed: int) -> dict:
+    """Train one seed until the target or the time limit; returns the result row."""
+    start = time.perf_counter()
+    import jax
+
+    from jaxpg import algos, envs
+    from jaxpg import train as train_lib
+    from jaxpg.algos import common
+
+    module = algos.get(args.algo)
+    overrides = dict(module.PRESETS.get(args.preset, {})) if args.preset else {}
+    overrides.update(parse_overrides(args.set))
+    overrides.update(eval_envs=args.eval_envs, eval_every=10**9)  # evaluation is done below, per block
+    config = module.Config(**overrides)
+    env = envs.make(args.task, impl=args.impl, fidelity=args.fidelity)
+    ts = module.init(jax.random.PRNGKey(seed), env, config)
+    evaluate = jax.jit(common.evaluate)
+    block = train_lib.compiled_block(module.update, args.block, False)
+    ts = train_lib._private_copy(ts)
+    history = []
+    reached_at = None
+    while True:
+        ts, metrics = block(ts)
+        summary = evaluate(ts, jax.random.PRNGKey(10_000 + len(history)))
+        ret = float(summary["episode_return"])
+        elapsed = time.perf_counter() - start
+        steps = int(ts.iteration) * config.samples_per_iteration
+        stochastic = float(metrics["return_stochastic"][-1])
+        history.append(
+            {"seconds": elapsed, "env_steps": steps, "return_mean_policy": ret, "return_stochastic": stochastic}
+        )
+        print(
+            f"  seed {seed}: {elapsed:7.1f} s  {steps / 1e6:8.2f} M steps  eval {ret:8.1f}  stoch {stochastic:8.1f}",
+            flush=True,
+        )
+        if ret >= args.target and reached_at is None:
+            reached_at = history[-1]
+            break
+        if elapsed > args.max_seconds:
+            break
+    best = max(h["return_mean_policy"] for h in history)
+    return {
+        "seed": seed,
+        "reached": reached_at is not None,
+        "seconds": reached_at["seconds"] if reached_at else None,
+        "env_steps": reached_at["env_steps"] if reached_at else history[-1]["env_steps"],
+        "best_return": best,
+        "first_block_s": history[0]["seconds"],
+        "impl": env.unwrapped.impl,
+        "device": jax.devices()[0].device_kind,
+        "config": {k: v for k, v in overrides.items()},
+        "history": history,
+    }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--task", default="hopper")
+    parser.add_argument("--algo", default="npg")
+    parser.add_argument("--preset", default=None)
+    parser.add_argument("--impl", default=None)
+    parser.add_argument("--fidelity", default="fast")
+    parser.add_argument("--target", type=float, default=3000.0)
+    parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
+    parser.add_argument("--set", nargs="*", default=[], help="Config overrides, name=value")
+    parser.add_argument("--block", type=int, default=10, help="iterations between evaluations")
+    parser.add_argument("--eval-envs", type=int, default=32)
+    parser.add_argument("--max-seconds", type=float, default=300.0)
+    parser.add_argument("--json", help="write the rows here")
+    parser.add_argument("--single", type=int, help=argparse.SUPPRESS)
+    args = parser.parse_args()
+
+    if args.single is not None:
+        print("ROW " + json.dumps(run_one(args, args.single)), flush=True)
+        return
+
+    rows = []
+    for seed in args.seeds:
+        cmd = [sys.executable, __file__, "--single", str(seed)] + strip_seeds(sys.argv[1:])
+        proc = subprocess.run(cmd, stdout=subprocess.PIPE, text=True, env=os.environ.copy())
+        found = [line for line in proc.stdout.splitlines() if line.startswith("ROW ")]
+        for line in proc.stdout.splitlines():
+            if not line.startswith("ROW "):
+                print(line, flush=True)
+        if not found:
+            print(f"# seed {seed} failed (exit {proc.returncode})", flush=True)
+            continue
+        rows.append(json.loads(found[0][4:]))
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump(rows, f, indent=1)
+    where = f"{rows[0]['device']} impl {rows[0]['impl']}" if rows else ""
+    print(f"\n{args.task} {args.algo} target {args.target}; {where}")
+    print("| seed | reached | wall clock s (incl. compile) | env steps | best mean-policy return | first block s |")
+    print("|---|---|---|---|---|---|")
+    for r in rows:
+        secs = f"{r['seconds']:.1f}" if r["reached"] else f"> {r['history'][-1]['seconds']:.0f}"
+        print(
+            f"| {r['seed']} | {r['reached']} | {secs} | {r['env_steps'] / 1e6:.1f} M | {r['best_return']:.0f} "
+            f"| {r['first_block_s']:.1f} |"
+        )
+    times = sorted(r["seconds"] for r in rows if r["reached"])
+    if len(times) == len(rows) and rows:
+        print(f"median wall clock to {args.target}: {times[len(times) // 2]:.1f} s")
+
+
+def strip_seeds(argv: list[str]) -> list[str]:
+    """``argv`` without ``--seeds`` and its values."""
+    out, skipping = [], False
+    for a in argv:
+        if a == "--seeds":
+            skipping = True
+            continue
+        if skipping and not a.startswith("--"):
+            continue
+        skipping = False
+        out.append(a)
+    return out
+
+
+if __name__ == "__main__":
+    main()

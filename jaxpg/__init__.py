@@ -1,3 +1,18 @@
 """jaxpg: JAX-native policy-gradient training on MuJoCo MJX."""
 
+from __future__ import annotations
+
+from typing import Any
+
 __version__ = "0.1.0"
+
+__all__ = ["load_policy"]
+
+
+def __getattr__(name: str) -> Any:
+    # ``jaxpg.load_policy`` imports JAX only when first used, so that ``import jaxpg`` stays cheap.
+    if name == "load_policy":
+        from jaxpg.policy_io import load_policy
+
+        return load_policy
+    raise AttributeError(f"module 'jaxpg' has no attribute {name!r}")

@@ -1,0 +1,787 @@
+"""The command line of jaxpg: train any algorithm on any task into a run directory.
+
+    python -m jaxpg.cli --env inverted_pendulum --algo npg --iterations 50
+    python -m jaxpg.cli --env hopper --preset lyceum --seeds 1 2 3 5 8 --run-dir runs/hopper
+    python -m jaxpg.cli --resume runs/hopper --iterations 400
+
+The experiment scripts (``experiments/*.py``) are this command with other defaults
+(``main(argv, Experiment(...))``). Every field of the algorithm's ``Config`` is a flag
+(``policy_hidden`` -> ``--policy-hidden 64 64``, booleans as ``--x/--no-x``); precedence, lowest
+first: ``Config`` defaults, the experiment's defaults, ``--preset``, explicit flags.
+
+A run directory (see ``jaxpg.runlog``) gets ``config.json``, ``metrics.jsonl``, TensorBoard
+events, ``curves.png``, Orbax ``checkpoints/`` and ``videos/``. An existing run directory is only
+replaced with ``--overwrite`` or continued with ``--resume``; a resumed run continues from its
+latest checkpoint and produces the same metrics, bit for bit on the same device, as a run that
+was never interrupted.
+
+Bad input (unknown task or algorithm, impossible sizes, a run directory that exists, a resume of
+a missing or foreign directory, an unusable checkpoint) is reported as one ``error: ...`` line on
+stderr with exit status 2, before anything is compiled or written.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import datetime
+import functools
+import json
+import shutil
+import sys
+import time
+import typing
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from jaxpg import runlog
+from jaxpg.runlog import RunConfig
+
+ALGORITHM_NAMES = ("npg", "trpo", "reinforce", "vpg", "a2c", "ppo")
+
+
+class UsageError(ValueError):
+    """Bad command-line input; reported as one ``error:`` line with exit status 2."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Experiment:
+    """What an experiment script fixes on top of the generic command line.
+
+    Attributes:
+      task: default task; tasks: the tasks the script accepts (``None``: every registered one).
+      algo: default algorithm.
+      iterations, seed, log_every, checkpoint_every, video_every: defaults of those flags.
+      config: ``Config`` overrides per algorithm name (``"*"``: for every algorithm that has the
+        field); applied below ``--preset`` and explicit flags.
+      env_kwargs: default keyword arguments of ``jaxpg.envs.make``.
+      prog, description, epilog: help text (the epilog should hold the GPU command that reaches
+        the headline result).
+    """
+
+    task: str = "inverted_pendulum"
+    tasks: tuple[str, ...] | None = None
+    algo: str = "npg"
+    iterations: int = 50
+    seed: int = 0
+    log_every: int = 10
+    checkpoint_every: int = 50
+    video_every: int = 0
+    config: dict[str, dict[str, Any]] = dataclasses.field(default_factory=dict)
+    env_kwargs: dict[str, Any] = dataclasses.field(default_factory=dict)
+    prog: str | None = None
+    description: str | None = None
+    epilog: str | None = None
+
+    def config_defaults(self, algo: str, config_cls: type) -> dict[str, Any]:
+        names = {f.name for f in dataclasses.fields(config_cls)}
+        out = {k: v for k, v in self.config.get("*", {}).items() if k in names}
+        out.update(self.config.get(algo, {}))
+        return out
+
+
+# --------------------------------------------------------------------------- argument parsing
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse that raises ``UsageError`` instead of printing the usage and exiting."""
+
+    def error(self, message: str) -> typing.NoReturn:
+        raise UsageError(message)
+
+
+def _algo_module(name: str) -> Any:
+    from jaxpg import algos
+
+    if name not in algos.ALGORITHMS:
+        raise UsageError(f"unknown algorithm {name!r}; known algorithms: {', '.join(sorted(algos.ALGORITHMS))}")
+    try:
+        return algos.get(name)
+    except ModuleNotFoundError as e:
+        if e.name == algos.ALGORITHMS[name]:
+            raise UsageError(f"algorithm {name!r} is not available yet in this jaxpg ({e.name} is missing)") from None
+        raise
+
+
+def _flag(name: str) -> str:
+    return "--" + name.replace("_", "-")
+
+
+def _show(value: Any) -> str:
+    if isinstance(value, tuple | list):
+        return " ".join(map(str, value)) if value else "(empty)"
+    return repr(value) if isinstance(value, str) else str(value)
+
+
+def _optional(parse: Any) -> Any:
+    def parse_optional(text: str) -> Any:
+        return None if text.lower() in ("none", "null") else parse(text)
+
+    parse_optional.__name__ = getattr(parse, "__name__", "value")
+    return parse_optional
+
+
+RUN_FLAGS = (
+    "task", "algo", "seed", "seeds", "iterations", "run_dir", "resume", "overwrite", "checkpoint_every",
+    "keep_checkpoints", "log_every", "video_every", "preset", "profile", "fidelity", "impl",
+    "max_episode_steps", "shard", "progress",
+)  # fmt: skip
+CONFIG_PREFIX = "config."
+
+
+def add_config_flags(parser: argparse.ArgumentParser, config_cls: type, defaults: dict[str, Any], title: str) -> None:
+    """One flag per field of ``config_cls`` (dest ``config.<field>``, default ``None`` = not
+    given): ints, floats, strings, ``T | None`` (``none``), tuples (``nargs='*'``) and booleans
+    (``--x/--no-x``). Help shows the effective default."""
+    group = parser.add_argument_group(title)
+    for name, tp in runlog.field_types(config_cls).items():
+        if name in RUN_FLAGS:
+            raise TypeError(f"{config_cls.__module__}.Config.{name} clashes with a command-line flag")
+        base, optional = runlog.strip_optional(tp)
+        help_text = f"(default: {_show(defaults.get(name))})"
+        kwargs: dict[str, Any] = {"dest": CONFIG_PREFIX + name, "default": None, "help": help_text}
+        origin = typing.get_origin(base)
+        if base is bool:
+            group.add_argument(_flag(name), action=argparse.BooleanOptionalAction, **kwargs)
+            continue
+        if base is tuple or origin is tuple:
+            args = typing.get_args(base)
+            elem = args[0] if args and args[0] in (int, float, str) else str
+            group.add_argument(_flag(name), nargs="*", type=elem, metavar=elem.__name__.upper(), **kwargs)
+            continue
+        if origin is typing.Literal:
+            group.add_argument(_flag(name), choices=typing.get_args(base), **kwargs)
+            continue
+        parse = base if base in (int, float, str) else str
+        if optional:
+            parse = _optional(parse)
+        metavar = getattr(base, "__name__", "VALUE").upper()
+        group.add_argument(_flag(name), type=parse, metavar=metavar, **kwargs)
+
+
+def _positive(text: str) -> int:
+    value = int(text)
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be >= 0, got {value}")
+    return value
+
+
+def build_parser(
+    experiment: Experiment, algo: str, config_cls: type | None, config_defaults: dict[str, Any]
+) -> _Parser:
+    """The full parser: run flags plus the ``Config`` flags of ``algo``."""
+    from jaxpg import envs
+
+    tasks = experiment.tasks or tuple(envs.names())
+    parser = _Parser(
+        prog=experiment.prog,
+        description=experiment.description or __doc__.split("\n\n")[0],
+        epilog=experiment.epilog,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    run = parser.add_argument_group("run")
+    run.add_argument(
+        "--task",
+        "--env",
+        dest="task",
+        metavar="TASK",
+        help=f"task: {', '.join(tasks)} (default: {experiment.task})",
+    )
+    run.add_argument("--algo", help=f"algorithm: {', '.join(ALGORITHM_NAMES)} (default: {experiment.algo})")
+    seeds = run.add_mutually_exclusive_group()
+    seeds.add_argument("--seed", type=int, help=f"training seed (default: {experiment.seed})")
+    seeds.add_argument(
+        "--seeds",
+        type=int,
+        nargs="+",
+        metavar="SEED",
+        help="several seeds, trained together in one vmapped program",
+    )
+    run.add_argument("--iterations", type=_positive, help=f"total iterations (default: {experiment.iterations})")
+    run.add_argument("--run-dir", help="run directory (default: runs/<task>-<algo>-<date>-<time>)")
+    run.add_argument(
+        "--resume",
+        metavar="RUN_DIR",
+        help="continue RUN_DIR from its latest checkpoint (--iterations sets a new total)",
+    )
+    run.add_argument("--overwrite", action="store_true", default=None, help="replace an existing run directory")
+    run.add_argument(
+        "--checkpoint-every",
+        type=_positive,
+        help=f"iterations between checkpoints; 0: only at the end (default: {experiment.checkpoint_every})",
+    )
+    run.add_argument(
+        "--keep-checkpoints", type=_positive, help="latest checkpoints to keep, besides the best (default: 3)"
+    )
+    run.add_argument("--log-every", type=int, help=f"iterations per summary line (default: {experiment.log_every})")
+    run.add_argument(
+        "--video-every",
+        type=_positive,
+        help=f"iterations between videos of the mean policy; 0: none (default: {experiment.video_every})",
+    )
+    run.add_argument("--preset", help="named Config overrides of the algorithm (its PRESETS), e.g. lyceum")
+    run.add_argument(
+        "--profile",
+        action="store_true",
+        default=None,
+        help="time each phase of one iteration before training",
+    )
+    run.add_argument("--fidelity", choices=("fast", "gymnasium"), help="MJX physics settings (default: fast)")
+    run.add_argument("--impl", choices=("jax", "warp"), help="MJX implementation (default: warp on a GPU, else jax)")
+    run.add_argument("--max-episode-steps", type=int, help="time limit of an episode (default: the task's)")
+    run.add_argument(
+        "--shard",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="shard the env batch over all devices (default: when there are several)",
+    )
+    run.add_argument(
+        "--progress",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="progress bar (default: on a terminal)",
+    )
+    if config_cls is not None:
+        add_config_flags(parser, config_cls, config_defaults, f"{algo} hyperparameters (jaxpg.algos.{algo}.Config)")
+    return parser
+
+
+def _pre_parse(argv: Sequence[str]) -> argparse.Namespace:
+    pre = _Parser(add_help=False)
+    pre.add_argument("--task", "--env", dest="task")
+    pre.add_argument("--algo")
+    pre.add_argument("--resume")
+    pre.add_argument("--preset")
+    args, _ = pre.parse_known_args(argv)
+    return args
+
+
+# --------------------------------------------------------------------------- planning (no side effects)
+
+
+@dataclasses.dataclass
+class Plan:
+    """A checked run: everything is known, nothing is written or compiled yet."""
+
+    run: RunConfig
+    run_dir: Path
+    module: Any
+    env: Any
+    config: Any
+    start: int = 0
+    state: Any = None
+    overwrite: bool = False
+    profile: bool = False
+    progress: bool | None = None
+    command: list[str] = dataclasses.field(default_factory=list)
+
+
+def _check_task(task: str, experiment: Experiment) -> None:
+    from jaxpg import envs
+
+    allowed = experiment.tasks or tuple(envs.names())
+    if task not in envs.names() or task not in allowed:
+        raise UsageError(f"unknown task {task!r}; known tasks: {', '.join(allowed)}")
+
+
+def _make_env(task: str, env_kwargs: dict[str, Any]) -> Any:
+    try:
+        return runlog.make_env(task, **env_kwargs)
+    except TypeError as e:
+        given = ", ".join(_flag(k) for k in env_kwargs)
+        raise UsageError(f"task {task!r} does not accept {given or 'these settings'} ({e})") from None
+
+
+def _explicit_config(args: argparse.Namespace) -> dict[str, Any]:
+    return {k[len(CONFIG_PREFIX) :]: v for k, v in vars(args).items() if k.startswith(CONFIG_PREFIX) and v is not None}
+
+
+def _default_run_dir(task: str, algo: str) -> Path:
+    stamp = datetime.datetime.now().strftime("%Y%m%d-%H%M%S")
+    return Path("runs") / f"{task}-{algo}-{stamp}"
+
+
+def _check_fresh_run_dir(run_dir: Path, overwrite: bool) -> None:
+    if not run_dir.exists():
+        return
+    if not run_dir.is_dir():
+        raise UsageError(f"run directory {str(run_dir)!r} exists and is not a directory")
+    if not any(run_dir.iterdir()):
+        return
+    if not overwrite:
+        raise UsageError(
+            f"run directory {str(run_dir)!r} exists; "
+            f"pass --overwrite to replace it or --resume {run_dir} to continue it"
+        )
+    if not (run_dir / runlog.CONFIG_FILE).is_file():
+        raise UsageError(f"refusing to --overwrite {str(run_dir)!r}: it is not a jaxpg run directory (no config.json)")
+
+
+def _check_sharding(run: RunConfig, config: Any, explicit: bool | None) -> bool:
+    import jax
+
+    count = jax.device_count()
+    shard = (count > 1) if explicit is None else explicit
+    if shard and config.num_envs % count:
+        raise UsageError(
+            f"--num-envs {config.num_envs} is not divisible by the {count} devices the env batch is sharded over "
+            "(use a multiple, or --no-shard)"
+        )
+    return shard and count > 1
+
+
+def plan_fresh(args: argparse.Namespace, experiment: Experiment, module: Any, algo: str) -> Plan:
+    task = args.task or experiment.task
+    _check_task(task, experiment)
+    config_cls = module.Config
+    values = experiment.config_defaults(algo, config_cls)
+    presets = getattr(module, "PRESETS", {})
+    if args.preset is not None:
+        if args.preset not in presets:
+            known = ", ".join(sorted(presets)) or "none"
+            raise UsageError(f"unknown preset {args.preset!r} for {algo}; known presets: {known}")
+        values.update(presets[args.preset])
+    values.update(_explicit_config(args))
+    types = runlog.field_types(config_cls)
+    config = config_cls(**{k: runlog.coerce(types[k], v) for k, v in values.items()})
+    env_kwargs = dict(experiment.env_kwargs)
+    for key in ("fidelity", "impl", "max_episode_steps"):
+        if getattr(args, key) is not None:
+            env_kwargs[key] = getattr(args, key)
+    env = _make_env(task, env_kwargs)
+    config.validate(env)
+    seeds = list(args.seeds) if args.seeds else [experiment.seed if args.seed is None else args.seed]
+    if len(set(seeds)) != len(seeds):
+        raise UsageError(f"--seeds must be distinct, got {' '.join(map(str, seeds))}")
+    log_every = experiment.log_every if args.log_every is None else args.log_every
+    if log_every < 1:
+        raise UsageError(f"--log-every must be >= 1, got {log_every}")
+    run = RunConfig(
+        task=task,
+        algo=algo,
+        config=runlog.config_to_dict(config),
+        seeds=seeds,
+        iterations=experiment.iterations if args.iterations is None else args.iterations,
+        env_kwargs=env_kwargs,
+        log_every=log_every,
+        checkpoint_every=experiment.checkpoint_every if args.checkpoint_every is None else args.checkpoint_every,
+        keep_checkpoints=3 if args.keep_checkpoints is None else args.keep_checkpoints,
+        video_every=experiment.video_every if args.video_every is None else args.video_every,
+        preset=args.preset,
+    )
+    run.shard = _check_sharding(run, config, args.shard)
+    run_dir = Path(args.run_dir) if args.run_dir else _default_run_dir(task, algo)
+    _check_fresh_run_dir(run_dir, bool(args.overwrite))
+    return Plan(run=run, run_dir=run_dir, module=module, env=env, config=config, overwrite=bool(args.overwrite))
+
+
+# Flags that may change when a run is resumed; the rest define the run and are fixed.
+RESUMABLE = {
+    "iterations",
+    "checkpoint_every",
+    "keep_checkpoints",
+    "log_every",
+    "video_every",
+    "profile",
+    "progress",
+    "shard",
+}
+
+
+def plan_resume(args: argparse.Namespace, run: RunConfig, run_dir: Path) -> Plan:
+    from jaxpg import checkpoint as ckpt_lib
+    from jaxpg import policy_io
+
+    fixed = [_flag(k) for k in _explicit_config(args)]
+    for key in ("seed", "seeds", "preset", "fidelity", "impl", "max_episode_steps", "run_dir", "overwrite"):
+        if getattr(args, key) is not None:
+            fixed.append(_flag(key))
+    if args.task is not None and args.task != run.task:
+        fixed.append("--task")
+    if args.algo is not None and args.algo != run.algo:
+        fixed.append("--algo")
+    if fixed:
+        raise UsageError(
+            f"--resume continues {str(run_dir)!r} with its saved settings; drop {' '.join(fixed)} "
+            "(only --iterations, --checkpoint-every, --keep-checkpoints, --log-every, --video-every may change)"
+        )
+    module = _algo_module(run.algo)
+    config = run.algo_config()
+    env = _make_env(run.task, run.env_kwargs)
+    config.validate(env)
+    for key in ("iterations", "checkpoint_every", "keep_checkpoints", "log_every", "video_every"):
+        if getattr(args, key) is not None:
+            setattr(run, key, getattr(args, key))
+    if run.log_every < 1:
+        raise UsageError(f"--log-every must be >= 1, got {run.log_every}")
+    run.shard = _check_sharding(run, config, args.shard if args.shard is not None else (run.shard or None))
+    checkpoints = ckpt_lib.Checkpointer(run_dir / runlog.CHECKPOINT_DIR, keep=None)
+    step = checkpoints.latest_step()
+    if step is None:
+        raise UsageError(f"cannot resume {str(run_dir)!r}: it has no checkpoint yet")
+    target = policy_io.abstract_train_state(run, env)
+    state = checkpoints.restore(target, step, expect=policy_io.checkpoint_expectations(run))
+    checkpoints.close()
+    return Plan(run=run, run_dir=run_dir, module=module, env=env, config=config, start=step, state=state)
+
+
+def plan(argv: Sequence[str], experiment: Experiment) -> Plan:
+    """Parse and check everything; raises ``UsageError``/``ValueError`` with one line."""
+    pre = _pre_parse(argv)
+    resume_run = None
+    if pre.resume is not None:
+        resume_run = RunConfig.load(pre.resume)
+        algo = resume_run.algo
+    else:
+        algo = pre.algo or experiment.algo
+    module = _algo_module(algo)
+    config_cls = module.Config
+    defaults = {f.name: f.default for f in dataclasses.fields(config_cls)}
+    defaults.update(experiment.config_defaults(algo, config_cls))
+    if resume_run is None and pre.preset is not None:
+        defaults.update(getattr(module, "PRESETS", {}).get(pre.preset, {}))
+    if resume_run is not None:
+        defaults.update(resume_run.config)
+    parser = build_parser(experiment, algo, config_cls, defaults)
+    args = parser.parse_args(argv)
+    if args.resume is not None:
+        result = plan_resume(args, resume_run, Path(args.resume))
+    else:
+        result = plan_fresh(args, experiment, module, algo)
+    result.profile = bool(args.profile)
+    result.progress = args.progress
+    result.command = list(argv)
+    return result
+
+
+# --------------------------------------------------------------------------- running
+
+
+@functools.lru_cache(maxsize=16)
+def _compiled_init(module: Any, env: Any, config: Any, seeds: tuple[int, ...]) -> Any:
+    """Jitted ``init`` (several seeds: ``train.init_seeds``), cached so that runs in one process
+    share the compiled program."""
+    import jax
+
+    from jaxpg import train
+
+    if len(seeds) > 1:
+        return jax.jit(lambda: train.init_seeds(module.init, seeds, env, config))
+    return jax.jit(lambda key: module.init(key, env, config))
+
+
+def initial_state(module: Any, env: Any, config: Any, seeds: Sequence[int]) -> Any:
+    import jax
+
+    init = _compiled_init(module, env, config, tuple(seeds))
+    return init() if len(seeds) > 1 else init(jax.random.PRNGKey(seeds[0]))
+
+
+def distinct_buffers(tree: Any) -> Any:
+    """A copy of ``tree`` in which no two leaves share a device buffer (the training step donates
+    its input, and XLA refuses to donate one buffer twice)."""
+    import jax
+
+    seen: set[int] = set()
+
+    def fresh(x: Any) -> Any:
+        try:
+            ptr = x.unsafe_buffer_pointer()
+        except Exception:  # noqa: BLE001 - sharded or deleted arrays: copy to be safe
+            return jax.numpy.array(x, copy=True)
+        if ptr in seen:
+            return jax.numpy.array(x, copy=True)
+        seen.add(ptr)
+        return x
+
+    return jax.tree.map(fresh, tree)
+
+
+def shard_state(ts: Any, vmap_seeds: bool) -> Any:
+    """Shard the env batch axis of ``ts.env_state`` over all devices; replicate the rest."""
+    import jax
+    from jax.sharding import Mesh, NamedSharding, PartitionSpec
+
+    mesh = Mesh(np.array(jax.devices()), ("envs",))
+    batch = NamedSharding(mesh, PartitionSpec(*([None] if vmap_seeds else []), "envs"))
+    replicated = NamedSharding(mesh, PartitionSpec())
+    env_state = jax.device_put(ts.env_state, jax.tree.map(lambda _: batch, ts.env_state))
+    rest = ts.replace(env_state=())
+    rest = jax.device_put(rest, jax.tree.map(lambda _: replicated, rest))
+    return rest.replace(env_state=env_state)
+
+
+def _seed_slice(tree: Any, index: int, vmap_seeds: bool) -> Any:
+    import jax
+
+    return jax.tree.map(lambda x: x[index], tree) if vmap_seeds else tree
+
+
+def run_profile(plan_: Plan, ts: Any, out: Any) -> dict[str, float] | None:
+    """Time each phase of one iteration with the algorithm's ``profile_phases``."""
+    module, run = plan_.module, plan_.run
+    if not hasattr(module, "profile_phases"):
+        out(f"--profile: profiling isn't available for {run.algo} (jaxpg.algos.{run.algo} has no profile_phases)")
+        return None
+    out(f"profiling one {run.algo} iteration as separately jitted phases (compiling them first) ...")
+    _, timings = module.profile_phases(_seed_slice(ts, 0, run.vmap_seeds))
+    timings = {k: float(v) for k, v in timings.items()}
+    total = sum(timings.values())
+    samples = plan_.config.samples_per_iteration
+    lines = [f"phase timings of one iteration ({samples:,} samples, seed {run.seeds[0]}):"]
+    for name, seconds in timings.items():
+        share = 100 * seconds / total if total > 0 else 0.0
+        lines.append(f"  {name:<14} {seconds * 1e3:10.2f} ms  {share:5.1f}%")
+    lines.append(f"  {'sum':<14} {total * 1e3:10.2f} ms  ({samples / total if total > 0 else 0:,.0f} samples/s)")
+    out("\n".join(lines))
+    return timings
+
+
+class _Callbacks:
+    """Host side of training: metrics, progress, summaries, checkpoints, videos, curves."""
+
+    def __init__(
+        self,
+        plan_: Plan,
+        checkpoints: Any,
+        writer: runlog.MetricsWriter,
+        progress: runlog.Progress,
+        wall_offset: float,
+    ):
+        self.plan, self.run = plan_, plan_.run
+        self.checkpoints, self.writer, self.progress = checkpoints, writer, progress
+        self.wall_offset = wall_offset
+        self.t_start = self.t_last = time.perf_counter()
+        self.pending: list[dict[str, np.ndarray]] = []
+        self.pending_steps = 0
+        self.pending_time = 0.0
+        self.first_block = True
+        self.last_saved = plan_.start
+        self.last_iteration = plan_.start
+        self.block_times: list[tuple[int, float]] = []
+        self.videos_enabled = self.run.video_every > 0
+        self.samples = plan_.config.samples_per_iteration * len(self.run.seeds)
+
+    def _wall(self, now: float) -> float:
+        return self.wall_offset + (now - self.t_start)
+
+    def __call__(self, ts: Any, metrics: dict[str, np.ndarray], first: int) -> None:
+        now = time.perf_counter()
+        duration = now - self.t_last
+        n = len(next(iter(metrics.values())))
+        last = first + n
+        wall_times = [self._wall(self.t_last + duration * (i + 1) / n) for i in range(n)]
+        self.t_last = now
+        self.block_times.append((n, duration))
+        self.writer.write(runlog.block_records(metrics, first, self.run.seeds, wall_times))
+        steps_per_s = self.samples * n / max(duration, 1e-9)
+        self.progress.update(n, metrics, steps_per_s)
+        self.pending.append(metrics)
+        self.pending_steps += self.samples * n
+        self.pending_time += duration
+        self.last_iteration = last
+        at_end = last >= self.run.iterations
+        if last % self.run.log_every == 0 or at_end:
+            merged = {k: np.concatenate([m[k] for m in self.pending]) for k in self.pending[0]}
+            rate = self.pending_steps / max(self.pending_time, 1e-9)
+            note = " (incl. compile)" if self.first_block else ""
+            self.progress.write(runlog.summary_line(merged, last, self.run.iterations, rate, note))
+            self.pending, self.pending_steps, self.pending_time = [], 0, 0.0
+            self.first_block = False
+        if (self.run.checkpoint_every and last % self.run.checkpoint_every == 0) or at_end:
+            self.save(ts, last, metrics)
+            self.plot()
+        if self.videos_enabled and (last % self.run.video_every == 0 or at_end):
+            self.video(ts, last)
+        # Host work (checkpoints, plots, videos) is left out of the next block's throughput.
+        self.t_last = time.perf_counter()
+
+    def save(self, ts: Any, step: int, metrics: dict[str, np.ndarray]) -> None:
+        last_metrics = {
+            k: float(np.nanmean(v[-1])) if not np.all(np.isnan(v[-1])) else None for k, v in metrics.items()
+        }
+        self.checkpoints.save(
+            step,
+            ts,
+            score=runlog.latest_score(metrics),
+            metrics=last_metrics,
+            info={"task": self.run.task, "algo": self.run.algo, "seeds": self.run.seeds},
+        )
+        self.last_saved = step
+
+    def plot(self) -> None:
+        try:
+            from jaxpg import plotting
+
+            plotting.plot_run(self.plan.run_dir, eval_metric_name=getattr(self.plan.env, "eval_metric_name", None))
+        except Exception as e:  # noqa: BLE001 - a plot must never stop training
+            self.progress.write(f"warning: curves.png not updated ({type(e).__name__}: {e})")
+
+    def video(self, ts: Any, step: int) -> None:
+        from jaxpg import video as video_lib
+
+        path = self.plan.run_dir / runlog.VIDEO_DIR / f"iter_{step:06d}.mp4"
+        try:
+            params = _seed_slice(ts.params, 0, self.run.vmap_seeds)
+            stats = _seed_slice(ts.obs_stats, 0, self.run.vmap_seeds)
+            out, ret, length = video_lib.record_policy(self.plan.env, ts.policy, params, stats, path, seed=step)
+            self.progress.write(
+                f"video {out} (mean policy, seed {self.run.seeds[0]}: return {ret:.1f}, {length} steps)"
+            )
+        except Exception as e:  # noqa: BLE001 - videos are optional: warn once, go on training
+            self.videos_enabled = False
+            self.progress.write(f"warning: videos disabled: {type(e).__name__}: {e}")
+
+
+def _print(line: str) -> None:
+    print(line, flush=True)
+
+
+def prepare_run_dir(plan_: Plan) -> float:
+    """Create (or replace, or reopen) the run directory; returns the wall-time offset."""
+    run_dir, run = plan_.run_dir, plan_.run
+    if plan_.start > 0:
+        wall_offset = runlog.truncate_metrics(run_dir, plan_.start)
+        history = run.info.setdefault("resumes", [])
+        history.append(
+            {
+                "from_iteration": plan_.start,
+                "command": " ".join(plan_.command),
+                "time": datetime.datetime.now().astimezone().isoformat(timespec="seconds"),
+            }
+        )
+        run.save(run_dir)
+        return wall_offset
+    if plan_.overwrite and run_dir.exists():
+        shutil.rmtree(run_dir)
+    run_dir.mkdir(parents=True, exist_ok=True)
+    run.info = runlog.provenance([sys.argv[0], *plan_.command])
+    run.save(run_dir)
+    return 0.0
+
+
+def execute(plan_: Plan) -> int:
+    """Train as planned; returns the exit status."""
+    import jax
+
+    from jaxpg import checkpoint as ckpt_lib
+    from jaxpg import train
+
+    run, run_dir = plan_.run, plan_.run_dir
+    wall_offset = prepare_run_dir(plan_)
+    verb = f"resuming at iteration {plan_.start}" if plan_.start else "training"
+    seeds = " ".join(map(str, run.seeds))
+    _print(
+        f"{verb}: {run.algo} on {run.task} ({plan_.env!r}), seed{'s' if len(run.seeds) > 1 else ''} {seeds}, "
+        f"{run.iterations} iterations of {plan_.config.samples_per_iteration:,} samples, "
+        f"{jax.device_count()} {jax.devices()[0].device_kind} device(s) -> {run_dir}"
+    )
+    if plan_.state is not None:
+        ts = plan_.state
+    else:
+        ts = initial_state(plan_.module, plan_.env, plan_.config, run.seeds)
+    ts = distinct_buffers(ts)
+    if run.shard:
+        ts = shard_state(ts, run.vmap_seeds)
+    if plan_.profile:
+        timings = run_profile(plan_, ts, _print)
+        if timings is not None:
+            runlog.write_json_atomic(run_dir / "profile.json", {"phases_s": timings, "iteration": plan_.start})
+    remaining = run.iterations - plan_.start
+    if remaining <= 0:
+        _print(f"nothing to do: {run_dir} has done {plan_.start} of {run.iterations} iterations (raise --iterations)")
+        return 0
+    checkpoints = ckpt_lib.Checkpointer(run_dir / runlog.CHECKPOINT_DIR, keep=run.keep_checkpoints, create=True)
+    writer = runlog.MetricsWriter(run_dir, run.seeds, start_iteration=plan_.start)
+    if plan_.start == 0:
+        writer.add_text("config", "```\n" + json.dumps(run.to_json(), indent=2) + "\n```")
+    progress = runlog.Progress(
+        run.iterations, initial=plan_.start, enabled=plan_.progress, desc=f"{run.algo} {run.task}"
+    )
+    callbacks = _Callbacks(plan_, checkpoints, writer, progress, wall_offset)
+    block = run.block_size
+    # Blocks start at multiples of block_size, as in an uninterrupted run.
+    segments = []
+    misaligned = (-plan_.start) % block
+    if misaligned:
+        segments.append(min(misaligned, remaining))
+    if remaining - sum(segments) > 0:
+        segments.append(remaining - sum(segments))
+    status = 0
+    try:
+        for count in segments:
+            ts = train.train(
+                plan_.module.update,
+                ts,
+                count,
+                block_size=min(block, count),
+                callbacks=[callbacks],
+                seeds=run.vmap_seeds,
+            )
+    except KeyboardInterrupt:
+        progress.close()
+        print(
+            f"\ninterrupted after iteration {callbacks.last_iteration}; the latest checkpoint is iteration "
+            f"{callbacks.last_saved}. Continue with: python -m jaxpg.cli --resume {run_dir}",
+            file=sys.stderr,
+        )
+        status = 130
+    except train.TrainingDiverged as e:
+        progress.close()
+        print(f"error: {e}; metrics and checkpoints up to then are in {run_dir}", file=sys.stderr)
+        status = 1
+    finally:
+        progress.close()
+        writer.close()
+        checkpoints.close()
+    if status == 0:
+        _report_end(plan_, callbacks)
+    return status
+
+
+def _report_end(plan_: Plan, callbacks: _Callbacks) -> None:
+    run, run_dir = plan_.run, plan_.run_dir
+    timed = callbacks.block_times[1:] if len(callbacks.block_times) > 1 else callbacks.block_times
+    iters = sum(n for n, _ in timed)
+    secs = sum(t for _, t in timed)
+    if iters and secs > 0:
+        rate = callbacks.samples * iters / secs
+        _print(f"done: {secs / iters:.3f} s per iteration, {rate:,.0f} env steps/s after compilation")
+    if plan_.profile and iters:
+        _print(f"fused update (scan of {run.block_size} iterations): {secs / iters * 1e3:.2f} ms per iteration")
+    _print(f"run directory: {run_dir}  (metrics.jsonl, curves.png, tensorboard/, checkpoints/)")
+    _print(
+        f"evaluate: python -m jaxpg.evaluate {run_dir} --episodes 10 [--gymnasium] [--video {run_dir}/videos/final.mp4]"
+    )
+
+
+def main(argv: Sequence[str] | None = None, experiment: Experiment | None = None) -> int:
+    """Entry point of ``python -m jaxpg.cli`` and the experiment scripts; returns the exit status."""
+    from jaxpg import video as video_lib
+
+    video_lib.configure_gl()
+    experiment = experiment or Experiment(prog="python -m jaxpg.cli", epilog=DEFAULT_EPILOG)
+    argv = list(sys.argv[1:] if argv is None else argv)
+    try:
+        plan_ = plan(argv, experiment)
+    except ValueError as e:  # UsageError, RunDirError, CheckpointError, Config.validate
+        message = str(e).strip().splitlines()
+        print(f"error: {message[0] if message else type(e).__name__}", file=sys.stderr)
+        return 2
+    return execute(plan_)
+
+
+DEFAULT_EPILOG = """\
+examples:
+  python -m jaxpg.cli --env inverted_pendulum --iterations 50            # about a minute on a laptop CPU
+  python -m jaxpg.cli --env hopper --preset lyceum --seeds 1 2 3 5 8 --iterations 200   # on a GPU
+  python -m jaxpg.cli --resume runs/<run> --iterations 400
+  python -m jaxpg.evaluate runs/<run> --episodes 10 --gymnasium --video out.mp4
+"""
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

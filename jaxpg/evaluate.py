@@ -1,0 +1,252 @@
+"""Evaluate a trained policy: ``python -m jaxpg.evaluate RUN_DIR --episodes N [--gymnasium] [--video out.mp4]``.
+
+By default the run's mean (deterministic) policy plays ``N`` episodes of jaxpg's own env (the
+task and env settings the run trained on, all episodes in parallel). ``--gymnasium`` plays them
+in the corresponding Gymnasium CPU env instead (``Hopper-v5``, ``InvertedPendulum-v5``,
+``InvertedDoublePendulum-v5``, ``CartPole-v1``), through ``jaxpg.load_policy``: a check that the
+policy transfers to the reference implementation. Prints mean and std of return and length.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+GYMNASIUM_IDS = {
+    "hopper": "Hopper-v5",
+    "inverted_pendulum": "InvertedPendulum-v5",
+    "inverted_double_pendulum": "InvertedDoublePendulum-v5",
+    "cartpole": "CartPole-v1",
+}
+
+
+class Episodes:
+    """NumPy results of ``rollout``: ``E`` episodes of up to ``T`` steps.
+
+    Attributes:
+      rewards: ``[T, E]`` (0 after an episode's end); valid: ``[T, E]`` 1 up to and including
+      the last step; returns, lengths: ``[E]``; obs: ``[T + 1, E, obs_dim]`` states from the
+      reset on; qpos, qvel: ``[T + 1, E, nq/nv]`` for MJX tasks, else ``None``;
+      eval_metric: ``[E]`` the task's eval metric at each episode's end.
+    """
+
+    def __init__(self, out: dict[str, np.ndarray]):
+        self.rewards = out["rewards"]
+        self.valid = out["valid"]
+        self.obs, self.qpos, self.qvel = out["obs"], out.get("qpos"), out.get("qvel")
+        self.returns = np.sum(self.rewards * self.valid, axis=0)
+        self.lengths = np.sum(self.valid, axis=0).astype(np.int64)
+        self.eval_metric = out["eval_metric"]
+
+    def episode_states(self, i: int) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
+        """``(obs, qpos, qvel)`` of episode ``i``, from its reset to its last state (``[L + 1, ...]``)."""
+        n = int(self.lengths[i]) + 1
+        pick = lambda x: None if x is None else x[:n, i]
+        return self.obs[:n, i], pick(self.qpos), pick(self.qvel)
+
+
+def _rollout_impl(env: Any, policy: Any, num_episodes: int, horizon: int, deterministic: bool) -> Callable:
+    import jax
+    import jax.numpy as jnp
+
+    from jaxpg import rollout as rollout_lib
+
+    def run(params: Any, obs_stats: Any, key: jax.Array) -> dict[str, jax.Array]:
+        reset_key, steps_key = jax.random.split(key)
+        state = rollout_lib.reset_batch(env, reset_key, num_episodes)
+
+        def physics(s: Any) -> dict[str, jax.Array]:
+            out = {"obs": s.obs}
+            if hasattr(s.data, "qpos") and hasattr(s.data, "qvel"):
+                out["qpos"], out["qvel"] = s.data.qpos, s.data.qvel
+            return out
+
+        def body(carry: tuple, step_key: jax.Array) -> tuple[tuple, dict]:
+            s, alive, metric = carry
+            obs = obs_stats.normalize(s.obs)
+            if deterministic:
+                action = policy.mode(params, obs)
+            else:
+                action, _ = policy.sample(params, obs, step_key)
+            nxt = jax.vmap(env.step)(s, action)
+            record = {"rewards": nxt.reward, "valid": alive.astype(jnp.float32), **physics(nxt)}
+            metric = jnp.where(alive, nxt.metrics["eval_metric"].astype(jnp.float32), metric)
+            return (nxt, alive & ~nxt.done, metric), record
+
+        alive = jnp.ones((num_episodes,), bool)
+        metric0 = jnp.zeros((num_episodes,), jnp.float32)
+        (_, _, metric), records = jax.lax.scan(body, (state, alive, metric0), jax.random.split(steps_key, horizon))
+        first = physics(state)
+        for k, v in first.items():
+            records[k] = jnp.concatenate([v[None], records[k]], axis=0)
+        records["eval_metric"] = metric
+        return records
+
+    return jax.jit(run)
+
+
+_COMPILED: dict[tuple, Callable] = {}
+
+
+def rollout(
+    env: Any,
+    policy: Any,
+    params: Any,
+    obs_stats: Any,
+    seed: int | Any = 0,
+    num_episodes: int = 10,
+    horizon: int | None = None,
+    deterministic: bool = True,
+) -> Episodes:
+    """``num_episodes`` episodes of ``policy`` in the jaxpg env ``env``, in parallel (jitted once
+    per env, policy and shape). ``horizon`` defaults to the env's time limit."""
+    import jax
+
+    horizon = int(horizon or env.max_episode_steps)
+    cache_key = (env, policy, num_episodes, horizon, deterministic)
+    if cache_key not in _COMPILED:
+        _COMPILED[cache_key] = _rollout_impl(env, policy, num_episodes, horizon, deterministic)
+    key = jax.random.PRNGKey(seed) if isinstance(seed, int) else seed
+    out = jax.device_get(_COMPILED[cache_key](params, obs_stats, key))
+    return Episodes({k: np.asarray(v) for k, v in out.items()})
+
+
+def evaluate_run(
+    run_dir: str, episodes: int, step: int | str | None = None, seed: int = 0, train_seed: int | None = None
+) -> tuple[Episodes, Any]:
+    """The run's mean policy in jaxpg's env (the run's task and env settings)."""
+    from jaxpg import policy_io
+
+    policy = policy_io.load_policy(run_dir, step, seed=train_seed)
+    env = policy.run.make_env()
+    return rollout(env, policy.policy, policy.params, policy.obs_stats, seed, episodes), policy
+
+
+def gymnasium_env(task: str, env_kwargs: dict[str, Any], render: bool = False) -> Any:
+    """The Gymnasium env matching a jaxpg task (same time limit)."""
+    import gymnasium as gym
+
+    if task not in GYMNASIUM_IDS:
+        raise ValueError(f"task {task!r} has no Gymnasium counterpart; known: {', '.join(GYMNASIUM_IDS)}")
+    kwargs: dict[str, Any] = {}
+    if "max_episode_steps" in env_kwargs:
+        kwargs["max_episode_steps"] = int(env_kwargs["max_episode_steps"])
+    if render and task != "cartpole":  # CartPole's renderer needs pygame; jaxpg draws it itself
+        kwargs.update(render_mode="rgb_array", width=480, height=480)
+    return gym.make(GYMNASIUM_IDS[task], **kwargs)
+
+
+def evaluate_gymnasium(
+    policy: Callable[[np.ndarray], np.ndarray],
+    task: str,
+    env_kwargs: dict[str, Any],
+    episodes: int,
+    seed: int = 0,
+    video: str | None = None,
+) -> tuple[np.ndarray, np.ndarray, list[np.ndarray]]:
+    """``(returns [N], lengths [N], frames of the first episode)`` of ``policy`` in Gymnasium."""
+    from jaxpg import video as video_lib
+
+    env = gymnasium_env(task, env_kwargs, render=video is not None)
+    returns, lengths, frames = [], [], []
+    for i in range(episodes):
+        obs, _ = env.reset(seed=seed + i)
+        total, steps, done = 0.0, 0, False
+        while not done:
+            if video is not None and i == 0:
+                frames.append(env.render() if task != "cartpole" else video_lib.draw_cartpole(obs))
+            action = policy(obs)
+            if task == "cartpole":
+                action = int(action)
+            obs, reward, terminated, truncated, _ = env.step(action)
+            total += float(reward)
+            steps += 1
+            done = terminated or truncated
+        if video is not None and i == 0:
+            frames.append(env.render() if task != "cartpole" else video_lib.draw_cartpole(obs))
+        returns.append(total)
+        lengths.append(steps)
+    env.close()
+    return np.asarray(returns), np.asarray(lengths), frames
+
+
+def _stats(x: np.ndarray) -> str:
+    return f"{np.mean(x):.2f} ± {np.std(x):.2f}"
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    from jaxpg import video as video_lib
+
+    video_lib.configure_gl()
+    parser = argparse.ArgumentParser(
+        prog="python -m jaxpg.evaluate",
+        description=__doc__.split("\n\n")[0].split(": ", 1)[-1] if __doc__ else None,
+        epilog="Example: python -m jaxpg.evaluate runs/pendulum --episodes 20 --gymnasium --video pendulum.mp4",
+    )
+    parser.add_argument("run_dir", help="a run directory written by jaxpg.cli / experiments/*.py")
+    parser.add_argument("--episodes", type=int, default=10, help="number of episodes (default: 10)")
+    parser.add_argument("--gymnasium", action="store_true", help="play in the Gymnasium CPU env instead of jaxpg's")
+    parser.add_argument("--video", metavar="OUT", help="render the first episode to OUT (.mp4 or .gif)")
+    parser.add_argument("--step", default="latest", help="checkpoint: 'latest' (default), 'best' or an iteration")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the evaluation episodes (default: 0)")
+    parser.add_argument("--train-seed", type=int, help="which of the run's training seeds (default: the first)")
+    args = parser.parse_args(argv)
+    if args.episodes < 1:
+        print("error: --episodes must be >= 1", file=sys.stderr)
+        return 2
+    if args.video and Path(args.video).suffix.lower() not in (".mp4", ".gif"):
+        print(f"error: --video must end in .mp4 or .gif, got {args.video!r}", file=sys.stderr)
+        return 2
+    try:
+        from jaxpg import policy_io
+
+        policy = policy_io.load_policy(args.run_dir, args.step, seed=args.train_seed)
+    except ValueError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    run = policy.run
+    where = f"checkpoint step {policy.step} of {args.run_dir} (seed {policy.seed}), mean policy"
+    if args.gymnasium:
+        if run.task not in GYMNASIUM_IDS:
+            print(f"error: task {run.task!r} has no Gymnasium counterpart", file=sys.stderr)
+            return 2
+        returns, lengths, frames = evaluate_gymnasium(
+            policy, run.task, run.env_kwargs, args.episodes, args.seed, video=args.video
+        )
+        env_name = f"Gymnasium {GYMNASIUM_IDS[run.task]}"
+        metric_line = ""
+    else:
+        env = run.make_env()
+        eps = rollout(env, policy.policy, policy.params, policy.obs_stats, args.seed, args.episodes)
+        returns, lengths = eps.returns, eps.lengths
+        env_name = f"jaxpg {run.task}" + (f" {run.env_kwargs}" if run.env_kwargs else "")
+        metric_line = ""
+        if env.eval_metric_name != "return":
+            metric_line = f"\n{env.eval_metric_name}: {_stats(eps.eval_metric)}"
+    print(f"{where}, {args.episodes} episodes in {env_name}")
+    print(f"return: {_stats(returns)}  (min {np.min(returns):.2f}, max {np.max(returns):.2f})")
+    print(f"length: {_stats(lengths)}{metric_line}")
+    if args.video:
+        try:
+            if args.gymnasium:
+                env = run.make_env()
+                stride, fps = video_lib.frame_stride(float(env.dt))
+                out = video_lib.write_video(frames[::stride], args.video, fps)
+            else:
+                obs, qpos, qvel = eps.episode_states(0)
+                out = video_lib.save_episode_video(env, obs, qpos, qvel, args.video)
+        except video_lib.RenderError as e:
+            print(f"error: no video: {e}", file=sys.stderr)
+            return 1
+        print(f"video of episode 1: {out}")
+    return 0 if all(math.isfinite(float(r)) for r in returns) else 1
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,166 @@
+"""Trained policies out of a run directory, for callers who know nothing about JAX.
+
+policy = jaxpg.load_policy("runs/hopper-npg")      # latest checkpoint, first seed
+action = policy(obs)                                 # NumPy [obs_dim] -> NumPy [act_dim]
+actions = policy(obs_batch)                          # [B, obs_dim] -> [B, act_dim]
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from jaxpg import checkpoint as ckpt_lib
+from jaxpg import runlog
+
+
+def abstract_train_state(run: runlog.RunConfig, env: Any = None) -> Any:
+    """The ``jax.eval_shape`` of the run's initial ``TrainState`` (seed-stacked for several
+    seeds): the restore target, built by the algorithm's ``init`` with the saved config."""
+    from jaxpg import train
+
+    module = run.algo_module()
+    config = run.algo_config()
+    env = run.make_env() if env is None else env
+    if run.vmap_seeds:
+        return jax.eval_shape(lambda: train.init_seeds(module.init, run.seeds, env, config))
+    return jax.eval_shape(lambda: module.init(jax.random.PRNGKey(run.seeds[0]), env, config))
+
+
+def checkpoint_expectations(run: runlog.RunConfig) -> dict[str, Any]:
+    """The ``meta`` values a checkpoint of ``run`` must have."""
+    return {"task": run.task, "algo": run.algo}
+
+
+def restore_train_state(run_dir: str | os.PathLike, step: int | str | None = None) -> tuple[Any, int]:
+    """The whole ``TrainState`` of a run's checkpoint and its step (``CheckpointError`` /
+    ``RunDirError``, one line, when it cannot be had)."""
+    run = runlog.RunConfig.load(run_dir)
+    target = abstract_train_state(run)
+    checkpoints = ckpt_lib.Checkpointer(Path(run_dir) / runlog.CHECKPOINT_DIR, keep=None)
+    step = checkpoints.resolve_step(step)
+    return checkpoints.restore(target, step, expect=checkpoint_expectations(run)), step
+
+
+class LoadedPolicy:
+    """A trained policy as a NumPy function: ``policy(obs) -> action``.
+
+    ``obs``: ``[obs_dim]`` or ``[B, obs_dim]``; the action is ``[act_dim]`` / ``[B, act_dim]``
+    float32 (continuous, clipped to the env's action bounds when ``clip``) or int (discrete).
+    Observation normalisation of the run is applied. ``deterministic`` (default) takes the mode
+    of the policy; otherwise actions are sampled with an internal key (``seed``).
+
+    Attributes: ``run`` (the ``RunConfig``), ``step`` (the checkpoint), ``seed`` (which of the
+    run's training seeds), ``observation_size``, ``action_size``, ``discrete``,
+    ``action_low``/``action_high``.
+    """
+
+    def __init__(
+        self,
+        run: runlog.RunConfig,
+        policy: Any,
+        params: Any,
+        obs_stats: Any,
+        step: int,
+        seed: int,
+        env: Any,
+        deterministic: bool = True,
+        clip: bool = True,
+        sample_seed: int = 0,
+    ):
+        self.run, self.policy, self.params, self.obs_stats = run, policy, params, obs_stats
+        self.step, self.seed = step, seed
+        self.observation_size = env.observation_size
+        self.action_size = env.action_size
+        self.discrete = bool(env.discrete)
+        self.action_low, self.action_high = float(env.action_low), float(env.action_high)
+        self.deterministic, self.clip = deterministic, clip
+        self._key = jax.random.PRNGKey(sample_seed)
+        self._act = jax.jit(self._act_impl, static_argnames="deterministic")
+
+    def _act_impl(self, params: Any, obs_stats: Any, obs: jax.Array, key: jax.Array, deterministic: bool) -> jax.Array:
+        obs = obs_stats.normalize(obs)
+        if deterministic:
+            action = self.policy.mode(params, obs)
+        else:
+            action, _ = self.policy.sample(params, obs, key)
+        if not self.discrete and self.clip:
+            action = jnp.clip(action, self.action_low, self.action_high)
+        return action
+
+    def __call__(self, obs: Any) -> np.ndarray:
+        obs = np.asarray(obs, np.float32)
+        if obs.shape[-1:] != (self.observation_size,) or obs.ndim not in (1, 2):
+            raise ValueError(
+                f"expected an observation [{self.observation_size}] or a batch [B, {self.observation_size}], "
+                f"got shape {obs.shape}"
+            )
+        key = self._key
+        if not self.deterministic:
+            self._key, key = jax.random.split(self._key)
+        return np.asarray(self._act(self.params, self.obs_stats, obs, key, deterministic=self.deterministic))
+
+    def __repr__(self) -> str:
+        mode = "deterministic" if self.deterministic else "stochastic"
+        return (
+            f"LoadedPolicy({self.run.algo} on {self.run.task}, step {self.step}, seed {self.seed}, {mode}, "
+            f"obs {self.observation_size} -> act {self.action_size}{' (discrete)' if self.discrete else ''})"
+        )
+
+
+def load_policy(
+    run_dir: str | os.PathLike,
+    step: int | str | None = None,
+    *,
+    seed: int | None = None,
+    deterministic: bool = True,
+    clip: bool = True,
+    sample_seed: int = 0,
+) -> LoadedPolicy:
+    """The policy of a training run as a NumPy callable ``obs -> action``.
+
+    Args:
+      run_dir: a run directory written by ``jaxpg.cli`` (``experiments/*.py``).
+      step: checkpoint step; ``None``/``"latest"`` (default) or ``"best"`` (highest mean-policy
+        return) or an iteration number.
+      seed: which of the run's training seeds (default: the first).
+      deterministic: act with the mode of the policy (the "mean policy"); ``False`` samples.
+      clip: clip continuous actions to the env's bounds, as the training env does.
+      sample_seed: PRNG seed of the sampled actions when not deterministic.
+    Raises ``ValueError`` (``RunDirError``/``CheckpointError``) with one line when the run or
+    checkpoint is missing, foreign or does not fit.
+    """
+    from jaxpg.algos import common
+
+    run = runlog.RunConfig.load(run_dir)
+    env = run.make_env()
+    config = run.algo_config()
+    policy, _ = common.make_networks(env, config)
+    if seed is None:
+        seed = run.seeds[0]
+    if seed not in run.seeds:
+        raise ValueError(f"seed {seed} is not one of the run's seeds {run.seeds}")
+    seed_index = run.seeds.index(seed)
+    target = ckpt_lib.policy_part(abstract_train_state(run, env))
+    checkpoints = ckpt_lib.Checkpointer(Path(run_dir) / runlog.CHECKPOINT_DIR, keep=None)
+    step = checkpoints.resolve_step(step)
+    part = checkpoints.restore_policy(target, step, expect=checkpoint_expectations(run))
+    if run.vmap_seeds:
+        part = jax.tree.map(lambda x: x[seed_index], part)
+    return LoadedPolicy(
+        run,
+        policy,
+        part["params"],
+        part["obs_stats"],
+        step,
+        seed,
+        env,
+        deterministic=deterministic,
+        clip=clip,
+        sample_seed=sample_seed,
+    )

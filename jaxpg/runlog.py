@@ -1,0 +1,574 @@
+"""The run directory on the host: ``config.json``, ``metrics.jsonl``, TensorBoard events, the
+progress bar and the one-line summaries.
+
+Layout of a run directory (``jaxpg.cli`` writes it, ``jaxpg.load_policy`` and
+``python -m jaxpg.evaluate`` read it)::
+
+    config.json      everything to rerun: task, env kwargs, algorithm, full Config, seeds, versions
+    metrics.jsonl    one JSON object per iteration (and seed); NaN ("not measured") is written as null
+    tensorboard/     tensorboardX event files of the same scalars, one sub-directory per seed
+    curves.png       returns over iterations (jaxpg.plotting)
+    checkpoints/     Orbax checkpoints of the whole TrainState (jaxpg.checkpoint)
+    videos/          rollouts of the mean policy (jaxpg.video)
+
+Iterations are counted from 1: the record with ``iteration == n`` describes the n-th update, and
+the checkpoint of step ``n`` holds the state after it.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import datetime
+import functools
+import importlib.metadata
+import json
+import math
+import os
+import platform
+import subprocess
+import sys
+import types
+import typing
+import warnings
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+CONFIG_FILE = "config.json"
+METRICS_FILE = "metrics.jsonl"
+TENSORBOARD_DIR = "tensorboard"
+CHECKPOINT_DIR = "checkpoints"
+VIDEO_DIR = "videos"
+CURVES_FILE = "curves.png"
+FORMAT_VERSION = 1
+
+
+class RunDirError(ValueError):
+    """A run directory is missing, foreign or unreadable (the message is one line)."""
+
+
+# --------------------------------------------------------------------------- config.json
+
+
+@dataclasses.dataclass
+class RunConfig:
+    """The contents of ``config.json``: what is needed to rebuild the env, the algorithm's
+    ``Config`` and the initial ``TrainState`` of a run, and how the run is scheduled.
+
+    Attributes:
+      task: ``jaxpg.envs`` name; env_kwargs: keyword arguments of ``jaxpg.envs.make``.
+      algo: ``jaxpg.algos`` name; config: every field of the algorithm's ``Config``.
+      seeds: the training seeds; several are trained together in one vmapped program.
+      iterations: total iterations of the run.
+      log_every, checkpoint_every, video_every: host-side schedule (0: off / only at the end).
+      keep_checkpoints: how many of the latest checkpoints to keep (plus the best one).
+      preset: the ``PRESETS`` entry the config started from, if any.
+      shard: the env batch is sharded over all local devices.
+      info: provenance (command line, versions, device, creation time); not needed to rerun.
+    """
+
+    task: str
+    algo: str
+    config: dict[str, Any]
+    seeds: list[int]
+    iterations: int
+    env_kwargs: dict[str, Any] = dataclasses.field(default_factory=dict)
+    log_every: int = 10
+    checkpoint_every: int = 50
+    keep_checkpoints: int = 3
+    video_every: int = 0
+    preset: str | None = None
+    shard: bool = False
+    info: dict[str, Any] = dataclasses.field(default_factory=dict)
+
+    @property
+    def vmap_seeds(self) -> bool:
+        """Several seeds: the TrainState has a leading ``[num_seeds]`` axis."""
+        return len(self.seeds) > 1
+
+    @property
+    def block_size(self) -> int:
+        """Iterations per compiled call: divides every host-side period, so that logging,
+        checkpoints and videos all fall on block boundaries."""
+        size = self.log_every
+        for every in (self.checkpoint_every, self.video_every):
+            if every > 0:
+                size = math.gcd(size, every)
+        return max(size, 1)
+
+    def algo_module(self) -> types.ModuleType:
+        from jaxpg import algos
+
+        return algos.get(self.algo)
+
+    def algo_config(self) -> Any:
+        """The algorithm's ``Config`` with the saved field values."""
+        return config_from_dict(self.algo_module().Config, self.config)
+
+    def make_env(self) -> Any:
+        return make_env(self.task, **self.env_kwargs)
+
+    def to_json(self) -> dict[str, Any]:
+        return {"format": FORMAT_VERSION, **dataclasses.asdict(self)}
+
+    def save(self, run_dir: str | os.PathLike) -> None:
+        """Write ``config.json`` atomically."""
+        write_json_atomic(Path(run_dir) / CONFIG_FILE, self.to_json())
+
+    @classmethod
+    def load(cls, run_dir: str | os.PathLike) -> RunConfig:
+        """Read ``run_dir/config.json``; ``RunDirError`` for a missing or foreign directory."""
+        run_dir = Path(run_dir)
+        if not run_dir.is_dir():
+            raise RunDirError(f"run directory {str(run_dir)!r} does not exist")
+        path = run_dir / CONFIG_FILE
+        if not path.is_file():
+            raise RunDirError(f"{str(run_dir)!r} is not a jaxpg run directory (it has no {CONFIG_FILE})")
+        try:
+            data = json.loads(path.read_text())
+        except (OSError, json.JSONDecodeError) as e:
+            raise RunDirError(f"cannot read {path}: {e}") from None
+        if not isinstance(data, dict) or "format" not in data or "task" not in data or "algo" not in data:
+            raise RunDirError(f"{path} is not a jaxpg run configuration")
+        if data["format"] > FORMAT_VERSION:
+            raise RunDirError(f"{path} was written by a newer jaxpg (format {data['format']})")
+        names = {f.name for f in dataclasses.fields(cls)}
+        return cls(**{k: v for k, v in data.items() if k in names})
+
+
+@functools.cache
+def _make_env_cached(task: str, kwargs: tuple[tuple[str, Any], ...]) -> Any:
+    from jaxpg import envs
+
+    return envs.make(task, **dict(kwargs))
+
+
+def make_env(task: str, **kwargs: Any) -> Any:
+    """``jaxpg.envs.make``, cached per ``(task, kwargs)``.
+
+    Env objects are immutable and are static (hashed by identity) in the jitted training step,
+    so reusing the same object lets a second run in the same process (a resume, a test) reuse
+    the compiled programs instead of compiling them again.
+    """
+    return _make_env_cached(task, tuple(sorted(kwargs.items())))
+
+
+def _resolve_hints(cls: type) -> dict[str, Any]:
+    return typing.get_type_hints(cls)
+
+
+def field_types(cls: type) -> dict[str, Any]:
+    """``{field name: resolved type}`` of a config dataclass."""
+    hints = _resolve_hints(cls)
+    return {f.name: hints.get(f.name, Any) for f in dataclasses.fields(cls)}
+
+
+def strip_optional(tp: Any) -> tuple[Any, bool]:
+    """``(T, True)`` for ``T | None``, else ``(tp, False)``."""
+    if typing.get_origin(tp) in (typing.Union, types.UnionType):
+        args = [a for a in typing.get_args(tp) if a is not type(None)]
+        if len(args) == 1:
+            return args[0], True
+    return tp, False
+
+
+def coerce(tp: Any, value: Any) -> Any:
+    """``value`` (e.g. from JSON, where tuples are lists) as the field type ``tp``."""
+    tp, optional = strip_optional(tp)
+    if value is None:
+        return None
+    origin = typing.get_origin(tp)
+    if tp is tuple or origin is tuple:
+        args = typing.get_args(tp)
+        elem = args[0] if args else Any
+        return tuple(coerce(elem, v) for v in value)
+    if tp is bool:
+        return bool(value)
+    if tp is int and isinstance(value, (int, float)) and not isinstance(value, bool):
+        return int(value)
+    if tp is float and isinstance(value, (int, float)):
+        return float(value)
+    return value
+
+
+def config_to_dict(config: Any) -> dict[str, Any]:
+    """Every field of a config dataclass, JSON-ready (tuples become lists)."""
+    return {f.name: _jsonable(getattr(config, f.name)) for f in dataclasses.fields(config)}
+
+
+def config_from_dict(cls: type, values: dict[str, Any]) -> Any:
+    """``cls(**values)`` with JSON values coerced to the field types; ``RunDirError`` names a
+    field the config class does not have (a run written by another version of the algorithm)."""
+    types_ = field_types(cls)
+    unknown = sorted(set(values) - set(types_))
+    if unknown:
+        raise RunDirError(f"saved config has fields {cls.__module__}.Config does not know: {', '.join(unknown)}")
+    return cls(**{k: coerce(types_[k], v) for k, v in values.items()})
+
+
+def _jsonable(value: Any) -> Any:
+    if isinstance(value, tuple | list):
+        return [_jsonable(v) for v in value]
+    if isinstance(value, np.generic):
+        return value.item()
+    return value
+
+
+def write_json_atomic(path: Path, data: Any) -> None:
+    """Write JSON to ``path`` through a temporary file and a rename."""
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text(json.dumps(data, indent=2, sort_keys=False) + "\n")
+    os.replace(tmp, path)
+
+
+def versions() -> dict[str, str]:
+    """Versions of Python and the packages a run's numbers depend on."""
+    import jaxpg
+
+    out = {"python": platform.python_version(), "jaxpg": jaxpg.__version__}
+    for dist in (
+        "jax",
+        "jaxlib",
+        "mujoco",
+        "mujoco-mjx",
+        "flax",
+        "optax",
+        "orbax-checkpoint",
+        "numpy",
+        "warp-lang",
+    ):
+        try:
+            out[dist] = importlib.metadata.version(dist)
+        except importlib.metadata.PackageNotFoundError:
+            pass
+    commit = git_commit()
+    if commit:
+        out["jaxpg_git"] = commit
+    return out
+
+
+def git_commit() -> str | None:
+    """The git commit of the jaxpg checkout (with ``+dirty`` when modified), if it is one."""
+    root = Path(__file__).resolve().parent.parent
+    if not (root / ".git").exists():
+        return None
+
+    def git(*args: str) -> str:
+        return subprocess.run(
+            ["git", *args], cwd=root, capture_output=True, text=True, timeout=5, check=True
+        ).stdout.strip()
+
+    try:
+        with warnings.catch_warnings():
+            # JAX warns about fork() in a threaded process; git is exec-ed at once: harmless.
+            warnings.simplefilter("ignore", RuntimeWarning)
+            commit = git("rev-parse", "HEAD")
+            dirty = git("status", "--porcelain", "--untracked-files=no")
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return commit + ("+dirty" if dirty else "")
+
+
+def device_info() -> dict[str, Any]:
+    """The JAX backend, device kind and count the run used."""
+    import jax
+
+    devices = jax.devices()
+    return {
+        "backend": jax.default_backend(),
+        "kind": devices[0].device_kind,
+        "count": len(devices),
+        "host": platform.node(),
+    }
+
+
+def provenance(argv: Sequence[str] | None = None) -> dict[str, Any]:
+    """``info`` of a new run: command line, versions, device, time."""
+    argv = list(sys.argv if argv is None else argv)
+    return {
+        "command": " ".join(_shell_quote(a) for a in argv),
+        "versions": versions(),
+        "device": device_info(),
+        "created": datetime.datetime.now().astimezone().isoformat(timespec="seconds"),
+    }
+
+
+def _shell_quote(arg: str) -> str:
+    import shlex
+
+    return shlex.quote(arg)
+
+
+# --------------------------------------------------------------------------- metrics.jsonl
+
+# Keys every record starts with, in this order; the algorithm's diagnostics follow sorted.
+LEADING_KEYS = (
+    "iteration",
+    "seed",
+    "env_steps",
+    "wall_time_s",
+    "return_stochastic",
+    "return_mean_policy",
+    "episode_length",
+    "eval_metric",
+    "eval_metric_mean_policy",
+)
+
+
+def _scalar(x: Any) -> float | None:
+    """A JSON number; NaN/inf (not measured) become ``None``."""
+    value = float(x)
+    return value if math.isfinite(value) else None
+
+
+def block_records(
+    metrics: dict[str, np.ndarray], first_iteration: int, seeds: Sequence[int], wall_times: Sequence[float]
+) -> list[dict[str, Any]]:
+    """One record per iteration (and seed) of a block of ``update`` metrics.
+
+    ``metrics`` holds ``[n]`` arrays, or ``[n, num_seeds]`` when several seeds train together;
+    ``wall_times[i]`` is the run's wall time at the end of the block's i-th iteration.
+    """
+    n = len(next(iter(metrics.values())))
+    several = len(seeds) > 1
+    keys = [k for k in LEADING_KEYS if k in metrics] + sorted(k for k in metrics if k not in LEADING_KEYS)
+    records = []
+    for i in range(n):
+        for s, seed in enumerate(seeds):
+            record: dict[str, Any] = {"iteration": first_iteration + i + 1, "seed": int(seed)}
+            if "env_steps" in metrics:
+                record["env_steps"] = _scalar(metrics["env_steps"][i, s] if several else metrics["env_steps"][i])
+            record["wall_time_s"] = round(float(wall_times[i]), 4)
+            for key in keys:
+                if key not in record:
+                    record[key] = _scalar(metrics[key][i, s] if several else metrics[key][i])
+            records.append(record)
+    return records
+
+
+def read_metrics(path: str | os.PathLike) -> list[dict[str, Any]]:
+    """The records of a ``metrics.jsonl`` (a torn last line, from a killed process, is skipped)."""
+    path = Path(path)
+    if path.is_dir():
+        path = path / METRICS_FILE
+    records = []
+    if not path.exists():
+        return records
+    with path.open() as f:
+        for line in f:
+            line = line.strip()
+            if not line:
+                continue
+            try:
+                records.append(json.loads(line))
+            except json.JSONDecodeError:
+                continue
+    return records
+
+
+def truncate_metrics(run_dir: str | os.PathLike, last_iteration: int) -> float:
+    """Drop the records after ``last_iteration`` (iterations a resumed run will redo).
+
+    Returns the wall time of the last kept record (0 when none), so that a resumed run's
+    ``wall_time_s`` continues from there.
+    """
+    path = Path(run_dir) / METRICS_FILE
+    records = [r for r in read_metrics(path) if r.get("iteration", 0) <= last_iteration]
+    tmp = path.with_name(path.name + ".tmp")
+    with tmp.open("w") as f:
+        for r in records:
+            f.write(json.dumps(r) + "\n")
+    os.replace(tmp, path)
+    return max((r.get("wall_time_s") or 0.0 for r in records), default=0.0)
+
+
+class MetricsWriter:
+    """Appends records to ``metrics.jsonl`` and the same scalars to TensorBoard.
+
+    TensorBoard gets one sub-directory per seed (``tensorboard/seed_<s>``), scalars keyed by the
+    metric name against the iteration; NaN (not measured) is skipped. ``start_iteration`` > 0
+    (a resumed run) purges events the interrupted run wrote after that iteration.
+    """
+
+    def __init__(
+        self,
+        run_dir: str | os.PathLike,
+        seeds: Sequence[int],
+        start_iteration: int = 0,
+        tensorboard: bool = True,
+    ):
+        self.run_dir = Path(run_dir)
+        self.seeds = list(seeds)
+        self._file = (self.run_dir / METRICS_FILE).open("a")
+        self._writers: dict[int, Any] = {}
+        if tensorboard:
+            try:
+                from tensorboardX import SummaryWriter
+            except ImportError:
+                print("warning: tensorboardX is not installed: no TensorBoard event files", file=sys.stderr)
+                seeds = []
+            else:
+                seeds = self.seeds
+            for seed in seeds:
+                logdir = self.run_dir / TENSORBOARD_DIR / f"seed_{seed}"
+                kwargs = {"purge_step": start_iteration + 1} if start_iteration > 0 else {}
+                self._writers[seed] = SummaryWriter(str(logdir), flush_secs=30, **kwargs)
+
+    def write(self, records: Sequence[dict[str, Any]]) -> None:
+        for record in records:
+            self._file.write(json.dumps(record) + "\n")
+            writer = self._writers.get(record["seed"])
+            if writer is None:
+                continue
+            step = record["iteration"]
+            for key, value in record.items():
+                if key in ("iteration", "seed") or value is None:
+                    continue
+                writer.add_scalar(key, value, global_step=step)
+        self._file.flush()
+        for writer in self._writers.values():
+            writer.flush()
+
+    def add_text(self, tag: str, text: str) -> None:
+        for writer in self._writers.values():
+            writer.add_text(tag, text, global_step=0)
+
+    def close(self) -> None:
+        self._file.close()
+        for writer in self._writers.values():
+            writer.close()
+
+
+# --------------------------------------------------------------------------- console output
+
+# Diagnostics shown in the summary line when the algorithm reports them.
+SUMMARY_DIAGNOSTICS = ("kl", "entropy", "step_size", "value_loss", "grad_norm", "cg_residual", "loss")
+
+
+def _block_stat(values: np.ndarray) -> tuple[float, float]:
+    """Mean over the block's iterations (NaN-aware), then mean and std over seeds."""
+    values = np.asarray(values, np.float64)
+    with np.errstate(all="ignore"), _quiet_nan_warnings():
+        per_seed = np.nanmean(values, axis=0) if values.ndim > 1 else np.array([np.nanmean(values)])
+        if np.all(np.isnan(per_seed)):
+            return math.nan, math.nan
+        return float(np.nanmean(per_seed)), float(np.nanstd(per_seed))
+
+
+class _quiet_nan_warnings:
+    def __enter__(self) -> None:
+        import warnings
+
+        self._ctx = warnings.catch_warnings()
+        self._ctx.__enter__()
+        warnings.simplefilter("ignore", category=RuntimeWarning)
+
+    def __exit__(self, *exc: Any) -> None:
+        self._ctx.__exit__(*exc)
+
+
+def _fmt(x: float, digits: int = 4) -> str:
+    if math.isnan(x):
+        return "-"
+    if x != 0 and (abs(x) >= 1e5 or abs(x) < 1e-3):
+        return f"{x:.{digits - 1}e}"
+    return f"{x:.{digits}g}" if abs(x) < 1 else f"{x:.1f}"
+
+
+def _rate(x: float) -> str:
+    for unit, scale in (("M", 1e6), ("k", 1e3)):
+        if x >= scale:
+            return f"{x / scale:.1f}{unit}"
+    return f"{x:.0f}"
+
+
+def summary_line(
+    metrics: dict[str, np.ndarray], last_iteration: int, total: int, steps_per_s: float, note: str = ""
+) -> str:
+    """One line about a logging block: progress, throughput, returns (mean over the block's
+    iterations; ``mean +- std`` over seeds) and the algorithm's main diagnostics."""
+    several = np.ndim(next(iter(metrics.values()))) > 1
+
+    def stat(key: str, digits: int = 4) -> str:
+        mean, std = _block_stat(metrics[key])
+        text = _fmt(mean, digits)
+        if several and not math.isnan(std):
+            text += f"±{_fmt(std, 3)}"
+        return text
+
+    width = len(str(total))
+    parts = [f"[{last_iteration:>{width}}/{total}]"]
+    if "env_steps" in metrics:
+        steps = float(np.max(metrics["env_steps"]))
+        parts.append(f"steps {steps:,.0f}")
+    parts.append(f"{_rate(steps_per_s)} steps/s{note}")
+    returns = []
+    if "return_stochastic" in metrics:
+        returns.append(f"return {stat('return_stochastic')}")
+    if "return_mean_policy" in metrics:
+        returns.append(f"mean policy {stat('return_mean_policy')}")
+    if returns:
+        parts.append(" ".join(returns))
+    if "episode_length" in metrics:
+        parts.append(f"len {stat('episode_length', 3)}")
+    for key in SUMMARY_DIAGNOSTICS:
+        if key in metrics:
+            parts.append(f"{key} {stat(key, 3)}")
+    for key in ("update_rejected", "nonfinite"):
+        if key in metrics and np.nansum(metrics[key]) > 0:
+            parts.append(f"{key} {np.nansum(metrics[key]):.0f}")
+    return " | ".join(parts)
+
+
+class Progress:
+    """A tqdm bar over iterations (hidden when stderr is not a terminal) plus summary lines.
+
+    ``update`` advances the bar by a block and shows env steps/s and the latest returns;
+    ``write`` prints a line above the bar (to stdout).
+    """
+
+    def __init__(self, total: int, initial: int = 0, enabled: bool | None = None, desc: str = "train"):
+        from tqdm.auto import tqdm
+
+        disable = None if enabled is None else not enabled
+        self._tqdm = tqdm
+        self.bar = tqdm(total=total, initial=initial, desc=desc, unit="it", dynamic_ncols=True, disable=disable)
+
+    def update(self, n: int, metrics: dict[str, np.ndarray], steps_per_s: float) -> None:
+        postfix = {"steps/s": _rate(steps_per_s)}
+        for key, label in (("return_stochastic", "R"), ("return_mean_policy", "R_mean")):
+            if key in metrics:
+                latest = _latest(metrics[key])
+                if not math.isnan(latest):
+                    postfix[label] = _fmt(latest)
+        self.bar.set_postfix(postfix, refresh=False)
+        self.bar.update(n)
+
+    def write(self, line: str) -> None:
+        self._tqdm.write(line, file=sys.stdout)
+
+    def close(self) -> None:
+        self.bar.close()
+
+
+def _latest(values: np.ndarray) -> float:
+    """The last measured (non-NaN) value of a block, averaged over seeds."""
+    values = np.asarray(values, np.float64)
+    rows = values.reshape(len(values), -1)
+    for row in rows[::-1]:
+        if not np.all(np.isnan(row)):
+            return float(np.nanmean(row))
+    return math.nan
+
+
+def latest_score(metrics: dict[str, np.ndarray]) -> float:
+    """The score a checkpoint is ranked by: the latest measured ``return_mean_policy`` of the
+    block (mean over seeds), falling back to ``return_stochastic``; ``-inf`` when neither was."""
+    for key in ("return_mean_policy", "return_stochastic"):
+        if key in metrics:
+            value = _latest(metrics[key])
+            if not math.isnan(value):
+                return value
+    return -math.inf

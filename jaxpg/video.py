@@ -1,0 +1,233 @@
+"""Videos of policy rollouts: MuJoCo's offscreen renderer for MJX tasks, a drawn frame for CartPole.
+
+MJX states live on the accelerator; a frame is rendered by copying ``qpos``/``qvel`` into a CPU
+``mujoco.MjData``, running ``mj_forward`` and ``mujoco.Renderer``. MuJoCo picks its OpenGL
+backend when it is first imported, from ``MUJOCO_GL``: ``configure_gl`` sets it, before that
+import, to ``egl`` on an NVIDIA GPU machine and to ``osmesa`` (software; Debian/Ubuntu package
+``libosmesa6``) otherwise. Pure-JAX tasks without MuJoCo (CartPole) are drawn with NumPy from the
+observation, or by the task's own ``render_frame(obs) -> [H, W, 3] uint8`` when it has one.
+
+Files are mp4 (H.264 through imageio-ffmpeg) or gif, chosen by the extension.
+"""
+
+from __future__ import annotations
+
+import ctypes.util
+import math
+import os
+import sys
+import warnings
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+WIDTH, HEIGHT = 480, 480
+MAX_FPS = 60
+
+
+class RenderError(RuntimeError):
+    """Rendering is not possible here (no GL backend, or a task that cannot be drawn)."""
+
+
+def configure_gl() -> str | None:
+    """Choose MuJoCo's offscreen GL backend (``MUJOCO_GL``) unless it is set or too late.
+
+    Must run before ``mujoco`` is first imported. Returns the backend in effect (``None``: MuJoCo
+    will use GLFW, which needs a display).
+    """
+    if "MUJOCO_GL" in os.environ or not sys.platform.startswith("linux"):
+        return os.environ.get("MUJOCO_GL")
+    if "mujoco" in sys.modules:
+        return None
+    nvidia = os.path.exists("/proc/driver/nvidia") or os.path.exists("/dev/nvidia0")
+    if nvidia and ctypes.util.find_library("EGL"):
+        os.environ["MUJOCO_GL"] = "egl"
+    elif ctypes.util.find_library("OSMesa"):
+        os.environ["MUJOCO_GL"] = "osmesa"
+    elif os.environ.get("DISPLAY"):
+        return None
+    return os.environ.get("MUJOCO_GL")
+
+
+def _render_hint() -> str:
+    backend = os.environ.get("MUJOCO_GL")
+    if backend == "osmesa" or not backend:
+        return "install OSMesa (apt-get install libosmesa6) and set MUJOCO_GL=osmesa, or use MUJOCO_GL=egl on a GPU"
+    return f"MUJOCO_GL={backend} did not work; try MUJOCO_GL=osmesa (apt-get install libosmesa6)"
+
+
+# --------------------------------------------------------------------------- frames
+
+
+def _camera(model: Any) -> Any:
+    """The model's ``track`` camera if it has one, else MuJoCo's default free camera."""
+    import mujoco
+
+    for name in ("track", "tracking"):
+        cam_id = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, name)
+        if cam_id >= 0:
+            return cam_id
+    camera = mujoco.MjvCamera()
+    mujoco.mjv_defaultFreeCamera(model, camera)
+    return camera
+
+
+def render_mujoco(
+    mj_model: Any, qpos: np.ndarray, qvel: np.ndarray, width: int = WIDTH, height: int = HEIGHT
+) -> list[np.ndarray]:
+    """Frames ``[H, W, 3] uint8`` of the states ``qpos [T, nq]``, ``qvel [T, nv]``."""
+    import mujoco
+
+    width = min(width, int(mj_model.vis.global_.offwidth))
+    height = min(height, int(mj_model.vis.global_.offheight))
+    try:
+        renderer = mujoco.Renderer(mj_model, height=height, width=width)
+    except Exception as e:  # noqa: BLE001 - every GL failure means the same to the user
+        raise RenderError(f"MuJoCo cannot render here ({type(e).__name__}: {e}); {_render_hint()}") from None
+    data = mujoco.MjData(mj_model)
+    camera = _camera(mj_model)
+    frames = []
+    try:
+        for q, v in zip(np.asarray(qpos), np.asarray(qvel), strict=True):
+            data.qpos[:] = q
+            data.qvel[:] = v
+            mujoco.mj_forward(mj_model, data)
+            renderer.update_scene(data, camera=camera)
+            frames.append(renderer.render().copy())
+    finally:
+        renderer.close()
+    return frames
+
+
+def draw_cartpole(obs: np.ndarray, width: int = 640, height: int = 400) -> np.ndarray:
+    """A CartPole frame ``[H, W, 3] uint8`` from Gymnasium's observation ``[x, x_dot, theta,
+    theta_dot]`` (track +-2.4, pole half-length 0.5, as Gymnasium's ``CartPole-v1``)."""
+    x, theta = float(obs[0]), float(obs[2])
+    world_width = 4.8
+    scale = width / world_width
+    frame = np.full((height, width, 3), 255, np.uint8)
+    track_y = int(height * 0.7)
+    frame[track_y : track_y + 2, :] = 0
+    cart_x = int(width / 2 + x * scale)
+    cart_w, cart_h = 50, 30
+    x0, x1 = max(cart_x - cart_w // 2, 0), min(cart_x + cart_w // 2, width)
+    y0, y1 = track_y - cart_h // 2, track_y + cart_h // 2
+    if x0 < x1:
+        frame[y0:y1, x0:x1] = 0
+    pole_len = scale * 1.0
+    axle_y = y0 + 4
+    ts = np.linspace(0.0, 1.0, int(pole_len) * 2)
+    px = cart_x + ts * pole_len * math.sin(theta)
+    py = axle_y - ts * pole_len * math.cos(theta)
+    half = 5
+    for dx in range(-half, half + 1):
+        cols = np.round(px + dx * math.cos(theta)).astype(int)
+        rows = np.round(py + dx * math.sin(theta)).astype(int)
+        ok = (cols >= 0) & (cols < width) & (rows >= 0) & (rows < height)
+        frame[rows[ok], cols[ok]] = (202, 152, 101)
+    ay, ax_ = np.ogrid[:height, :width]
+    axle = (ay - axle_y) ** 2 + (ax_ - cart_x) ** 2 <= 25
+    frame[axle] = (129, 132, 203)
+    return frame
+
+
+def can_render(env: Any) -> bool:
+    """The task has a way to be drawn (MuJoCo model, its own ``render_frame``, or CartPole)."""
+    task = env.unwrapped
+    return hasattr(task, "render_frame") or hasattr(task, "mj_model") or _is_cartpole(task)
+
+
+def _is_cartpole(task: Any) -> bool:
+    return type(task).__name__.lower() == "cartpole"
+
+
+def render_states(env: Any, obs: np.ndarray, qpos: np.ndarray | None, qvel: np.ndarray | None) -> list[np.ndarray]:
+    """Frames of one episode's states (``obs [T, obs_dim]``, and ``qpos``/``qvel`` for MJX tasks)."""
+    task = env.unwrapped
+    if hasattr(task, "render_frame"):
+        return [np.asarray(task.render_frame(o)) for o in obs]
+    if hasattr(task, "mj_model") and qpos is not None:
+        return render_mujoco(task.mj_model, qpos, qvel)
+    if _is_cartpole(task):
+        return [draw_cartpole(o) for o in obs]
+    raise RenderError(f"task {type(task).__name__} has no renderer (neither a MuJoCo model nor render_frame)")
+
+
+# --------------------------------------------------------------------------- files
+
+
+def frame_stride(dt: float, max_fps: int = MAX_FPS) -> tuple[int, float]:
+    """``(stride, fps)``: keep every ``stride``-th frame so that real time plays at <= max_fps."""
+    fps = 1.0 / dt
+    stride = max(1, round(fps / max_fps))
+    return stride, fps / stride
+
+
+def write_video(frames: Sequence[np.ndarray], path: str | os.PathLike, fps: float) -> Path:
+    """Write ``frames`` to ``path``: ``.mp4`` (H.264) or ``.gif``."""
+    path = Path(path)
+    if not frames:
+        raise RenderError("no frames to write")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    suffix = path.suffix.lower()
+    with warnings.catch_warnings():
+        # JAX warns about fork() in a threaded process; ffmpeg is exec-ed at once: harmless.
+        warnings.simplefilter("ignore", RuntimeWarning)
+        _write(frames, path, fps, suffix)
+    return path
+
+
+def _write(frames: Sequence[np.ndarray], path: Path, fps: float, suffix: str) -> None:
+    import imageio.v2 as imageio
+
+    if suffix == ".gif":
+        imageio.mimsave(path, list(frames), duration=1000.0 / fps, loop=0)
+    elif suffix in (".mp4", ".m4v", ".mov", ".mkv", ".webm"):
+        writer = imageio.get_writer(
+            path,
+            fps=fps,
+            codec="libx264" if suffix != ".webm" else None,
+            quality=7,
+            macro_block_size=16,
+            ffmpeg_log_level="error",
+        )
+        try:
+            for frame in frames:
+                writer.append_data(frame)
+        finally:
+            writer.close()
+    else:
+        raise RenderError(f"unsupported video format {suffix!r}: use .mp4 or .gif")
+
+
+def save_episode_video(
+    env: Any, obs: np.ndarray, qpos: np.ndarray | None, qvel: np.ndarray | None, path: str | os.PathLike
+) -> Path:
+    """Render one episode's states and write them to ``path`` at the env's real-time speed."""
+    stride, fps = frame_stride(float(env.dt))
+    sl = slice(None, None, stride)
+    frames = render_states(env, obs[sl], None if qpos is None else qpos[sl], None if qvel is None else qvel[sl])
+    return write_video(frames, path, fps)
+
+
+def record_policy(
+    env: Any,
+    policy: Any,
+    params: Any,
+    obs_stats: Any,
+    path: str | os.PathLike,
+    seed: int = 0,
+    max_steps: int | None = None,
+) -> tuple[Path, float, int]:
+    """Roll out the mean policy for one episode and save its video; returns ``(path, episode
+    return, episode length)``."""
+    from jaxpg import evaluate
+
+    horizon = int(max_steps or env.max_episode_steps)
+    episodes = evaluate.rollout(env, policy, params, obs_stats, seed, num_episodes=1, horizon=horizon)
+    length = int(episodes.lengths[0])
+    obs, qpos, qvel = episodes.episode_states(0)
+    out = save_episode_video(env, obs, qpos, qvel, path)
+    return out, float(episodes.returns[0]), length

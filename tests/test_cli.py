@@ -1,0 +1,348 @@
+"""The host-side product: command line, run directory, resume, load_policy, evaluate, videos.
+
+One tiny inverted-pendulum NPG configuration is trained once per module (``trained``) and every
+test reuses its run directory and, in-process, its compiled programs (the CLI caches env objects,
+so a resume or a second run hits jit's cache). Bad-input tests fail before anything compiles.
+"""
+
+import ctypes.util
+import dataclasses
+import json
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+# Rendering needs an offscreen GL backend chosen before mujoco is imported.
+if "MUJOCO_GL" not in os.environ and ctypes.util.find_library("OSMesa"):
+    os.environ["MUJOCO_GL"] = "osmesa"
+
+import numpy as np
+import pytest
+
+import jaxpg
+from jaxpg import cli, evaluate, plotting, policy_io, runlog
+
+ROOT = Path(__file__).resolve().parent.parent
+TINY = [
+    "--env", "inverted_pendulum", "--num-envs", "8", "--horizon", "32", "--eval-envs", "2",
+    "--eval-horizon", "32", "--max-episode-steps", "50", "--checkpoint-every", "2", "--log-every", "2",
+    "--no-progress",
+]  # fmt: skip
+REQUIRED_METRICS = {"iteration", "seed", "env_steps", "wall_time_s", "return_stochastic", "return_mean_policy"}
+
+
+def without_wall_time(records):
+    return [{k: v for k, v in r.items() if k != "wall_time_s"} for r in records]
+
+
+def listing(path: Path) -> dict:
+    return {str(p.relative_to(path)): (p.stat().st_size, p.stat().st_mtime_ns) for p in sorted(path.rglob("*"))}
+
+
+def can_render() -> bool:
+    try:
+        import mujoco
+
+        mujoco.Renderer(mujoco.MjModel.from_xml_string("<mujoco/>"), 16, 16).close()
+        return True
+    except Exception:
+        return False
+
+
+@pytest.fixture(scope="module")
+def runs(tmp_path_factory):
+    return tmp_path_factory.mktemp("runs")
+
+
+@pytest.fixture(scope="module")
+def trained(runs):
+    """4 iterations straight, checkpoints at 2 and 4, a video at 4."""
+    run_dir = runs / "straight"
+    assert cli.main([*TINY, "--iterations", "4", "--video-every", "4", "--run-dir", str(run_dir)]) == 0
+    return run_dir
+
+
+# --------------------------------------------------------------------------- run directory
+
+
+def test_run_directory_holds_everything_to_rerun(trained):
+    config = json.loads((trained / "config.json").read_text())
+    assert config["task"] == "inverted_pendulum" and config["algo"] == "npg"
+    assert config["env_kwargs"] == {"max_episode_steps": 50}
+    assert config["seeds"] == [0] and config["iterations"] == 4
+    from jaxpg.algos import npg
+
+    assert set(config["config"]) == {f.name for f in dataclasses.fields(npg.Config)}
+    assert config["config"]["num_envs"] == 8 and config["config"]["policy_hidden"] == [64, 64]
+    assert {"jax", "mujoco", "jaxpg", "python"} <= set(config["info"]["versions"])
+    assert config["info"]["device"]["backend"] == "cpu"
+    run = runlog.RunConfig.load(trained)
+    assert run.algo_config() == npg.Config(num_envs=8, horizon=32, eval_envs=2, eval_horizon=32)
+
+    records = runlog.read_metrics(trained)
+    assert [r["iteration"] for r in records] == [1, 2, 3, 4]
+    assert all(REQUIRED_METRICS | {"kl", "value_loss", "episode_length"} <= set(r) for r in records)
+    assert records[-1]["env_steps"] == 4 * 8 * 32
+    assert all(b["wall_time_s"] >= a["wall_time_s"] for a, b in zip(records, records[1:], strict=False))
+    events = list((trained / "tensorboard" / "seed_0").glob("events.out.tfevents.*"))
+    assert events and events[0].stat().st_size > 0
+    assert (trained / "curves.png").stat().st_size > 0
+    assert sorted(p.name for p in (trained / "checkpoints").iterdir()) == ["2", "4"]
+    if can_render():
+        assert (trained / "videos" / "iter_000004.mp4").stat().st_size > 0
+
+
+def test_existing_run_directory_is_never_overwritten(trained, capsys):
+    before = listing(trained)
+    assert cli.main([*TINY, "--run-dir", str(trained)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("error: ") and "--overwrite" in err
+    assert listing(trained) == before
+
+
+def test_overwrite_replaces_only_a_run_directory(trained, runs, capsys):
+    copy = runs / "overwritten"
+    shutil.copytree(trained, copy)
+    assert cli.main([*TINY, "--run-dir", str(copy), "--overwrite", "--iterations", "0"]) == 0
+    assert not (copy / "metrics.jsonl").exists() and json.loads((copy / "config.json").read_text())["iterations"] == 0
+    foreign = runs / "foreign"
+    foreign.mkdir()
+    (foreign / "thesis.tex").write_text("precious")
+    capsys.readouterr()
+    assert cli.main([*TINY, "--run-dir", str(foreign), "--overwrite"]) == 2
+    assert "not a jaxpg run directory" in capsys.readouterr().err
+    assert (foreign / "thesis.tex").read_text() == "precious"
+
+
+# --------------------------------------------------------------------------- resume
+
+
+def test_resume_is_bit_identical_to_an_uninterrupted_run(trained, runs):
+    expected = without_wall_time(runlog.read_metrics(trained))
+    # 2 iterations, then resumed to a total of 4.
+    split = runs / "split"
+    assert cli.main([*TINY, "--iterations", "2", "--run-dir", str(split)]) == 0
+    assert cli.main(["--resume", str(split), "--iterations", "4"]) == 0
+    assert without_wall_time(runlog.read_metrics(split)) == expected
+    assert json.loads((split / "config.json").read_text())["iterations"] == 4
+
+    # Killed while writing the checkpoint of iteration 4: metrics of iterations 3-4 were logged,
+    # the checkpoint is an unfinished temporary directory. Resume redoes 3-4 from checkpoint 2.
+    killed = runs / "killed"
+    shutil.copytree(trained, killed)
+    shutil.move(killed / "checkpoints" / "4", killed / "checkpoints" / "4.orbax-checkpoint-tmp-1763800000000000")
+    with (killed / "metrics.jsonl").open("a") as f:
+        f.write('{"iteration": 5, "seed": 0, "env_st')  # a torn line
+    assert cli.main(["--resume", str(killed)]) == 0
+    assert without_wall_time(runlog.read_metrics(killed)) == expected
+
+
+def test_resume_of_missing_or_foreign_directory_or_changed_settings(trained, runs, capsys):
+    foreign = runs / "not_a_run"
+    foreign.mkdir(exist_ok=True)
+    (foreign / "notes.txt").write_text("x")
+    no_ckpt = runs / "no_checkpoint"
+    shutil.copytree(trained, no_ckpt)
+    shutil.rmtree(no_ckpt / "checkpoints")
+    cases = [
+        (["--resume", str(runs / "missing")], "does not exist"),
+        (["--resume", str(foreign)], "not a jaxpg run directory"),
+        (["--resume", str(no_ckpt)], "no checkpoints"),
+        (["--resume", str(trained), "--num-envs", "16"], "drop --num-envs"),
+        (["--resume", str(trained), "--seed", "3"], "drop --seed"),
+    ]
+    for argv, message in cases:
+        before = listing(runs)
+        assert cli.main(argv) == 2, argv
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and err.startswith("error: ") and message in err, (argv, err)
+        assert listing(runs) == before
+
+
+def test_resume_with_incompatible_checkpoint(trained, runs, capsys):
+    other = runs / "other_network"
+    shutil.copytree(trained, other)
+    config = json.loads((other / "config.json").read_text())
+    config["config"]["policy_hidden"] = [32, 32]
+    (other / "config.json").write_text(json.dumps(config))
+    before = listing(other)
+    assert cli.main(["--resume", str(other)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "does not fit this run" in err and "params" in err
+    assert listing(other) == before
+
+
+# --------------------------------------------------------------------------- bad input
+
+
+BAD_INPUT = [
+    (["--env", "nope"], "unknown task 'nope'"),
+    (["--algo", "nope"], "unknown algorithm 'nope'"),
+    (["--num-envs", "0"], "num_envs must be >= 1"),
+    (["--num-envs", "-4"], "num_envs must be >= 1"),
+    (["--horizon", "2"], "value_batch_size 64 exceeds the 16 samples"),
+    (["--preset", "nope"], "unknown preset 'nope'"),
+    (["--seeds", "1", "1"], "distinct"),
+    (["--iterations", "-1"], "--iterations"),
+    (["--policy-hidden", "a"], "--policy-hidden"),
+    (["--fidelity", "exact"], "--fidelity"),
+]
+
+
+@pytest.mark.parametrize("extra,message", BAD_INPUT, ids=[" ".join(a) for a, _ in BAD_INPUT])
+def test_bad_input_is_one_error_line_with_status_2(extra, message, runs, capsys, monkeypatch):
+    monkeypatch.chdir(runs)
+    before = listing(runs)
+    argv = ["--env", "inverted_pendulum", "--num-envs", "8", *extra, "--run-dir", str(runs / "bad")]
+    assert cli.main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: ") and err.count("\n") == 1 and message in err, err
+    assert "Traceback" not in err
+    assert listing(runs) == before
+
+
+def test_num_envs_not_divisible_by_devices_in_a_subprocess(runs):
+    """Also checks the ``python -m jaxpg.cli`` entry; two fake CPU devices shard the env batch."""
+    env = {**os.environ, "XLA_FLAGS": "--xla_force_host_platform_device_count=2", "JAX_PLATFORMS": "cpu"}
+    argv = [sys.executable, "-m", "jaxpg.cli", "--env", "inverted_pendulum", "--num-envs", "3"]
+    proc = subprocess.run([*argv, "--run-dir", str(runs / "sharded")], capture_output=True, text=True, env=env)
+    assert proc.returncode == 2
+    assert proc.stderr.strip() == (
+        "error: --num-envs 3 is not divisible by the 2 devices the env batch is sharded over "
+        "(use a multiple, or --no-shard)"
+    )
+    assert not (runs / "sharded").exists()
+
+
+def test_help_lists_config_flags_and_gpu_command():
+    proc = subprocess.run(
+        [sys.executable, str(ROOT / "experiments" / "hopper.py"), "--help"], capture_output=True, text=True
+    )
+    assert proc.returncode == 0
+    for flag in ("--num-envs", "--policy-hidden", "--normalize-observations", "--no-normalize-observations",
+                 "--step-size", "--seeds", "--resume", "--preset", "--profile", "--video-every"):  # fmt: skip
+        assert flag in proc.stdout, flag
+    assert "--preset lyceum --seeds 1 2 3 5 8" in proc.stdout
+
+
+def test_config_flags_parse_into_config(runs, monkeypatch):
+    monkeypatch.chdir(runs)
+    plan = cli.plan(
+        ["--env", "inverted_pendulum", "--policy-hidden", "16", "--normalize-observations", "--gamma", "0.9",
+         "--preset", "lyceum", "--seeds", "1", "2", "3", "--run-dir", "planned"],
+        cli.Experiment(),
+    )  # fmt: skip
+    config = plan.config
+    assert config.policy_hidden == (16,) and config.normalize_observations and config.gamma == 0.9
+    assert config.value_hidden == (128, 128) and config.sampling == "episodic"  # from the preset
+    assert plan.run.seeds == [1, 2, 3] and plan.run.vmap_seeds
+    assert not (runs / "planned").exists()
+    experiment = cli.Experiment(config={"*": {"horizon": 16, "no_such_field": 1}, "npg": {"step_size": 0.1}})
+    plan = cli.plan(["--run-dir", "planned"], experiment)
+    assert plan.config.horizon == 16 and plan.config.step_size == 0.1
+
+
+def test_profile(runs, capsys):
+    from jaxpg.algos import npg
+
+    class NoProfile:
+        pass
+
+    plan = cli.Plan(run=runlog.RunConfig("t", "ppo", {}, [0], 1), run_dir=runs, module=NoProfile, env=None, config=None)
+    lines = []
+    assert cli.run_profile(plan, None, lines.append) is None
+    assert "profiling isn't available for ppo" in lines[0]
+    assert hasattr(npg, "profile_phases")
+
+
+# --------------------------------------------------------------------------- policies, evaluation, videos
+
+
+def test_load_policy(trained):
+    policy = jaxpg.load_policy(trained)
+    assert policy.step == 4 and policy.observation_size == 4 and policy.action_size == 1
+    obs = np.random.default_rng(0).normal(size=(5, 4)).astype(np.float32)
+    actions = policy(obs)
+    assert isinstance(actions, np.ndarray) and actions.shape == (5, 1)
+    np.testing.assert_allclose(policy(obs[2]), actions[2], rtol=1e-6)  # other shape, other program
+    np.testing.assert_array_equal(policy(obs), actions)  # deterministic
+    # The mode of the checkpointed policy, normalisation and clipping applied.
+    ts, step = policy_io.restore_train_state(trained)
+    expected = ts.policy.mode(ts.params, ts.obs_stats.normalize(obs))
+    np.testing.assert_allclose(actions, np.clip(expected, policy.action_low, policy.action_high), rtol=1e-6)
+    assert jaxpg.load_policy(trained, 2).step == 2
+    stochastic = jaxpg.load_policy(trained, deterministic=False)
+    assert not np.array_equal(stochastic(obs), stochastic(obs))
+    with pytest.raises(ValueError, match="expected an observation"):
+        policy(np.zeros(3))
+    with pytest.raises(ValueError, match="no checkpoint of step 3"):
+        jaxpg.load_policy(trained, 3)
+
+
+def test_evaluate_in_jaxpg_and_gymnasium(trained, tmp_path, capsys):
+    assert evaluate.main([str(trained), "--episodes", "1"]) == 0
+    out = capsys.readouterr().out
+    assert "jaxpg inverted_pendulum" in out and "return:" in out and "length:" in out
+    video = tmp_path / "gym.gif" if can_render() else None
+    argv = [str(trained), "--episodes", "2", "--gymnasium"] + (["--video", str(video)] if video else [])
+    assert evaluate.main(argv) == 0
+    out = capsys.readouterr().out
+    assert "Gymnasium InvertedPendulum-v5" in out and "return:" in out
+    if video:
+        assert video.stat().st_size > 0
+    assert evaluate.main([str(tmp_path / "missing"), "--episodes", "1"]) == 2
+    assert capsys.readouterr().err.startswith("error: run directory")
+
+
+def test_video_of_cartpole_is_drawn_without_mujoco(tmp_path):
+    from jaxpg import video
+
+    env = runlog.make_env("cartpole")
+    obs = np.array([[0.0, 0.0, 0.0, 0.0], [1.0, 0.0, 0.2, 0.0]], np.float32)
+    frames = video.render_states(env, obs, None, None)
+    assert frames[0].shape == (400, 640, 3) and frames[0].dtype == np.uint8
+    assert not np.array_equal(frames[0], frames[1])
+    path = video.write_video(frames, tmp_path / "cartpole.gif", fps=50)
+    assert path.stat().st_size > 0
+
+
+# --------------------------------------------------------------------------- host-side pieces
+
+
+def test_several_seeds_records_summary_and_curves(tmp_path):
+    metrics = {
+        "env_steps": np.array([[256.0, 256.0], [512.0, 512.0]]),
+        "return_stochastic": np.array([[1.0, 3.0], [np.nan, 5.0]]),
+        "return_mean_policy": np.array([[2.0, 4.0], [6.0, 8.0]]),
+        "kl": np.array([[0.01, 0.02], [0.03, 0.04]], np.float32),
+    }
+    records = runlog.block_records(metrics, 4, [1, 2], [1.0, 2.0])
+    assert [(r["iteration"], r["seed"]) for r in records] == [(5, 1), (5, 2), (6, 1), (6, 2)]
+    assert records[2]["return_stochastic"] is None and records[3]["return_stochastic"] == 5.0
+    assert records[0]["kl"] == float(np.float32(0.01))  # float32 values survive JSON exactly
+    line = runlog.summary_line(metrics, 6, 10, 12345.0)
+    assert line.startswith("[ 6/10]") and "12.3k steps/s" in line and "mean policy 5.0±" in line
+    assert runlog.latest_score(metrics) == 7.0
+    iterations, values = plotting.seed_curves(records, "return_mean_policy")
+    assert iterations.tolist() == [5, 6] and values.tolist() == [[2.0, 4.0], [6.0, 8.0]]
+    out = plotting.plot_runs([("run", records)], tmp_path / "curves.png", title="t", eval_metric_name="return")
+    assert out.stat().st_size > 0
+
+
+def test_every_algorithm_config_round_trips_through_json():
+    from jaxpg import algos
+
+    for name in algos.ALGORITHMS:
+        try:
+            module = algos.get(name)
+        except ModuleNotFoundError:
+            continue
+        config = module.Config()
+        for preset in getattr(module, "PRESETS", {}).values():
+            config = module.Config(**preset)
+            data = json.loads(json.dumps(runlog.config_to_dict(config)))
+            assert runlog.config_from_dict(module.Config, data) == config
+        with pytest.raises(runlog.RunDirError, match="does not know: bogus"):
+            runlog.config_from_dict(module.Config, {"bogus": 1})

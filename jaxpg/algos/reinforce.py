@@ -1,0 +1,198 @@
+"""REINFORCE (Williams 1992): the Monte-Carlo policy gradient, without a critic.
+
+One iteration:
+  1. sample ``num_envs x horizon`` transitions (by default *episodic*: every env runs one episode
+     of at most ``horizon`` steps; ``npg.phase_sample``);
+  2. Monte-Carlo discounted returns ``G_t = sum_k gamma^k r_{t+k}`` within each episode, with no
+     bootstrapping, then normalised (``return_normalization``):
+       ``"episode"``: by the mean and std of their own episode (Kokoyi's CartPole, MinPy's Pong,
+       Karpathy's "Pong from pixels"), ``"batch"``: over all valid samples, ``"none"``: as they
+       are (the Gymnasium tutorial);
+  3. one optimizer step (Adam or AdamW, after optional gradient clipping) on
+
+         L = -E[G^_t log pi(a_t | s_t)] - entropy_coef * E[H(pi(. | s_t))],
+
+     the means taken over the valid samples of the batch (Williams' eq. for the episodic case,
+     with the batch mean in place of a sum over one episode: with Adam the scale does not matter);
+  4. reject non-finite updates, update observation statistics, evaluate (``npg.finish_iteration``).
+
+No value function is learned: ``TrainState.value_params`` is ``{}``. The returns of an episode
+cut by ``horizon`` (or, in continuing sampling, by the end of the batch) are those of the part
+that was sampled; choose ``horizon`` >= the env's episode limit to avoid that bias.
+``jaxpg.algos.vpg`` adds a learned baseline to the same pieces.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+import optax
+
+from jaxpg import returns
+from jaxpg.algos import common, npg
+from jaxpg.algos.common import TrainState
+from jaxpg.envs import Env
+from jaxpg.rollout import Trajectory
+
+RETURN_NORMALIZATIONS = ("episode", "batch", "none")
+
+
+@dataclasses.dataclass(frozen=True)
+class Config(common.BaseConfig):
+    """REINFORCE hyperparameters (defaults: a quick CPU setting for ``cartpole``).
+
+    ``optimizer`` is ``"adam"`` or ``"adamw"`` (decoupled ``weight_decay``; PyTorch's AdamW
+    default 0.01) with learning rate ``lr``; ``max_grad_norm`` > 0 clips the global gradient norm
+    first (0: off). ``return_normalization`` is one of ``"episode"``, ``"batch"``, ``"none"``
+    (module docstring); ``entropy_coef`` weighs an entropy bonus; ``sample_budget`` > 0 caps the
+    valid samples of episodic sampling (see ``npg.apply_sample_budget``).
+    """
+
+    num_envs: int = 32
+    horizon: int = 500
+    sampling: str = "episodic"
+    gamma: float = 0.99
+    policy_hidden: tuple[int, ...] = (64, 64)
+    optimizer: str = "adam"
+    lr: float = 1e-2
+    weight_decay: float = 0.01
+    return_normalization: str = "episode"
+    entropy_coef: float = 0.0
+    max_grad_norm: float = 0.0
+    sample_budget: int = 0
+
+    def validate(self, env: Env) -> None:
+        super().validate(env)
+        if self.optimizer not in ("adam", "adamw"):
+            raise ValueError(f"optimizer must be 'adam' or 'adamw', got {self.optimizer!r}")
+        if not self.lr > 0:
+            raise ValueError(f"lr must be > 0, got {self.lr}")
+        if self.weight_decay < 0 or self.max_grad_norm < 0 or self.entropy_coef < 0:
+            raise ValueError("weight_decay, max_grad_norm and entropy_coef must be >= 0")
+        if not 0 <= self.gamma <= 1:
+            raise ValueError(f"gamma must be in [0, 1], got {self.gamma}")
+        if self.return_normalization not in RETURN_NORMALIZATIONS:
+            raise ValueError(
+                f"return_normalization must be one of {', '.join(RETURN_NORMALIZATIONS)}, "
+                f"got {self.return_normalization!r}"
+            )
+        if self.sample_budget < 0:
+            raise ValueError(f"sample_budget must be >= 0, got {self.sample_budget}")
+
+
+PRESETS: dict[str, dict[str, Any]] = {
+    # Seed 3 of SEEDS.md, on inverted_pendulum: the Gymnasium REINFORCE tutorial. Shared tanh
+    # trunk 16 -> 32, linear mean and softplus-std heads, AdamW lr 1e-4, gamma 0.99, one update
+    # per episode, raw (unnormalised) returns, PyTorch's default initialisation.
+    "gymnasium_tutorial": dict(
+        sampling="episodic",
+        num_envs=1,
+        horizon=1000,
+        gamma=0.99,
+        policy="state_std_gaussian",
+        policy_hidden=(16, 32),
+        policy_activation="tanh",
+        policy_init="pytorch",
+        optimizer="adamw",
+        lr=1e-4,
+        weight_decay=0.01,
+        return_normalization="none",
+    ),
+    # Seed 5, on cartpole: Kokoyi's policy gradient. Categorical policy 4 -> 128 (ReLU) -> 2,
+    # Adam lr 0.01, gamma 0.99, returns normalised per episode, one update per episode.
+    "kokoyi": dict(
+        sampling="episodic",
+        num_envs=1,
+        horizon=500,
+        gamma=0.99,
+        policy_hidden=(128,),
+        policy_activation="relu",
+        policy_init="pytorch",
+        optimizer="adam",
+        lr=1e-2,
+        return_normalization="episode",
+    ),
+}
+
+
+def optimizer(config: Config) -> optax.GradientTransformation:
+    """Optional global-norm clipping, then Adam or AdamW with a constant learning rate."""
+    if config.optimizer == "adamw":
+        opt = optax.adamw(config.lr, weight_decay=config.weight_decay)
+    else:
+        opt = optax.adam(config.lr)
+    clip = optax.clip_by_global_norm(config.max_grad_norm) if config.max_grad_norm > 0 else optax.identity()
+    return optax.chain(clip, opt)
+
+
+def init(key: jax.Array, env: Env, config: Config) -> TrainState:
+    """A fresh ``TrainState``: policy, its optimizer state, env batch; no value function."""
+    ts = common.init_common(key, env, config, opt_init=optimizer(config).init)
+    return ts.replace(value_params={}, value_opt_state=())
+
+
+def normalized_returns(traj: Trajectory, gamma: float, normalization: str) -> jax.Array:
+    """Monte-Carlo discounted returns of ``traj`` normalised as ``normalization`` says: ``[T, B]``.
+
+    Statistics use only the steps where ``traj.valid`` is set; the others come out as 0.
+    """
+    g = returns.discounted_returns(traj.rewards, traj.terminated, traj.truncated, gamma)
+    if normalization == "episode":
+        return returns.normalize_per_episode(g, traj.terminated, traj.truncated, traj.valid)
+    if normalization == "batch":
+        return returns.normalize(g, mask=traj.valid)
+    return jnp.where(traj.valid > 0, g, 0.0)
+
+
+def flatten(batch: npg.Batch) -> npg.Batch:
+    """``[T, B, ...] -> [T * B, ...]`` on every field."""
+    return jax.tree.map(lambda x: x.reshape((-1,) + x.shape[2:]), batch)
+
+
+def phase_returns(ts: TrainState, traj: Trajectory) -> npg.Batch:
+    """The flat training batch whose ``advantages`` (and ``value_targets``) are the normalised
+    returns; observations normalised with the statistics the batch was sampled with."""
+    g = normalized_returns(traj, ts.config.gamma, ts.config.return_normalization)
+    batch = npg.Batch(
+        obs=ts.obs_stats.normalize(traj.obs),
+        actions=traj.actions,
+        log_probs=traj.log_probs,
+        advantages=g,
+        value_targets=g,
+        weights=traj.valid,
+    )
+    return flatten(batch)
+
+
+def loss(ts: TrainState, params: Any, batch: npg.Batch) -> tuple[jax.Array, dict[str, jax.Array]]:
+    """``-E[A log pi(a|s)] - entropy_coef * E[H]`` over the weighted batch ``[N]``:
+    ``(total [], {"policy_loss", "entropy"})``. ``A`` is ``batch.advantages``, held constant."""
+    dist = ts.policy.dist(params, batch.obs)
+    log_probs = ts.policy.dist_log_prob(dist, batch.actions)
+    total_weight = jnp.maximum(jnp.sum(batch.weights), 1.0)
+    advantages = jax.lax.stop_gradient(batch.advantages)
+    policy_loss = -jnp.sum(advantages * log_probs * batch.weights) / total_weight
+    entropy = jnp.sum(ts.policy.dist_entropy(dist) * batch.weights) / total_weight
+    return policy_loss - ts.config.entropy_coef * entropy, {"policy_loss": policy_loss, "entropy": entropy}
+
+
+def policy_step(ts: TrainState, batch: npg.Batch) -> tuple[TrainState, dict[str, jax.Array]]:
+    """One optimizer step on ``loss``; returns the new state and the loss diagnostics with
+    ``loss`` and the pre-clipping ``grad_norm``."""
+    (total, diagnostics), grads = jax.value_and_grad(loss, argnums=1, has_aux=True)(ts, ts.params, batch)
+    updates, opt_state = optimizer(ts.config).update(grads, ts.opt_state, ts.params)
+    ts = ts.replace(params=optax.apply_updates(ts.params, updates), opt_state=opt_state)
+    return ts, {**diagnostics, "loss": total, "grad_norm": optax.tree.norm(grads)}
+
+
+def update(ts: TrainState) -> tuple[TrainState, dict[str, jax.Array]]:
+    """One REINFORCE iteration (module docstring); pure, jittable, vmappable over seeds."""
+    old = ts
+    ts, traj, eval_key = npg.phase_sample(ts)
+    batch = phase_returns(ts, traj)
+    ts, diagnostics = policy_step(ts, batch)
+    metrics = {**diagnostics, "kl": npg.mean_kl(ts, old.params, ts.params, batch)}
+    return npg.finish_iteration(old, ts, traj, eval_key, diagnostics["loss"], metrics)

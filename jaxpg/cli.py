@@ -378,19 +378,6 @@ def plan_fresh(args: argparse.Namespace, experiment: Experiment, module: Any, al
     return Plan(run=run, run_dir=run_dir, module=module, env=env, config=config, overwrite=bool(args.overwrite))
 
 
-# Flags that may change when a run is resumed; the rest define the run and are fixed.
-RESUMABLE = {
-    "iterations",
-    "checkpoint_every",
-    "keep_checkpoints",
-    "log_every",
-    "video_every",
-    "profile",
-    "progress",
-    "shard",
-}
-
-
 def plan_resume(args: argparse.Namespace, run: RunConfig, run_dir: Path) -> Plan:
     from jaxpg import checkpoint as ckpt_lib
     from jaxpg import policy_io
@@ -428,6 +415,14 @@ def plan_resume(args: argparse.Namespace, run: RunConfig, run_dir: Path) -> Plan
     return Plan(run=run, run_dir=run_dir, module=module, env=env, config=config, start=step, state=state)
 
 
+def _field_default(field: dataclasses.Field) -> Any:
+    if field.default is not dataclasses.MISSING:
+        return field.default
+    if field.default_factory is not dataclasses.MISSING:
+        return field.default_factory()
+    return None
+
+
 def plan(argv: Sequence[str], experiment: Experiment) -> Plan:
     """Parse and check everything; raises ``UsageError``/``ValueError`` with one line."""
     pre = _pre_parse(argv)
@@ -439,7 +434,7 @@ def plan(argv: Sequence[str], experiment: Experiment) -> Plan:
         algo = pre.algo or experiment.algo
     module = _algo_module(algo)
     config_cls = module.Config
-    defaults = {f.name: f.default for f in dataclasses.fields(config_cls)}
+    defaults = {f.name: _field_default(f) for f in dataclasses.fields(config_cls)}
     defaults.update(experiment.config_defaults(algo, config_cls))
     if resume_run is None and pre.preset is not None:
         defaults.update(getattr(module, "PRESETS", {}).get(pre.preset, {}))
@@ -744,14 +739,19 @@ def execute(plan_: Plan) -> int:
 
 def _report_end(plan_: Plan, callbacks: _Callbacks) -> None:
     run, run_dir = plan_.run, plan_.run_dir
-    timed = callbacks.block_times[1:] if len(callbacks.block_times) > 1 else callbacks.block_times
+    # The first block includes compilation.
+    timed = callbacks.block_times[1:]
     iters = sum(n for n, _ in timed)
     secs = sum(t for _, t in timed)
+    total = sum(t for _, t in callbacks.block_times)
     if iters and secs > 0:
         rate = callbacks.samples * iters / secs
-        _print(f"done: {secs / iters:.3f} s per iteration, {rate:,.0f} env steps/s after compilation")
+        _print(f"done in {total:.1f} s: {secs / iters:.3f} s per iteration, {rate:,.0f} env steps/s after compilation")
+    else:
+        _print(f"done in {total:.1f} s (including compilation)")
     if plan_.profile and iters:
-        _print(f"fused update (scan of {run.block_size} iterations): {secs / iters * 1e3:.2f} ms per iteration")
+        seeds = f", {len(run.seeds)} seeds vmapped" if run.vmap_seeds else ""
+        _print(f"fused update (scan of {run.block_size} iterations{seeds}): {secs / iters * 1e3:.2f} ms per iteration")
     _print(f"run directory: {run_dir}  (metrics.jsonl, curves.png, tensorboard/, checkpoints/)")
     _print(
         f"evaluate: python -m jaxpg.evaluate {run_dir} --episodes 10 [--gymnasium] [--video {run_dir}/videos/final.mp4]"

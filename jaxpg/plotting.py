@@ -44,10 +44,14 @@ def seed_curves(records: Sequence[dict[str, Any]], key: str) -> tuple[np.ndarray
 
 
 def _draw(
-    ax: Any, records: Sequence[dict[str, Any]], curves: Sequence[tuple[str, str, str]], color: Any, label: str
+    ax: Any,
+    records: Sequence[dict[str, Any]],
+    curves: Sequence[tuple[str, str, str]],
+    colors: Sequence[Any],
+    label: str,
 ) -> bool:
     drawn = False
-    for key, name, style in curves:
+    for (key, name, style), color in zip(curves, colors, strict=True):
         iterations, values = seed_curves(records, key)
         if values.size == 0:
             continue
@@ -77,6 +81,7 @@ def plot_runs(
 
     matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import MaxNLocator
 
     show_eval = eval_metric_name not in (None, "return") and any(
         r.get("eval_metric") is not None or r.get("eval_metric_mean_policy") is not None
@@ -88,15 +93,17 @@ def plot_runs(
     )
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     for i, (label, records) in enumerate(runs):
+        # One run: a colour per curve; several: a colour per run (line style tells the curves apart).
         prefix = f"{label}: " if len(runs) > 1 else ""
-        color = colors[i % len(colors)]
-        _draw(axes[0, 0], records, CURVES, color, prefix)
+        pair = colors[:2] if len(runs) == 1 else [colors[i % len(colors)]] * 2
+        _draw(axes[0, 0], records, CURVES, pair, prefix)
         if show_eval:
-            _draw(axes[1, 0], records, EVAL_CURVES, color, prefix)
+            _draw(axes[1, 0], records, EVAL_CURVES, pair, prefix)
     axes[0, 0].set_ylabel("episode return")
     if show_eval:
         axes[1, 0].set_ylabel(str(eval_metric_name).replace("_", " "))
     axes[-1, 0].set_xlabel("iteration")
+    axes[-1, 0].xaxis.set_major_locator(MaxNLocator(integer=True))
     for ax in axes[:, 0]:
         ax.grid(alpha=0.3)
         if ax.get_legend_handles_labels()[0]:

@@ -491,10 +491,10 @@ def summary_line(
     iterations; ``mean +- std`` over seeds) and the algorithm's main diagnostics."""
     several = np.ndim(next(iter(metrics.values()))) > 1
 
-    def stat(key: str, digits: int = 4) -> str:
+    def stat(key: str, digits: int = 4, spread: bool = True) -> str:
         mean, std = _block_stat(metrics[key])
         text = _fmt(mean, digits)
-        if several and not math.isnan(std):
+        if spread and several and not math.isnan(std):
             text += f"±{_fmt(std, 3)}"
         return text
 
@@ -515,7 +515,7 @@ def summary_line(
         parts.append(f"len {stat('episode_length', 3)}")
     for key in SUMMARY_DIAGNOSTICS:
         if key in metrics:
-            parts.append(f"{key} {stat(key, 3)}")
+            parts.append(f"{key} {stat(key, 3, spread=False)}")
     for key in ("update_rejected", "nonfinite"):
         if key in metrics and np.nansum(metrics[key]) > 0:
             parts.append(f"{key} {np.nansum(metrics[key]):.0f}")

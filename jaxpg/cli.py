@@ -752,6 +752,17 @@ def _report_end(plan_: Plan, callbacks: _Callbacks) -> None:
     if plan_.profile and iters:
         seeds = f", {len(run.seeds)} seeds vmapped" if run.vmap_seeds else ""
         _print(f"fused update (scan of {run.block_size} iterations{seeds}): {secs / iters * 1e3:.2f} ms per iteration")
+    try:
+        from jaxpg import checkpoint as ckpt_lib
+
+        checkpoints = ckpt_lib.Checkpointer(run_dir / runlog.CHECKPOINT_DIR, keep=None)
+        best, latest = checkpoints.best_step(), checkpoints.latest_step()
+        if best is not None and best != latest:
+            score = checkpoints.score(best)
+            _print(f"best checkpoint: iteration {best} (return {score:.1f}); evaluate it with --step best")
+        checkpoints.close()
+    except ValueError:
+        pass
     _print(f"run directory: {run_dir}  (metrics.jsonl, curves.png, tensorboard/, checkpoints/)")
     _print(
         f"evaluate: python -m jaxpg.evaluate {run_dir} --episodes 10 [--gymnasium] [--video {run_dir}/videos/final.mp4]"

@@ -21,6 +21,13 @@ import sys
 import time
 
 
+def warp_capacity(impl: str | None, num_envs: int) -> dict:
+    """MuJoCo Warp sizes its contact buffer for a whole batch: tell the env how many run at once."""
+    from jaxpg.envs.mjx_env import default_impl
+
+    return {"max_batch": num_envs} if (impl or default_impl()) == "warp" else {}
+
+
 def parse_overrides(items: list[str]) -> dict:
     """``["num_envs=4096", "policy_hidden=(64,64)"]`` -> dict with Python literals."""
     out = {}
@@ -47,10 +54,17 @@ def run_one(args: argparse.Namespace, seed: int) -> dict:
     overrides.update(parse_overrides(args.set))
     overrides.update(eval_envs=args.eval_envs, eval_every=10**9)  # evaluation is done below, per block
     config = module.Config(**overrides)
-    env = envs.make(args.task, impl=args.impl, fidelity=args.fidelity)
+    env = envs.make(args.task, impl=args.impl, fidelity=args.fidelity, **warp_capacity(args.impl, config.num_envs))
     ts = module.init(jax.random.PRNGKey(seed), env, config)
     evaluate = jax.jit(common.evaluate)
-    block = train_lib.compiled_block(module.update, args.block, False)
+    per_call = args.iterations_per_call or args.block
+    block_fn = train_lib.compiled_block(module.update, per_call, False)
+
+    def block(ts):  # noqa: ANN001, ANN202
+        for _ in range(args.block // per_call):
+            ts, metrics = block_fn(ts)
+        return ts, metrics
+
     ts = train_lib._private_copy(ts)
     history = []
     reached_at = None
@@ -99,6 +113,7 @@ def main() -> None:
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
     parser.add_argument("--set", nargs="*", default=[], help="Config overrides, name=value")
     parser.add_argument("--block", type=int, default=10, help="iterations between evaluations")
+    parser.add_argument("--iterations-per-call", type=int, default=0, help="scan length (default: --block)")
     parser.add_argument("--eval-envs", type=int, default=32)
     parser.add_argument("--max-seconds", type=float, default=300.0)
     parser.add_argument("--json", help="write the rows here")

@@ -23,6 +23,13 @@ import jax
 import jax.numpy as jnp
 
 
+def warp_capacity(impl: str | None, num_envs: int) -> dict:
+    """MuJoCo Warp sizes its contact buffer for a whole batch: tell the env how many run at once."""
+    from jaxpg.envs.mjx_env import default_impl
+
+    return {"max_batch": num_envs} if (impl or default_impl()) == "warp" else {}
+
+
 def algo_config(algo: str, num_envs: int, horizon: int) -> object:
     """A throughput-oriented config: no evaluation rollouts, large value minibatches."""
     from jaxpg import algos
@@ -55,7 +62,7 @@ def measure(task: str, impl: str, fidelity: str, num_envs: int, horizon: int, al
     from jaxpg import rollout as rollout_lib
     from jaxpg import train as train_lib
 
-    env = envs.make(task, impl=impl, fidelity=fidelity)
+    env = envs.make(task, impl=impl, fidelity=fidelity, **warp_capacity(impl, num_envs))
     sampler = envs.AutoReset(env)
     state = rollout_lib.reset_batch(sampler, jax.random.PRNGKey(0), num_envs)
 
@@ -71,11 +78,12 @@ def measure(task: str, impl: str, fidelity: str, num_envs: int, horizon: int, al
         state, traj = rollout_lib.rollout(sampler, random_act, None, state, key, horizon)
         return state, jnp.sum(traj.rewards)
 
-    raw_compile, raw_s, _ = time_call(raw, state, jax.random.PRNGKey(1), repeats=3)
+    raw_compile, raw_s, _ = time_call(raw, state, jax.random.PRNGKey(1), repeats=10)
 
     module = algos.get(algo)
     config = algo_config(algo, num_envs, horizon)
     ts = module.init(jax.random.PRNGKey(0), env, config)
+    # Several iterations in one compiled lax.scan, as jaxpg.train runs them by default ...
     block = jax.jit(lambda ts: train_lib.scan_updates(module.update, ts, iterations))
     start = time.perf_counter()
     ts2, metrics = jax.block_until_ready(block(ts))
@@ -83,7 +91,14 @@ def measure(task: str, impl: str, fidelity: str, num_envs: int, horizon: int, al
     start = time.perf_counter()
     ts2, metrics = jax.block_until_ready(block(ts2))
     train_s = (time.perf_counter() - start) / iterations
-
+    # ... and one iteration per compiled call (block_size=1), dispatched from the host.
+    single = jax.jit(module.update)
+    ts3, _ = jax.block_until_ready(single(ts2))
+    start = time.perf_counter()
+    for _ in range(iterations):
+        ts3, _ = single(ts3)
+    jax.block_until_ready(ts3)
+    single_s = (time.perf_counter() - start) / iterations
     samples = num_envs * horizon
     stats = jax.devices()[0].memory_stats() or {}
     peak = stats.get("peak_bytes_in_use", 0)
@@ -97,6 +112,8 @@ def measure(task: str, impl: str, fidelity: str, num_envs: int, horizon: int, al
         "raw_steps_per_s": samples / raw_s,
         "train_steps_per_s": samples / train_s,
         "ratio": raw_s / train_s,
+        "train_single_steps_per_s": samples / single_s,
+        "ratio_single": raw_s / single_s,
         "raw_compile_s": raw_compile,
         "train_compile_s": train_compile,
         "peak_bytes_per_env": peak / num_envs,
@@ -143,14 +160,15 @@ def main() -> None:
     device = rows[0]["device"] if rows else ""
     print(f"\n{args.task} {args.algo}, horizon {args.horizon}, fidelity {args.fidelity}, {device}")
     print("| impl | envs | raw env steps/s | train env steps/s | train/raw | compile raw s | compile train s", end="")
-    print(" | peak MiB/env |")
-    print("|---|---|---|---|---|---|---|---|")
+    print(" | peak MiB/env | 1 iter/call env steps/s | 1 iter/call train/raw |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
         print(
             f"| {r['impl']} | {r['num_envs']} | {r['raw_steps_per_s'] / 1e6:.3f} M "
             f"| {r['train_steps_per_s'] / 1e6:.3f} M "
             f"| {r['ratio']:.2f} | {r['raw_compile_s']:.1f} | {r['train_compile_s']:.1f} | "
-            f"{r['peak_bytes_per_env'] / 2**20:.3f} |"
+            f"{r['peak_bytes_per_env'] / 2**20:.3f} | {r['train_single_steps_per_s'] / 1e6:.3f} M "
+            f"| {r['ratio_single']:.2f} |"
         )
 
 

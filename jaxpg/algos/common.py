@@ -181,7 +181,7 @@ def init_common(
     value_params = value_fn.init(k_val, env.observation_size)
     sampler_env = AutoReset(env) if config.sampling == "continuing" else env
     env_state = rollout_lib.reset_batch(sampler_env, k_env, config.num_envs)
-    return TrainState(
+    state = TrainState(
         params=params,
         value_params=value_params,
         opt_state=opt_init(params) if opt_init else (),
@@ -196,6 +196,9 @@ def init_common(
         policy=policy,
         value_fn=value_fn,
     )
+    # Eagerly built leaves can share a buffer (AutoReset stores the first observation twice);
+    # give each its own so that jitted updates may donate the state.
+    return jax.tree.map(jnp.copy, state)
 
 
 def act_fn(ts: TrainState, deterministic: bool = False) -> rollout_lib.ActFn:

@@ -68,6 +68,8 @@ class MjxEnv(Env):
         one contact buffer for the whole batch, which MJX does not batch under ``vmap``; it gets
         ``naconmax * max_batch`` slots. A larger batch drops contacts (Warp prints an overflow
         warning); a smaller one only wastes a little memory and idle GPU threads.
+      warp_graph_mode: CUDA-graph capture of the warp kernels: ``"WARP"`` (MJX's GPU default),
+        ``"JAX"`` or ``"NONE"``; ``None`` keeps MJX's default.
     """
 
     def __init__(
@@ -80,6 +82,7 @@ class MjxEnv(Env):
         naconmax: int = 16,
         njmax: int = 64,
         max_batch: int = 8192,
+        warp_graph_mode: str | None = None,
     ):
         impl = impl or default_impl()
         if impl not in ("jax", "warp"):
@@ -92,7 +95,12 @@ class MjxEnv(Env):
         self.max_episode_steps = max_episode_steps
         self.mj_model = load_model(xml_file, fidelity)
         self.dt = float(self.mj_model.opt.timestep) * frame_skip
-        self.mjx_model = mjx.put_model(self.mj_model, impl=impl)
+        put_kwargs: dict[str, Any] = {}
+        if impl == "warp" and warp_graph_mode is not None:
+            import warp
+
+            put_kwargs["graph_mode"] = getattr(warp.JaxCallableGraphMode, warp_graph_mode.upper())
+        self.mjx_model = mjx.put_model(self.mj_model, impl=impl, **put_kwargs)
         # naconmax is per batch in MJX's warp Data (see `max_batch`), njmax per env.
         make_kwargs: dict[str, Any] = {}
         if impl == "warp":

@@ -54,6 +54,16 @@ def _private_copy(tree: Any) -> Any:
     return jax.tree.map(jnp.copy, tree)
 
 
+def default_iterations_per_call(train_state: TrainState, block_size: int) -> int:
+    """1 for MuJoCo Warp tasks (see ``train``), else ``block_size``."""
+    return 1 if getattr(train_state.env.unwrapped, "impl", None) == "warp" else block_size
+
+
+def _chunk_sizes(total: int, per_call: int) -> list[int]:
+    """``total`` iterations as calls of ``per_call`` (the last one shorter)."""
+    return [min(per_call, total - start) for start in range(0, total, per_call)]
+
+
 def train(
     update: UpdateFn,
     train_state: TrainState,
@@ -62,6 +72,7 @@ def train(
     callbacks: Sequence[Callback] = (),
     seeds: bool = False,
     max_consecutive_failures: int = 10,
+    iterations_per_call: int | None = None,
 ) -> TrainState:
     """Run ``num_iterations`` more iterations from ``train_state``.
 
@@ -76,6 +87,10 @@ def train(
       seeds: ``train_state`` has a leading seed axis.
       max_consecutive_failures: raise ``TrainingDiverged`` once this many updates in a row were
         rejected as non-finite.
+      iterations_per_call: iterations fused into one compiled ``lax.scan`` inside a block. By
+        default the whole block, except with MuJoCo Warp (``impl="warp"``), where the scan over
+        iterations runs 4-16x slower than one iteration per call on an H100
+        (BENCHMARKS.md), so the default there is 1; the block's metrics are the same either way.
     Returns the final ``TrainState``.
     """
     # Donation needs every leaf in its own buffer (states built eagerly can alias, e.g. an
@@ -86,8 +101,11 @@ def train(
     while done < num_iterations:
         n = min(block_size, num_iterations - done)
         first = int(np.max(jax.device_get(train_state.iteration)))
-        train_state, metrics = compiled_block(update, n, seeds)(train_state)
-        metrics = jax.tree.map(np.asarray, jax.device_get(metrics))
+        chunks = []
+        for size in _chunk_sizes(n, iterations_per_call or default_iterations_per_call(train_state, block_size)):
+            train_state, chunk = compiled_block(update, size, seeds)(train_state)
+            chunks.append(chunk)
+        metrics = jax.tree.map(lambda *xs: np.concatenate([np.asarray(x) for x in xs]), *jax.device_get(chunks))
         for callback in callbacks:
             callback(train_state, metrics, first)
         failures = int(np.max(jax.device_get(train_state.failures)))

@@ -22,6 +22,7 @@ REGISTRY: dict[str, str] = {
     "inverted_pendulum": "jaxpg.envs.inverted_pendulum:InvertedPendulum",
     "inverted_double_pendulum": "jaxpg.envs.inverted_double_pendulum:InvertedDoublePendulum",
     "cartpole": "jaxpg.envs.cartpole:CartPole",
+    "pong": "jaxpg.envs.pong:Pong",
 }
 
 

@@ -72,6 +72,19 @@ class Config(common.BaseConfig):
 
 
 PRESETS: dict[str, dict[str, Any]] = {
+    # Hopper on one GPU (BENCHMARKS.md: mean-policy return 3000 in a median 69 s on an H100).
+    "hopper_gpu": dict(
+        num_envs=8192,
+        horizon=64,
+        normalize_observations=True,
+        value_batch_size=32768,
+        value_epochs=2,
+        step_size=0.1,
+        policy_hidden=(64, 64),
+        value_hidden=(256, 256),
+        eval_envs=32,
+        eval_every=10,
+    ),
     # Seed 1 of SEEDS.md: LyceumAI NaturalPolicyGradient on Hopper.
     "lyceum": dict(
         sampling="episodic",

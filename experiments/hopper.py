@@ -29,7 +29,11 @@ examples:
   python experiments/hopper.py                         # a short NPG run on the CPU (minutes)
   python experiments/hopper.py --preset lyceum --iterations 5 --profile   # phase timings of LyceumAI's NPG
 
-on a GPU (headline: LyceumAI's NPG on Hopper, 200 iterations, 5 seeds in one program):
+on a GPU (headline: mean-policy return 3000 in under a minute on one H100, see BENCHMARKS.md):
+  python experiments/hopper.py --algo ppo --preset hopper_gpu --iterations 150 --run-dir runs/hopper-ppo
+  python experiments/hopper.py --algo npg --preset hopper_gpu --iterations 150 --run-dir runs/hopper-npg
+
+LyceumAI's NPG on Hopper, 200 iterations, 5 seeds in one program:
   python experiments/hopper.py --preset lyceum --seeds 1 2 3 5 8 --iterations 200 \\
       --checkpoint-every 50 --video-every 100 --run-dir runs/hopper-npg-lyceum
   python experiments/hopper.py --algo trpo --preset lyceum --seeds 1 2 3 5 8 --iterations 200

@@ -26,6 +26,7 @@ import argparse
 import dataclasses
 import datetime
 import functools
+import importlib
 import json
 import shutil
 import sys
@@ -287,6 +288,18 @@ def _check_task(task: str, experiment: Experiment) -> None:
         raise UsageError(f"unknown task {task!r}; known tasks: {', '.join(allowed)}")
 
 
+def warp_capacity(task: str, env_kwargs: dict[str, Any], batch: int) -> dict[str, Any]:
+    """``{"max_batch": batch}`` for an MJX task on MuJoCo Warp, whose contact buffer is sized for
+    the whole vmapped batch (``MjxEnv``); ``{}`` otherwise."""
+    from jaxpg import envs
+    from jaxpg.envs.mjx_env import MjxEnv, default_impl
+
+    module_name, class_name = envs.REGISTRY[task].split(":")
+    cls = getattr(importlib.import_module(module_name), class_name)
+    warp = (env_kwargs.get("impl") or default_impl()) == "warp"
+    return {"max_batch": max(batch, 8192)} if issubclass(cls, MjxEnv) and warp else {}
+
+
 def _make_env(task: str, env_kwargs: dict[str, Any]) -> Any:
     try:
         return runlog.make_env(task, **env_kwargs)
@@ -351,6 +364,8 @@ def plan_fresh(args: argparse.Namespace, experiment: Experiment, module: Any, al
     for key in ("fidelity", "impl", "max_episode_steps"):
         if getattr(args, key) is not None:
             env_kwargs[key] = getattr(args, key)
+    num_seeds = len(args.seeds) if args.seeds else 1
+    env_kwargs.update(warp_capacity(task, env_kwargs, max(config.num_envs, config.eval_envs) * num_seeds))
     env = _make_env(task, env_kwargs)
     config.validate(env)
     seeds = list(args.seeds) if args.seeds else [experiment.seed if args.seed is None else args.seed]

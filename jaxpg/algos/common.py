@@ -15,6 +15,7 @@ from typing import Any
 
 import jax
 import jax.numpy as jnp
+import optax
 from flax import struct
 
 from jaxpg import rollout as rollout_lib
@@ -279,8 +280,18 @@ def sampling_metrics(ts: TrainState, traj: rollout_lib.Trajectory, eval_summary:
         "eval_metric_mean_policy": eval_summary["episode_eval_metric"],
         "episodes": summary["episodes"],
         "nonfinite": jnp.sum(traj.metrics["nonfinite"] * traj.valid),
-        "mean_reward": jnp.sum(traj.rewards * traj.valid) / jnp.maximum(jnp.sum(traj.valid), 1.0),
+        "mean_reward": weighted_mean(traj.rewards, traj.valid),
     }
+
+
+def weighted_mean(x: jax.Array, weights: jax.Array) -> jax.Array:
+    """``[]`` mean of ``x`` over the samples ``weights`` selects (any matching shapes)."""
+    return jnp.sum(x * weights) / jnp.maximum(jnp.sum(weights), 1.0)
+
+
+def clip_gradients(max_grad_norm: float) -> optax.GradientTransformation:
+    """Global-norm gradient clipping, or the identity when ``max_grad_norm`` is 0."""
+    return optax.clip_by_global_norm(max_grad_norm) if max_grad_norm > 0 else optax.identity()
 
 
 def all_finite(tree: Any) -> jax.Array:

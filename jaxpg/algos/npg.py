@@ -187,7 +187,7 @@ def surrogate(ts: TrainState, params: Any, batch: Batch) -> jax.Array:
     """Importance-weighted surrogate ``E[pi(a|s)/pi_old(a|s) * A]``; its gradient at the sampling
     parameters is the vanilla policy gradient."""
     ratio = jnp.exp(ts.policy.log_prob(params, batch.obs, batch.actions) - batch.log_probs)
-    return jnp.sum(ratio * batch.advantages * batch.weights) / jnp.maximum(jnp.sum(batch.weights), 1.0)
+    return common.weighted_mean(ratio * batch.advantages, batch.weights)
 
 
 def phase_gradient(ts: TrainState, batch: Batch) -> jax.Array:
@@ -214,7 +214,7 @@ def normalized_step(grad: jax.Array, direction: jax.Array, delta: float) -> jax.
 def mean_kl(ts: TrainState, old_params: Any, new_params: Any, batch: Batch) -> jax.Array:
     """Mean KL(pi_old || pi_new) over the valid samples of ``batch``."""
     kl = ts.policy.kl(old_params, new_params, batch.obs)
-    return jnp.sum(kl * batch.weights) / jnp.maximum(jnp.sum(batch.weights), 1.0)
+    return common.weighted_mean(kl, batch.weights)
 
 
 def phase_value_fit(ts: TrainState, batch: Batch, key: jax.Array) -> tuple[TrainState, jax.Array]:
@@ -265,9 +265,7 @@ def update(ts: TrainState) -> tuple[TrainState, dict[str, jax.Array]]:
     flat_params, unravel = ravel_pytree(ts.params)
     new_params = unravel(flat_params + step * cg.x)
     kl = mean_kl(ts, ts.params, new_params, batch)
-    entropy = jnp.sum(ts.policy.entropy(ts.params, batch.obs) * batch.weights) / jnp.maximum(
-        jnp.sum(batch.weights), 1.0
-    )
+    entropy = common.weighted_mean(ts.policy.entropy(ts.params, batch.obs), batch.weights)
     ts = ts.replace(params=new_params)
     ts, value_loss = phase_value_fit(ts, batch, value_key)
     metrics = {

@@ -202,18 +202,13 @@ def init_actor_critic(key: jax.Array, env: Env, config: Any, optimizer: optax.Gr
     return ts.replace(opt_state=optimizer.init(joint_params(ts)))
 
 
-def clip_gradients(max_grad_norm: float) -> optax.GradientTransformation:
-    """Global-norm gradient clipping, or the identity when ``max_grad_norm`` is 0."""
-    return optax.clip_by_global_norm(max_grad_norm) if max_grad_norm > 0 else optax.identity()
+clip_gradients = common.clip_gradients
+weighted_mean = common.weighted_mean
 
 
 def global_norm(tree: Any) -> jax.Array:
     """``[]`` Euclidean norm of all leaves of ``tree`` together."""
     return jnp.sqrt(sum(jnp.sum(jnp.square(x)) for x in jax.tree.leaves(tree)))
-
-
-def weighted_mean(x: jax.Array, weights: jax.Array) -> jax.Array:
-    return jnp.sum(x * weights) / jnp.maximum(jnp.sum(weights), 1.0)
 
 
 def loss(

@@ -124,8 +124,7 @@ def optimizer(config: Config) -> optax.GradientTransformation:
         opt = optax.adamw(config.lr, weight_decay=config.weight_decay)
     else:
         opt = optax.adam(config.lr)
-    clip = optax.clip_by_global_norm(config.max_grad_norm) if config.max_grad_norm > 0 else optax.identity()
-    return optax.chain(clip, opt)
+    return optax.chain(common.clip_gradients(config.max_grad_norm), opt)
 
 
 def init(key: jax.Array, env: Env, config: Config) -> TrainState:

@@ -17,7 +17,7 @@ import jax.numpy as jnp
 from jax.flatten_util import ravel_pytree
 
 from jaxpg import linalg
-from jaxpg.algos import npg
+from jaxpg.algos import common, npg
 from jaxpg.algos.common import TrainState
 from jaxpg.envs import Env
 
@@ -87,9 +87,7 @@ def update(ts: TrainState) -> tuple[TrainState, dict[str, jax.Array]]:
     grad = npg.phase_gradient(ts, batch)
     cg = npg.phase_natural_gradient(ts, batch, grad)
     new_params, search = line_search(ts, batch, grad, cg.x)
-    entropy = jnp.sum(ts.policy.entropy(ts.params, batch.obs) * batch.weights) / jnp.maximum(
-        jnp.sum(batch.weights), 1.0
-    )
+    entropy = common.weighted_mean(ts.policy.entropy(ts.params, batch.obs), batch.weights)
     ts = ts.replace(params=new_params)
     ts, value_loss = npg.phase_value_fit(ts, batch, value_key)
     metrics = {

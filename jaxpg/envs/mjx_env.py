@@ -37,7 +37,7 @@ def default_impl() -> Impl:
 
 
 def load_model(xml_file: str, fidelity: Fidelity) -> mujoco.MjModel:
-    """Compile ``envs/assets/<xml_file>`` and apply the physics settings of ``fidelity``.
+    """Compile ``envs/assets/<xml_file>`` (or ``xml_file`` itself when it is an MJCF string) and apply the physics settings of ``fidelity``.
 
     ``"gymnasium"`` keeps the file's integrator and solver (identical to Gymnasium's model);
     ``"fast"`` switches to Euler with ``FAST_SOLVER_ITERATIONS`` Newton iterations and
@@ -45,7 +45,10 @@ def load_model(xml_file: str, fidelity: Fidelity) -> mujoco.MjModel:
     """
     if fidelity not in ("fast", "gymnasium"):
         raise ValueError(f"unknown fidelity {fidelity!r}: expected 'fast' or 'gymnasium'")
-    model = mujoco.MjModel.from_xml_path(str(ASSETS / xml_file))
+    if xml_file.lstrip().startswith("<"):
+        model = mujoco.MjModel.from_xml_string(xml_file)
+    else:
+        model = mujoco.MjModel.from_xml_path(str(ASSETS / xml_file))
     if fidelity == "fast":
         model.opt.integrator = mujoco.mjtIntegrator.mjINT_EULER
         model.opt.iterations = FAST_SOLVER_ITERATIONS
@@ -57,7 +60,7 @@ class MjxEnv(Env):
     """A task simulated by MJX.
 
     Args:
-      xml_file: MJCF file under ``jaxpg/envs/assets``.
+      xml_file: MJCF file under ``jaxpg/envs/assets``, or an MJCF string (starting with ``<``).
       frame_skip: physics steps per env step (``dt = frame_skip * timestep``).
       fidelity: ``"fast"`` (default; Euler, few solver iterations) or ``"gymnasium"``.
       impl: ``"jax"`` or ``"warp"`` (MuJoCo Warp behind MJX); ``None`` picks ``default_impl()``.

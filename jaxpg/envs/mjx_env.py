@@ -37,7 +37,8 @@ def default_impl() -> Impl:
 
 
 def load_model(xml_file: str, fidelity: Fidelity) -> mujoco.MjModel:
-    """Compile ``envs/assets/<xml_file>`` (or ``xml_file`` itself when it is an MJCF string) and apply the physics settings of ``fidelity``.
+    """Compile ``envs/assets/<xml_file>`` (or ``xml_file`` itself when it is an MJCF string) and
+    apply the physics settings of ``fidelity``.
 
     ``"gymnasium"`` keeps the file's integrator and solver (identical to Gymnasium's model);
     ``"fast"`` switches to Euler with ``FAST_SOLVER_ITERATIONS`` Newton iterations and

@@ -303,7 +303,7 @@ def test_make_unknown_name_lists_known_names():
         envs.make("nope")
     for name in envs.names():
         assert name in str(error.value)
-    assert envs.names() == sorted(["cartpole", "hopper", "inverted_double_pendulum", "inverted_pendulum"])
+    assert envs.names() == sorted(["cartpole", "hopper", "inverted_double_pendulum", "inverted_pendulum", "pong"])
 
 
 def test_wrappers_forward_task_attributes():

@@ -1,0 +1,339 @@
+"""Pong from pixels (SEEDS.md, seed 4: MinPy): REINFORCE and A2C on jaxpg's pure-JAX Pong.
+
+The task is ``jaxpg.envs.pong.Pong``, a Pong written for jaxpg (not the Atari ROM), seen through
+``FrameDifference``: the observation is the current 80x80 frame minus the previous one, flattened
+to 6400. The network is the seed's: 6400 -> 200 (ReLU) -> action probabilities (a categorical
+policy over {up, down}); A2C adds a value network of the same shape.
+
+* ``--algo reinforce``: Karpathy's / MinPy's policy gradient. Each env runs on (continuing
+  sampling) and every ``--horizon`` steps the policy takes one Adam step on
+  ``-E[G^_t log pi(a_t|s_t)]``, where ``G_t`` is the discounted return *of the point* the step
+  belongs to (a nonzero reward ends a point, so returns restart there: ``point_returns``) and
+  ``G^`` is ``G`` normalised over the batch. The steps after the last finished point of each env
+  column have no known return yet and are left out of the batch.
+* ``--algo a2c``: synchronous advantage actor-critic (``jaxpg.algos.a2c``): ``--num-envs`` games
+  in lock-step, an update every ``--horizon`` (t_max) steps, GAE(0.99, 0.95) bootstrapped
+  through the value of the last frame, value loss and entropy bonus.
+
+The running reward is the seed's: an exponential moving average of the per-game reward (the
+final score difference), ``running = 0.99 running + 0.01 game`` at every finished game, starting
+from the first game's. ``--compare-envs 1 2 4 16 64 256`` trains the A2C agent with each number
+of environments for ``--minutes`` of wall-clock time (compilation excluded) and plots the running
+reward against wall-clock time into ``pong_envs.png`` in the run directory: MinPy's comparison,
+more environments learn faster in wall-clock time. Every run writes ``config.json`` and
+``metrics.jsonl`` (one line per compiled block of iterations) to the run directory.
+
+    python experiments/pong.py --algo a2c --num-envs 16 --minutes 10
+    python experiments/pong.py --algo reinforce --num-envs 16 --minutes 30
+    python experiments/pong.py --compare-envs 1 2 4 16 64 256 --minutes 5
+    python experiments/pong.py --compare-envs 1 4 16 --minutes 1 --size 40      # a quick look on a CPU
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import math
+import sys
+import time
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from jaxpg import returns
+from jaxpg import train as train_lib
+from jaxpg.algos import a2c, npg, reinforce
+from jaxpg.algos.common import TrainState
+from jaxpg.envs import Env, EpisodeStats
+from jaxpg.envs.pong import FrameDifference, Pong
+
+# The seed's network: one hidden layer of 200 ReLU units.
+SEED_NETWORK: dict[str, Any] = dict(policy_hidden=(200,), policy_activation="relu")
+
+# A2C on Pong: t_max 8, Adam, GAE lambda 0.95, entropy bonus 0.01, value network like the policy's.
+A2C_DEFAULTS: dict[str, Any] = dict(
+    **SEED_NETWORK,
+    value_hidden=(200,),
+    value_activation="relu",
+    horizon=8,
+    optimizer="adam",
+    lr=1e-3,
+    gamma=0.99,
+    gae_lambda=0.95,
+    entropy_coef=0.01,
+    value_coef=0.5,
+    max_grad_norm=0.5,
+    eval_envs=0,
+)
+
+# REINFORCE on Pong: continuing sampling, one Adam step per 256 steps of every env, gamma 0.99.
+REINFORCE_DEFAULTS: dict[str, Any] = dict(
+    **SEED_NETWORK,
+    sampling="continuing",
+    horizon=256,
+    optimizer="adam",
+    lr=1e-3,
+    gamma=0.99,
+    eval_envs=0,
+)
+
+RUNNING_DECAY = 0.99  # running reward: EMA over games, as in the seed
+
+
+def make_env(size: int = 80, stay_action: bool = False, **pong_kwargs: Any) -> Env:
+    """``EpisodeStats(FrameDifference(Pong))``: frame differences ``[size * size]``, game statistics."""
+    return EpisodeStats(FrameDifference(Pong(size=size, stay_action=stay_action, **pong_kwargs)))
+
+
+# ---------------------------------------------------------------------------------------------
+# REINFORCE with returns that restart at every point.
+
+
+def point_returns(
+    rewards: jax.Array, terminated: jax.Array, truncated: jax.Array, gamma: float
+) -> tuple[jax.Array, jax.Array]:
+    """Discounted returns within each point, and where they are known: ``([T, B], [T, B] bool)``.
+
+    A step with a nonzero reward ends a point (as well as the game's end), so
+    ``G_t = sum_k gamma^k r_{t+k}`` runs only up to the end of ``t``'s point (Karpathy's
+    ``discount_rewards`` with its reset at ``r != 0``). ``complete`` is true where that point
+    ended inside the batch with a point scored; steps of a point still running at the end of the
+    batch, or cut by the time limit, have an unknown return and come out false.
+    """
+    point_end = rewards != 0
+    ends = point_end | terminated
+    g = returns.discounted_returns(rewards, ends, truncated, gamma)
+    # The same recursion with gamma 1 on the indicator of a scored point: 1 where the segment
+    # ends with a point, 0 where it ends by truncation or runs past the batch.
+    scored = returns.discounted_returns(point_end.astype(rewards.dtype), ends, truncated, 1.0)
+    return g, scored > 0
+
+
+def reinforce_update(ts: TrainState) -> tuple[TrainState, dict[str, jax.Array]]:
+    """One REINFORCE iteration with per-point returns normalised over the batch (module
+    docstring); ``jaxpg.algos.reinforce``'s pieces with ``point_returns`` for its returns."""
+    old = ts
+    ts, traj, eval_key = npg.phase_sample(ts)
+    g, complete = point_returns(traj.rewards, traj.terminated, traj.truncated, ts.config.gamma)
+    weights = traj.valid * complete
+    advantages = returns.normalize(g, mask=weights)
+    batch = reinforce.flatten(
+        npg.Batch(
+            obs=ts.obs_stats.normalize(traj.obs),
+            actions=traj.actions,
+            log_probs=traj.log_probs,
+            advantages=advantages,
+            value_targets=advantages,
+            weights=weights,
+        )
+    )
+    ts, diagnostics = reinforce.policy_step(ts, batch)
+    metrics = {
+        **diagnostics,
+        "kl": npg.mean_kl(ts, old.params, ts.params, batch),
+        "complete_fraction": jnp.mean(weights),
+    }
+    return npg.finish_iteration(old, ts, traj, eval_key, diagnostics["loss"], metrics)
+
+
+def make_config(algo: str, num_envs: int, **overrides: Any) -> Any:
+    """The ``Config`` of ``algo`` (``"a2c"`` or ``"reinforce"``) for Pong with ``num_envs`` games."""
+    if algo == "a2c":
+        return a2c.Config(**{**A2C_DEFAULTS, "num_envs": num_envs, **overrides})
+    if algo == "reinforce":
+        return reinforce.Config(**{**REINFORCE_DEFAULTS, "num_envs": num_envs, **overrides})
+    raise ValueError(f"unknown algorithm {algo!r}: expected 'a2c' or 'reinforce'")
+
+
+ALGORITHMS: dict[str, tuple[Callable, Callable]] = {
+    "a2c": (a2c.init, a2c.update),
+    "reinforce": (reinforce.init, reinforce_update),
+}
+
+
+# ---------------------------------------------------------------------------------------------
+# Host side: the running reward, a wall-clock budget, the plot.
+
+
+class RunningReward:
+    """``jaxpg.train.train`` callback: the seed's running reward and a learning curve.
+
+    After each block it folds the games that ended into ``running`` (the EMA over games; an
+    iteration in which ``k`` games ended with mean reward ``m`` counts as ``k`` games of reward
+    ``m``) and appends to ``rows`` the wall-clock seconds since ``start``, env steps, iteration,
+    running reward, mean reward per step of the block and games ended in it.
+    """
+
+    def __init__(self, samples_per_iteration: int, start: float | None = None):
+        self.samples_per_iteration = samples_per_iteration
+        self.start = time.perf_counter() if start is None else start
+        self.running: float | None = None
+        self.games = 0
+        self.rows: list[dict[str, float]] = []
+
+    def __call__(self, ts: TrainState, metrics: dict[str, np.ndarray], first: int) -> None:
+        games, game_reward = metrics["episodes"], metrics["return_stochastic"]
+        for k, m in zip(games, game_reward, strict=True):
+            if k > 0 and math.isfinite(m):
+                if self.running is None:
+                    self.running = float(m)
+                else:
+                    w = RUNNING_DECAY ** float(k)
+                    self.running = w * self.running + (1.0 - w) * float(m)
+                self.games += int(k)
+        iteration = first + len(games)
+        self.rows.append(
+            {
+                "wall_s": time.perf_counter() - self.start,
+                "env_steps": iteration * self.samples_per_iteration,
+                "iteration": iteration,
+                "running_reward": math.nan if self.running is None else self.running,
+                "mean_reward": float(np.mean(metrics["mean_reward"])),
+                "games": self.games,
+            }
+        )
+
+
+def _jitted_copy(tree: Any) -> Any:
+    return jax.jit(lambda t: jax.tree.map(jnp.copy, t))(tree)
+
+
+def train_for(
+    algo: str,
+    env: Env,
+    config: Any,
+    seconds: float,
+    seed: int = 0,
+    block_steps: int = 8192,
+    log: Callable[[str], None] = print,
+    log_every_s: float = 15.0,
+) -> tuple[TrainState, RunningReward, float]:
+    """Train ``algo`` for ``seconds`` of wall-clock time, compilation excluded.
+
+    Blocks hold about ``block_steps`` env steps each. The block's program is compiled (and run
+    once on a throwaway copy of the state) before the clock starts. Returns the final state, the
+    ``RunningReward`` record and the compilation seconds.
+    """
+    init, update = ALGORITHMS[algo]
+    block = max(1, round(block_steps / config.samples_per_iteration))
+    t0 = time.perf_counter()
+    ts = init(jax.random.PRNGKey(seed), env, config)
+    jax.block_until_ready(train_lib.compiled_block(update, block, False)(_jitted_copy(ts)))
+    compile_s = time.perf_counter() - t0
+    record = RunningReward(config.samples_per_iteration)
+    last_log = record.start
+    while time.perf_counter() - record.start < seconds:
+        ts = train_lib.train(update, ts, block, block_size=block, callbacks=[record])
+        now = time.perf_counter()
+        if now - last_log >= log_every_s:
+            last_log = now
+            row = record.rows[-1]
+            log(
+                f"  {algo} envs {config.num_envs:4d}  {row['wall_s']:7.1f} s  {row['env_steps'] / 1e6:7.2f} M steps "
+                f"({row['env_steps'] / row['wall_s']:8.0f}/s)  games {row['games']:6d}  "
+                f"running reward {row['running_reward']:7.2f}  reward/step {row['mean_reward']:+.4f}"
+            )
+    return ts, record, compile_s
+
+
+def plot_curves(curves: dict[str, Sequence[dict[str, float]]], path: Path, title: str) -> None:
+    """Running reward (top) and mean reward per step (bottom) against wall-clock seconds."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, (top, bottom) = plt.subplots(2, 1, figsize=(8, 7), sharex=True)
+    colors = plt.get_cmap("viridis")(np.linspace(0.0, 0.9, max(len(curves), 1)))
+    for (label, rows), color in zip(curves.items(), colors, strict=True):
+        t = np.array([r["wall_s"] for r in rows])
+        top.plot(t, [r["running_reward"] for r in rows], color=color, label=label)
+        bottom.plot(t, [r["mean_reward"] for r in rows], color=color, label=label, alpha=0.8)
+    top.set_ylabel("running reward (EMA of game score)")
+    bottom.set_ylabel("mean reward per step")
+    bottom.set_xlabel("wall-clock seconds (compilation excluded)")
+    top.set_title(title)
+    top.legend()
+    top.grid(alpha=0.3)
+    bottom.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="python experiments/pong.py",
+        description=__doc__.split("\n\n")[0],
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog="\n\n".join(__doc__.split("\n\n")[1:]),
+    )
+    parser.add_argument("--algo", choices=sorted(ALGORITHMS), default="a2c")
+    parser.add_argument("--num-envs", type=int, nargs="+", default=[16], help="one run per value, in turn")
+    parser.add_argument(
+        "--compare-envs", type=int, nargs="+", help="A2C with each number of envs; plot into pong_envs.png"
+    )
+    parser.add_argument("--minutes", type=float, default=5.0, help="wall-clock budget of each run")
+    parser.add_argument("--size", type=int, default=80, help="frames are size x size pixels")
+    parser.add_argument("--stay-action", action="store_true", help="actions {stay, up, down}")
+    parser.add_argument("--horizon", type=int, help="steps per env per update (A2C's t_max)")
+    parser.add_argument("--lr", type=float, help="learning rate")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--block-steps", type=int, default=8192, help="env steps per compiled block")
+    parser.add_argument("--run-dir", type=Path, help="default: runs/pong-<algo>-<time>")
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    compare = args.compare_envs is not None
+    algo = "a2c" if compare else args.algo
+    counts = args.compare_envs if compare else args.num_envs
+    if any(n < 1 for n in counts) or args.minutes <= 0:
+        raise SystemExit("numbers of envs must be >= 1 and --minutes > 0")
+    overrides = {k: v for k, v in (("horizon", args.horizon), ("lr", args.lr)) if v is not None}
+    run_dir = args.run_dir or Path("runs") / f"pong-{algo}-{time.strftime('%Y%m%d-%H%M%S')}"
+    run_dir.mkdir(parents=True, exist_ok=True)
+    env = make_env(args.size, args.stay_action)
+    configs = {n: make_config(algo, n, **overrides) for n in counts}
+    info = {
+        "argv": list(sys.argv if argv is None else argv),
+        "algo": algo,
+        "device": str(jax.devices()[0]),
+        "env": repr(env),
+        "configs": {n: dataclasses.asdict(c) for n, c in configs.items()},
+    }
+    (run_dir / "config.json").write_text(json.dumps(info, indent=2, default=str))
+    print(f"run directory {run_dir}; {algo} on {env!r}, {args.minutes:g} min per run on {jax.devices()[0]}")
+
+    curves: dict[str, list[dict[str, float]]] = {}
+    with open(run_dir / "metrics.jsonl", "w") as out:
+        for n, config in configs.items():
+            print(f"{algo} with {n} envs (horizon {config.horizon}, {config.samples_per_iteration} samples/iteration)")
+            _, record, compile_s = train_for(
+                algo, env, config, 60.0 * args.minutes, seed=args.seed, block_steps=args.block_steps
+            )
+            for row in record.rows:
+                out.write(json.dumps({"algo": algo, "num_envs": n, **row}) + "\n")
+            out.flush()
+            last = record.rows[-1]
+            print(
+                f"{algo} envs {n}: compiled in {compile_s:.1f} s; {last['env_steps'] / 1e6:.2f} M steps, "
+                f"{last['games']} games in {last['wall_s']:.0f} s; running reward {last['running_reward']:.2f}"
+            )
+            curves[f"{n} env{'s' if n > 1 else ''}"] = record.rows
+
+    name = "pong_envs.png" if compare else f"pong_{algo}.png"
+    title = f"{algo.upper()} on jaxpg Pong ({args.size}x{args.size} frame differences), {jax.devices()[0].platform}"
+    plot_curves(curves, run_dir / name, title)
+    print(f"wrote {run_dir / name}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

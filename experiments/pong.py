@@ -209,7 +209,7 @@ def train_for(
     config: Any,
     seconds: float,
     seed: int = 0,
-    block_steps: int = 8192,
+    block_steps: int = 2048,
     log: Callable[[str], None] = print,
     log_every_s: float = 15.0,
 ) -> tuple[TrainState, RunningReward, float]:
@@ -284,7 +284,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--horizon", type=int, help="steps per env per update (A2C's t_max)")
     parser.add_argument("--lr", type=float, help="learning rate")
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--block-steps", type=int, default=8192, help="env steps per compiled block")
+    parser.add_argument("--block-steps", type=int, default=2048, help="env steps per compiled block")
     parser.add_argument("--run-dir", type=Path, help="default: runs/pong-<algo>-<time>")
     return parser
 
@@ -319,6 +319,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                 algo, env, config, 60.0 * args.minutes, seed=args.seed, block_steps=args.block_steps
             )
             for row in record.rows:
+                row = {k: None if isinstance(v, float) and math.isnan(v) else v for k, v in row.items()}
                 out.write(json.dumps({"algo": algo, "num_envs": n, **row}) + "\n")
             out.flush()
             last = record.rows[-1]

@@ -45,6 +45,10 @@ def run_one(args: argparse.Namespace, seed: int) -> dict:
     start = time.perf_counter()
     import jax
 
+    from jaxpg import compile_cache
+
+    cache = None if args.no_compilation_cache else compile_cache.enable()
+
     from jaxpg import algos, envs
     from jaxpg import train as train_lib
     from jaxpg.algos import common
@@ -96,6 +100,7 @@ def run_one(args: argparse.Namespace, seed: int) -> dict:
         "best_return": best,
         "first_block_s": history[0]["seconds"],
         "impl": env.unwrapped.impl,
+        "compilation_cache": str(cache) if cache else None,
         "device": jax.devices()[0].device_kind,
         "config": {k: v for k, v in overrides.items()},
         "history": history,
@@ -117,6 +122,14 @@ def main() -> None:
     parser.add_argument("--eval-envs", type=int, default=32)
     parser.add_argument("--max-seconds", type=float, default=300.0)
     parser.add_argument("--json", help="write the rows here")
+    parser.add_argument(
+        "--no-compilation-cache", action="store_true", help="compile every program in every run (a cold start)"
+    )
+    parser.add_argument(
+        "--warmup",
+        action="store_true",
+        help="first run one block of a throw-away seed, so that the timed runs find the compilation caches warm",
+    )
     parser.add_argument("--single", type=int, help=argparse.SUPPRESS)
     args = parser.parse_args()
 
@@ -125,6 +138,13 @@ def main() -> None:
         return
 
     rows = []
+    cold = None
+    if args.warmup:
+        cmd = [sys.executable, __file__, "--single", "1000"] + strip_seeds(sys.argv[1:]) + ["--max-seconds", "0"]
+        proc = subprocess.run(cmd, stdout=subprocess.PIPE, text=True, env=os.environ.copy())
+        found = [json.loads(line[4:]) for line in proc.stdout.splitlines() if line.startswith("ROW ")]
+        cold = found[0]["first_block_s"] if found else None
+        print(f"# warm-up (seed 1000, one block, caches as found): first block {cold} s", flush=True)
     for seed in args.seeds:
         cmd = [sys.executable, __file__, "--single", str(seed)] + strip_seeds(sys.argv[1:])
         proc = subprocess.run(cmd, stdout=subprocess.PIPE, text=True, env=os.environ.copy())
@@ -138,7 +158,7 @@ def main() -> None:
         rows.append(json.loads(found[0][4:]))
     if args.json:
         with open(args.json, "w") as f:
-            json.dump(rows, f, indent=1)
+            json.dump([{**row, "warmup_first_block_s": cold} for row in rows], f, indent=1)
     where = f"{rows[0]['device']} impl {rows[0]['impl']}" if rows else ""
     print(f"\n{args.task} {args.algo} target {args.target}; {where}")
     print("| seed | reached | wall clock s (incl. compile) | env steps | best mean-policy return | first block s |")

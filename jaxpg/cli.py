@@ -786,9 +786,11 @@ def _report_end(plan_: Plan, callbacks: _Callbacks) -> None:
 
 def main(argv: Sequence[str] | None = None, experiment: Experiment | None = None) -> int:
     """Entry point of ``python -m jaxpg.cli`` and the experiment scripts; returns the exit status."""
+    from jaxpg import compile_cache
     from jaxpg import video as video_lib
 
     video_lib.configure_gl()
+    compile_cache.enable()  # a second run of the same program loads it instead of compiling
     experiment = experiment or Experiment(prog="python -m jaxpg.cli", epilog=DEFAULT_EPILOG)
     argv = list(sys.argv[1:] if argv is None else argv)
     try:

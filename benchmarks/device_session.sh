@@ -1,0 +1,56 @@
+#!/usr/bin/env bash
+# The GPU measurements of BENCHMARKS.md, in stages that each fit one call of the device tool
+# (10 minutes). Run from the repository root on the GPU machine, after the wheels are installed
+# (../shared/gpu/README.md) and PYTHONPATH points at them and at the checkout:
+#
+#   bash benchmarks/device_session.sh ttr      # time to a Hopper return of 3000, NPG and PPO, 3 seeds each
+#   bash benchmarks/device_session.sh env      # raw env throughput table (issue 2), then Pong figures
+#   bash benchmarks/device_session.sh gym      # the README's GPU training commands, then Gymnasium evaluation
+#
+# Logs and JSON go to $OUT (default: benchmarks/results/latest). Every stage caps its parts with
+# `timeout`, so that a slow part costs its own figures, not the whole call.
+set -u
+OUT=${OUT:-benchmarks/results/latest}
+mkdir -p "$OUT"
+export PYTHONUNBUFFERED=1 NCCL_NVLS_ENABLE=0
+py=${PYTHON:-python3}
+nvidia-smi --query-gpu=name,memory.total,driver_version --format=csv,noheader > "$OUT/gpu.txt" 2>&1
+
+case "${1:-}" in
+ttr)
+  common=(--block 10 --iterations-per-call 1 --seeds 0 1 2 --warmup --max-seconds 150)
+  timeout 330 $py benchmarks/time_to_return.py --algo npg --preset hopper_gpu "${common[@]}" \
+    --json "$OUT/ttr_npg.json" 2>&1 | tee "$OUT/ttr_npg.log" | grep -v "^  seed"
+  timeout 240 $py benchmarks/time_to_return.py --algo ppo --preset hopper_gpu "${common[@]}" \
+    --json "$OUT/ttr_ppo.json" 2>&1 | tee "$OUT/ttr_ppo.log" | grep -v "^  seed"
+  ;;
+env)
+  {
+    timeout 150 $py benchmarks/env_throughput.py --tasks hopper --fidelity fast --impl warp jax \
+      --batch-sizes 4096 16384 65536 --variants raw env --horizon 100 --repeats 3 --json "$OUT/env_hopper.json"
+    timeout 110 $py benchmarks/env_throughput.py --tasks inverted_pendulum inverted_double_pendulum cartpole \
+      --fidelity fast --impl warp jax --batch-sizes 4096 16384 --variants raw env --horizon 100 --repeats 3 \
+      --json "$OUT/env_others.json"
+    timeout 100 $py benchmarks/env_throughput.py --tasks inverted_pendulum inverted_double_pendulum hopper \
+      --fidelity gymnasium --impl warp jax --batch-sizes 4096 --variants env --horizon 100 --repeats 3 \
+      --json "$OUT/env_gymnasium.json"
+  } 2>&1 | tee "$OUT/env.log" | grep "^|"
+  timeout 200 $py benchmarks/pong.py --fps-envs 1024 4096 --train-envs 1024 --seconds 120 \
+    --json "$OUT/pong.json" 2>&1 | tee "$OUT/pong.log" | grep -v "^  a2c"
+  ;;
+gym)
+  for algo in ppo npg; do
+    timeout 200 $py experiments/hopper.py --algo $algo --preset hopper_gpu --iterations 150 \
+      --run-dir "runs/hopper-$algo" --overwrite --video-every 0 --no-progress 2>&1 | tee "$OUT/cli_$algo.log" | tail -4
+    for where in mjx gymnasium; do
+      flag=$([ $where = gymnasium ] && echo --gymnasium)
+      timeout 100 $py -m jaxpg.evaluate "runs/hopper-$algo" --episodes 10 --step best $flag 2>&1 \
+        | tee "$OUT/eval_${algo}_$where.log" | tail -3
+    done
+  done
+  ;;
+*)
+  echo "usage: bash benchmarks/device_session.sh ttr|env|gym" >&2
+  exit 2
+  ;;
+esac

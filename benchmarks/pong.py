@@ -1,0 +1,165 @@
+"""Pong from pixels on the accelerator: frames per second, and time for A2C to beat the opponent.
+
+Two measurements on jaxpg's pure-JAX Pong (``experiments/pong.py``'s env: frame differences of
+80x80 frames; not the Atari ROM):
+
+  fps     frames (env steps) per second of ``--fps-envs`` games with random actions, in a jitted
+          ``lax.scan`` of ``--horizon`` steps, timed after compilation; and of A2C training
+          (sampling with the seed's 6400 -> 200 -> 2 network plus the update) at the same batch;
+  beat    A2C (``experiments/pong.py``'s settings) with ``--train-envs`` games, trained for at
+          most ``--seconds`` of wall clock: when the seed's running reward (EMA over games of the
+          final score difference) first exceeds each of ``--thresholds`` (0: the agent beats the
+          scripted opponent on average; 10: by 10 points of 21). The clock starts after
+          compilation, as in ``experiments/pong.py``; compilation is reported apart.
+
+    python benchmarks/pong.py --fps-envs 1024 4096 --train-envs 1024 --seconds 240 --json pong.json
+    python benchmarks/pong.py --fps-envs 8 --train-envs 8 --seconds 5 --size 40     # CPU smoke run
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib.util
+import json
+import math
+import sys
+import time
+from pathlib import Path
+from types import ModuleType
+
+import jax
+import jax.numpy as jnp
+
+from jaxpg import compile_cache
+
+
+def load_experiment() -> ModuleType:
+    """``experiments/pong.py`` as a module (its env, configs, running reward and training loop)."""
+    path = Path(__file__).resolve().parents[1] / "experiments" / "pong.py"
+    spec = importlib.util.spec_from_file_location("pong_experiment", path)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module
+    spec.loader.exec_module(module)
+    return module
+
+
+def env_fps(pong: ModuleType, num_envs: int, horizon: int, size: int, repeats: int = 3) -> dict:
+    """Frames/s of ``num_envs`` games stepped with random actions (auto-reset included)."""
+    from jaxpg import envs
+    from jaxpg import rollout as rollout_lib
+
+    env = envs.AutoReset(pong.make_env(size))
+    state = rollout_lib.reset_batch(env, jax.random.PRNGKey(0), num_envs)
+
+    def random_act(params, obs, key):  # noqa: ANN001, ANN202
+        del params
+        return jax.random.randint(key, obs.shape[:1], 0, env.action_size), jnp.zeros(obs.shape[0])
+
+    run = jax.jit(lambda s, k: rollout_lib.rollout(env, random_act, None, s, k, horizon)[0])
+    start = time.perf_counter()
+    state = jax.block_until_ready(run(state, jax.random.PRNGKey(1)))
+    compile_s = time.perf_counter() - start
+    start = time.perf_counter()
+    for i in range(repeats):
+        state = jax.block_until_ready(run(state, jax.random.PRNGKey(2 + i)))
+    return {"fps": num_envs * horizon * repeats / (time.perf_counter() - start), "compile_s": compile_s}
+
+
+def train_fps(pong: ModuleType, num_envs: int, size: int, iterations: int = 20) -> dict:
+    """Frames/s of A2C training iterations (sampling + update), one compiled call per iteration."""
+    from jaxpg import train as train_lib
+
+    env = pong.make_env(size)
+    config = pong.make_config("a2c", num_envs)
+    init, update = pong.ALGORITHMS["a2c"]
+    ts = train_lib._private_copy(init(jax.random.PRNGKey(0), env, config))
+    step = train_lib.compiled_block(update, 1, False)
+    start = time.perf_counter()
+    ts, _ = jax.block_until_ready(step(ts))
+    compile_s = time.perf_counter() - start
+    start = time.perf_counter()
+    for _ in range(iterations):
+        ts, _ = step(ts)
+    jax.block_until_ready(ts)
+    return {
+        "fps": config.samples_per_iteration * iterations / (time.perf_counter() - start),
+        "compile_s": compile_s,
+    }
+
+
+def time_to_beat(pong: ModuleType, num_envs: int, seconds: float, size: int, thresholds: list[float]) -> dict:
+    """Train A2C for up to ``seconds``; wall-clock seconds and env steps at which the running
+    reward first exceeds each threshold (``None`` where it never did)."""
+    env = pong.make_env(size)
+    config = pong.make_config("a2c", num_envs)
+    _, record, compile_s = pong.train_for("a2c", env, config, seconds, log=lambda line: print(line, flush=True))
+    reached = {}
+    for threshold in thresholds:
+        first = next((r for r in record.rows if r["running_reward"] > threshold), None)
+        reached[str(threshold)] = (
+            None if first is None else {"seconds": first["wall_s"], "env_steps": first["env_steps"]}
+        )
+    last = record.rows[-1]
+    curve = [{k: (None if isinstance(v, float) and math.isnan(v) else v) for k, v in r.items()} for r in record.rows]
+    return {
+        "num_envs": num_envs,
+        "compile_s": compile_s,
+        "reached": reached,
+        "final_running_reward": last["running_reward"],
+        "games": last["games"],
+        "env_steps": last["env_steps"],
+        "wall_s": last["wall_s"],
+        "curve": curve,
+    }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--fps-envs", type=int, nargs="*", default=[1024, 4096])
+    parser.add_argument("--horizon", type=int, default=128, help="env steps per timed call (fps)")
+    parser.add_argument("--train-envs", type=int, nargs="*", default=[1024])
+    parser.add_argument("--seconds", type=float, default=240.0, help="wall-clock budget of each A2C run")
+    parser.add_argument("--thresholds", type=float, nargs="+", default=[0.0, 10.0])
+    parser.add_argument("--size", type=int, default=80)
+    parser.add_argument("--json", help="write the results here")
+    args = parser.parse_args()
+    compile_cache.enable()
+
+    pong = load_experiment()
+    device = jax.devices()[0].device_kind
+    print(f"device: {device}, jax {jax.__version__}", flush=True)
+    fps_rows = []
+    for n in args.fps_envs:
+        row = {"num_envs": n, "env": env_fps(pong, n, args.horizon, args.size), "a2c": train_fps(pong, n, args.size)}
+        fps_rows.append(row)
+        print(f"fps envs={n}: env {row['env']['fps']:,.0f}/s, A2C training {row['a2c']['fps']:,.0f}/s", flush=True)
+    beat_rows = [time_to_beat(pong, n, args.seconds, args.size, args.thresholds) for n in args.train_envs]
+
+    print(f"\nPong {args.size}x{args.size}, {device}")
+    print("| envs | env frames/s (random actions) | A2C training frames/s | compile env / A2C s |")
+    print("|---|---|---|---|")
+    for r in fps_rows:
+        print(
+            f"| {r['num_envs']} | {r['env']['fps'] / 1e6:.2f} M | {r['a2c']['fps'] / 1e6:.2f} M "
+            f"| {r['env']['compile_s']:.1f} / {r['a2c']['compile_s']:.1f} |"
+        )
+    print()
+    heads = " | ".join(f"running reward > {t:g}" for t in args.thresholds)
+    print(f"| A2C envs | {heads} | final running reward | games | env steps | compile s |")
+    print("|---|" + "---|" * (len(args.thresholds) + 4))
+    for r in beat_rows:
+        cells = [
+            f"{v['seconds']:.0f} s ({v['env_steps'] / 1e6:.1f} M steps)" if v else f"not in {r['wall_s']:.0f} s"
+            for v in r["reached"].values()
+        ]
+        print(
+            f"| {r['num_envs']} | {' | '.join(cells)} | {r['final_running_reward']:.2f} | {r['games']} "
+            f"| {r['env_steps'] / 1e6:.1f} M | {r['compile_s']:.1f} |"
+        )
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump({"device": device, "size": args.size, "fps": fps_rows, "beat": beat_rows}, f, indent=1)
+
+
+if __name__ == "__main__":
+    main()

@@ -15,9 +15,12 @@ from typing import Any
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 import optax
 from flax import struct
+from jax.sharding import PartitionSpec
 
+from jaxpg import distributed
 from jaxpg import rollout as rollout_lib
 from jaxpg.envs import AutoReset, Env, State
 from jaxpg.policies import CategoricalPolicy, GaussianPolicy, StateStdGaussianPolicy, ValueFunction
@@ -207,28 +210,137 @@ def act_fn(ts: TrainState, deterministic: bool = False) -> rollout_lib.ActFn:
 
     Deterministic acting takes the mode (the "mean policy") and reports log-prob 0.
     """
-    stats, policy = ts.obs_stats, ts.policy
+    return make_act(ts.policy, ts.obs_stats, deterministic)
+
+
+def make_act(
+    policy: Any, obs_stats: RunningStats, deterministic: bool = False, rows: tuple[jax.Array, int] | None = None
+) -> rollout_lib.ActFn:
+    """``act(params, obs [b, obs_dim], key) -> (action [b, ...], log_prob [b])`` of ``policy``.
+
+    ``rows = (offset, total)`` says that ``obs`` are rows ``offset .. offset + b`` of a batch of
+    ``total`` envs split over devices: the action noise is then drawn for the whole batch from
+    ``key`` and the own rows kept (``sample_rows``), so that every env acts as in the unsplit batch.
+    """
 
     def act(params: Any, obs: jax.Array, key: jax.Array) -> tuple[jax.Array, jax.Array]:
-        obs = stats.normalize(obs)
+        obs = obs_stats.normalize(obs)
         if deterministic:
             return policy.mode(params, obs), jnp.zeros(obs.shape[:-1])
-        return policy.sample(params, obs, key)
+        if rows is None:
+            return policy.sample(params, obs, key)
+        dist = policy.dist(params, obs)
+        action = sample_rows(policy, dist, key, *rows)
+        return action, policy.dist_log_prob(dist, action)
 
     return act
+
+
+def sample_rows(policy: Any, dist: Any, key: jax.Array, offset: jax.Array, total: int) -> jax.Array:
+    """Rows ``offset .. offset + b`` of ``policy.dist_sample`` over a ``[total]`` batch whose rows
+    there are ``dist`` (every leaf ``[b, ...]``, as ``Policy.dist`` returns them).
+
+    The noise of JAX's random functions is a function of the key and the element's index in the
+    drawn shape, so drawing ``[total, ...]`` and keeping the own rows gives each row the noise it
+    has in the unsplit batch, bit for bit. The other rows are zeros (a valid distribution); the
+    extra work is the random numbers of ``total`` rows, small beside a physics step.
+    """
+    rows = jax.tree.leaves(dist)[0].shape[0]
+
+    def widen(x: jax.Array) -> jax.Array:
+        return jax.lax.dynamic_update_slice_in_dim(jnp.zeros((total, *x.shape[1:]), x.dtype), x, offset, axis=0)
+
+    wide = policy.dist_sample(jax.tree.map(widen, dist), key)
+    return jax.lax.dynamic_slice_in_dim(wide, offset, rows, axis=0)
+
+
+def sampler_env(ts: TrainState) -> Env:
+    """The env that ``sample`` steps: ``AutoReset(env)`` in continuing sampling, else ``env``."""
+    return AutoReset(ts.env) if ts.config.sampling == "continuing" else ts.env
+
+
+def env_batch_mask(env: Env, env_state: State, leading: int = 0) -> Any:
+    """A tree like ``env_state`` of bools: the leaf has the env axis (after ``leading`` axes).
+
+    ``vmap`` adds the env axis to every leaf except those an env keeps once per batch: MuJoCo
+    Warp's contact buffer and counters (``MjxEnv``'s ``max_batch``), which are not split.
+    """
+    single = jax.eval_shape(env.reset, jax.ShapeDtypeStruct((2,), jnp.uint32))
+    return jax.tree.map(lambda x, s: jnp.ndim(x) == leading + len(s.shape) + 1, env_state, single)
+
+
+def split_over_envs(fn: Any, num_envs: int, in_specs: Any, out_specs: Any, *args: Any) -> Any:
+    """``fn(*args, rows=None)`` on one device, or under ``jax.shard_map`` over the mesh in context.
+
+    With a mesh whose ``"envs"`` axis has ``k > 1`` devices (``jaxpg.distributed``), every device
+    runs ``fn`` on its ``num_envs / k`` envs, ``rows=(offset, num_envs)`` telling it which, with
+    the arguments split as ``in_specs`` say (``PartitionSpec``s over ``"envs"``; ``P()``:
+    replicated, e.g. the policy parameters). The env step may be an XLA custom call (MuJoCo Warp)
+    that jit's automatic partitioning cannot split; under ``shard_map`` each device calls it on
+    its own envs. ``check_vma`` is off because the per-batch buffers of MuJoCo Warp (see
+    ``env_batch_mask``) leave as ``P()`` though each device has its own: scratch that only that
+    device's next step reads.
+    """
+    shards = distributed.context_env_shards()
+    if shards == 1:
+        return fn(*args, rows=None)
+    distributed.check_divisible(num_envs, shards)
+    local = num_envs // shards
+
+    def per_device(*local_args: Any) -> Any:
+        offset = jax.lax.axis_index(distributed.ENV_AXIS) * local
+        return fn(*local_args, rows=(offset, num_envs))
+
+    return jax.shard_map(per_device, in_specs=in_specs, out_specs=out_specs, check_vma=False)(*args)
+
+
+def episodes(env: Env, act: rollout_lib.ActFn, params: Any, reset_keys: jax.Array, key: jax.Array, horizon: int) -> Any:
+    """Episodic sampling from ``reset_keys [B, 2]``: ``rollout_lib.rollout_episodes`` with the
+    reset keys given, so that they can be split over devices with the envs.
+
+    Returns a ``[horizon, B]`` ``Trajectory`` whose ``valid`` is 1 up to and including each env's
+    first episode end; with ``reset_keys = split(k1, B)`` and ``key = k2`` it equals
+    ``rollout_episodes`` from the key that split into ``(k1, k2)``.
+    """
+    state = jax.vmap(env.reset)(reset_keys)
+    _, traj = rollout_lib.rollout(env, act, params, state, key, horizon)
+    alive = jnp.cumprod(1.0 - traj.dones.astype(jnp.float32), axis=0)
+    return traj.replace(valid=jnp.concatenate([jnp.ones_like(alive[:1]), alive[:-1]], axis=0))
+
+
+TIME_ENVS = PartitionSpec(None, distributed.ENV_AXIS)  # a [T, B, ...] trajectory split over its envs
+ENVS = PartitionSpec(distributed.ENV_AXIS)
+REPLICATED = PartitionSpec()
 
 
 def sample(ts: TrainState, key: jax.Array) -> tuple[State, rollout_lib.Trajectory]:
     """One iteration's batch ``[horizon, num_envs]`` from the current policy, in the configured mode.
 
     Observations in the returned trajectory are raw; normalise them with ``ts.obs_stats`` (the
-    statistics the batch was sampled with) before feeding networks.
+    statistics the batch was sampled with) before feeding networks. Under a mesh with an
+    ``"envs"`` axis (``jaxpg.distributed.on_mesh``) each device samples its own envs
+    (``split_over_envs``) with the same actions, resets and returns as the unsplit batch.
     """
     config = ts.config
+    env = sampler_env(ts)
     if config.sampling == "continuing":
-        return rollout_lib.rollout(AutoReset(ts.env), act_fn(ts), ts.params, ts.env_state, key, config.horizon)
-    traj = rollout_lib.rollout_episodes(ts.env, act_fn(ts), ts.params, key, config.num_envs, config.horizon)
-    return ts.env_state, traj
+
+        def continuing(params: Any, stats: RunningStats, env_state: State, key: jax.Array, rows: Any) -> Any:
+            act = make_act(ts.policy, stats, rows=rows)
+            return rollout_lib.rollout(env, act, params, env_state, key, config.horizon)
+
+        state_specs = jax.tree.map(distributed.batch_spec, env_batch_mask(env, ts.env_state))
+        in_specs = (REPLICATED, REPLICATED, state_specs, REPLICATED)
+        args = (ts.params, ts.obs_stats, ts.env_state, key)
+        return split_over_envs(continuing, config.num_envs, in_specs, (state_specs, TIME_ENVS), *args)
+    reset_key, steps_key = jax.random.split(key)
+
+    def episodic(params: Any, stats: RunningStats, reset_keys: jax.Array, key: jax.Array, rows: Any) -> Any:
+        return episodes(env, make_act(ts.policy, stats, rows=rows), params, reset_keys, key, config.horizon)
+
+    in_specs = (REPLICATED, REPLICATED, ENVS, REPLICATED)
+    args = (ts.params, ts.obs_stats, jax.random.split(reset_key, config.num_envs), steps_key)
+    return ts.env_state, split_over_envs(episodic, config.num_envs, in_specs, TIME_ENVS, *args)
 
 
 def evaluate(ts: TrainState, key: jax.Array, deterministic: bool = True) -> dict[str, jax.Array]:
@@ -236,10 +348,24 @@ def evaluate(ts: TrainState, key: jax.Array, deterministic: bool = True) -> dict
 
     ``deterministic=True`` runs the mode of the policy (LyceumAI's ``meantraj_reward``). An
     episode still running after ``eval_horizon`` steps counts with what it reached by then.
+    Under a mesh with ``k`` env devices the episodes are split too, padded to a multiple of ``k``
+    with repeats of the first ones, which the means leave out.
     """
     config = ts.config
     horizon = config.eval_horizon or ts.env.max_episode_steps
-    traj = rollout_lib.rollout_episodes(ts.env, act_fn(ts, deterministic), ts.params, key, config.eval_envs, horizon)
+    count = config.eval_envs
+    padded = -(-count // distributed.context_env_shards()) * distributed.context_env_shards()
+    reset_key, steps_key = jax.random.split(key)
+    reset_keys = jax.random.split(reset_key, count)[np.arange(padded) % count]
+
+    def run(params: Any, stats: RunningStats, reset_keys: jax.Array, key: jax.Array, rows: Any) -> Any:
+        act = make_act(ts.policy, stats, deterministic, rows=rows)
+        return episodes(ts.env, act, params, reset_keys, key, horizon)
+
+    in_specs = (REPLICATED, REPLICATED, ENVS, REPLICATED)
+    args = (ts.params, ts.obs_stats, reset_keys, steps_key)
+    traj = split_over_envs(run, padded, in_specs, TIME_ENVS, *args)
+    traj = jax.tree.map(lambda x: x[:, :count], traj)
     lengths = jnp.sum(traj.valid, axis=0)
     last = jnp.maximum(lengths.astype(jnp.int32) - 1, 0)
     final_metric = jnp.take_along_axis(traj.metrics["eval_metric"], last[None, :], axis=0)[0]

@@ -19,6 +19,12 @@ killed while writing loses that checkpoint only; leftover temporary directories 
 
 Retention: the ``keep`` latest steps plus the best one (highest ``score``: the latest
 ``return_mean_policy``, falling back to ``return_stochastic``).
+
+Several processes (``jaxpg.distributed``): every process calls ``save``, which gathers the
+state to the host (a collective: arrays split over processes are all-gathered); process 0 alone
+writes. Every process restores, each reading the files itself (a shared file system across
+hosts), onto its own first device; ``jaxpg.cli.shard_state`` then places the state on the
+global mesh. Each process's Orbax manager works alone (no barriers across processes).
 """
 
 from __future__ import annotations
@@ -95,11 +101,25 @@ class Checkpointer:
 
         self.directory = Path(directory).absolute()
         self.keep = keep
+        self.writer = jax.process_index() == 0
         if not create and not self.directory.is_dir():
             raise CheckpointError(f"no checkpoints: {self.directory} does not exist")
         self._ocp = ocp
+        multiprocessing: dict[str, Any] = {}
+        if jax.process_count() > 1:
+            # Each process's manager on its own: process 0 writes, every process reads for itself.
+            me = jax.process_index()
+            multiprocessing["multiprocessing_options"] = ocp.options.MultiprocessingOptions(
+                primary_host=me, active_processes={me}, barrier_sync_key_prefix=f"jaxpg-process-{me}"
+            )
+            if create and self.writer:  # Orbax leaves that to us when it works per process
+                self.directory.mkdir(parents=True, exist_ok=True)
         options = ocp.CheckpointManagerOptions(
-            max_to_keep=None, create=create, enable_async_checkpointing=False, cleanup_tmp_directories=False
+            max_to_keep=None,
+            create=create and self.writer and not multiprocessing,
+            enable_async_checkpointing=False,
+            cleanup_tmp_directories=False,
+            **multiprocessing,
         )
         self.manager = ocp.CheckpointManager(self.directory, options=options)
         self._scores: dict[int, float] = {}
@@ -173,12 +193,18 @@ class Checkpointer:
 
         ``score`` ranks checkpoints for "best"; ``metrics`` and ``info`` (task, algorithm ...)
         go to ``meta``. Arrays are copied to the host first, so the caller may donate
-        ``train_state``'s buffers right after.
+        ``train_state``'s buffers right after. With several processes every process calls
+        ``save`` (the copy gathers arrays split over processes) and process 0 alone writes.
         """
+        from jaxpg import distributed
+
         ocp = self._ocp
-        state_leaves = [np.asarray(x) for x in jax.tree.leaves(jax.device_get(train_state))]
+        train_state = distributed.host_copy(train_state)
+        if not self.writer:
+            return
+        state_leaves = [np.asarray(x) for x in jax.tree.leaves(train_state)]
         policy = policy_part(train_state)
-        policy_leaves = [np.asarray(x) for x in jax.tree.leaves(jax.device_get(policy))]
+        policy_leaves = [np.asarray(x) for x in jax.tree.leaves(policy)]
         score = float(score) if score is not None and math.isfinite(float(score)) else -math.inf
         meta = {
             "step": int(step),
@@ -236,7 +262,7 @@ class Checkpointer:
         expected = leaf_specs(target)
         _check_specs(meta.get(specs_key, []), expected, where)
         abstract, treedef = jax.tree.flatten(target)
-        device = jax.devices()[0]
+        device = jax.local_devices()[0]
         sharding = jax.sharding.SingleDeviceSharding(device)
         items = {
             leaf_key(i): jax.ShapeDtypeStruct(np.shape(x), x.dtype, sharding=sharding)

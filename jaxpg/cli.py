@@ -23,6 +23,7 @@ stderr with exit status 2, before anything is compiled or written.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import dataclasses
 import datetime
 import functools
@@ -128,7 +129,8 @@ def _optional(parse: Any) -> Any:
 RUN_FLAGS = (
     "task", "algo", "seed", "seeds", "iterations", "run_dir", "resume", "overwrite", "checkpoint_every",
     "keep_checkpoints", "log_every", "video_every", "preset", "profile", "fidelity", "impl",
-    "max_episode_steps", "shard", "progress",
+    "max_episode_steps", "shard", "progress", "coordinator_address", "num_processes", "process_id",
+    "distributed_timeout",
 )  # fmt: skip
 CONFIG_PREFIX = "config."
 
@@ -234,20 +236,65 @@ def build_parser(
     run.add_argument("--impl", choices=("jax", "warp"), help="MJX implementation (default: warp on a GPU, else jax)")
     run.add_argument("--max-episode-steps", type=int, help="time limit of an episode (default: the task's)")
     run.add_argument(
-        "--shard",
-        action=argparse.BooleanOptionalAction,
-        default=None,
-        help="shard the env batch over all devices (default: when there are several)",
-    )
-    run.add_argument(
         "--progress",
         action=argparse.BooleanOptionalAction,
         default=None,
         help="progress bar (default: on a terminal)",
     )
+    add_distributed_flags(parser)
     if config_cls is not None:
         add_config_flags(parser, config_cls, config_defaults, f"{algo} hyperparameters (jaxpg.algos.{algo}.Config)")
     return parser
+
+
+def add_distributed_flags(parser: argparse.ArgumentParser) -> None:
+    """``--shard`` and the flags of ``jaxpg.distributed.initialize`` (one launch command per process)."""
+    group = parser.add_argument_group(
+        "several devices and processes",
+        "--num-envs is split over every device of every process. Several processes (hosts): run the same "
+        "command once per process, adding --coordinator-address HOST:PORT (of process 0) --num-processes K "
+        "--process-id I, or setting JAX_COORDINATOR_ADDRESS, JAX_NUM_PROCESSES, JAX_PROCESS_ID.",
+    )
+    group.add_argument(
+        "--shard",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="split the env batch over all devices (default: when there are several)",
+    )
+    group.add_argument("--coordinator-address", metavar="HOST:PORT", help="address of process 0's coordinator")
+    group.add_argument("--num-processes", type=int, metavar="K", help="number of processes training together")
+    group.add_argument("--process-id", type=int, metavar="I", help="this process's index, 0 .. K-1")
+    group.add_argument(
+        "--distributed-timeout",
+        type=int,
+        default=60,
+        metavar="SECONDS",
+        help="how long to wait for the coordinator and the other processes (default: 60)",
+    )
+
+
+def start_processes(argv: Sequence[str]) -> None:
+    """``jax.distributed.initialize`` when ``argv`` or the environment name several processes;
+    before anything else touches JAX's devices. ``DistributedError`` (one line) on bad settings or
+    an unreachable coordinator."""
+    from jaxpg import distributed
+
+    config = distributed_config(argv)
+    if config is not None:
+        distributed.initialize(config)
+
+
+def distributed_config(argv: Sequence[str]) -> Any:
+    """The ``jaxpg.distributed.DistributedConfig`` that ``argv`` and the environment ask for
+    (``None``: one process), read before the full parse so that JAX is initialised first."""
+    from jaxpg import distributed
+
+    pre = _Parser(add_help=False)
+    add_distributed_flags(pre)
+    args, _ = pre.parse_known_args(argv)
+    return distributed.DistributedConfig.resolve(
+        args.coordinator_address, args.num_processes, args.process_id, timeout_s=args.distributed_timeout
+    )
 
 
 def _pre_parse(argv: Sequence[str]) -> argparse.Namespace:
@@ -333,14 +380,25 @@ def _check_fresh_run_dir(run_dir: Path, overwrite: bool) -> None:
         raise UsageError(f"refusing to --overwrite {str(run_dir)!r}: it is not a jaxpg run directory (no config.json)")
 
 
-def _check_sharding(run: RunConfig, config: Any, explicit: bool | None) -> bool:
+def _device_count() -> int:
     import jax
 
-    count = jax.device_count()
+    return jax.device_count()
+
+
+def _check_sharding(config: Any, explicit: bool | None) -> bool:
+    """Whether the env batch is split over ``jax.devices()`` (all devices of all processes):
+    by default when there are several; ``UsageError`` if ``--num-envs`` does not divide."""
+    import jax
+
+    count, processes = jax.device_count(), jax.process_count()
     shard = (count > 1) if explicit is None else explicit
+    if processes > 1 and not shard:
+        raise UsageError(f"--no-shard cannot train with {processes} processes: the env batch is split over them")
+    where = f"{count} devices ({processes} processes)" if processes > 1 else f"{count} devices"
     if shard and config.num_envs % count:
         raise UsageError(
-            f"--num-envs {config.num_envs} is not divisible by the {count} devices the env batch is sharded over "
+            f"--num-envs {config.num_envs} is not divisible by the {where} the env batch is sharded over "
             "(use a multiple, or --no-shard)"
         )
     return shard and count > 1
@@ -365,7 +423,11 @@ def plan_fresh(args: argparse.Namespace, experiment: Experiment, module: Any, al
         if getattr(args, key) is not None:
             env_kwargs[key] = getattr(args, key)
     num_seeds = len(args.seeds) if args.seeds else 1
-    env_kwargs.update(warp_capacity(task, env_kwargs, max(config.num_envs, config.eval_envs) * num_seeds))
+    shard = _check_sharding(config, args.shard)
+    # With the batch split, each device steps (and MuJoCo Warp buffers contacts for) its own share.
+    shares = _device_count() if shard else 1
+    per_device = max(-(-config.num_envs // shares), -(-config.eval_envs // shares))
+    env_kwargs.update(warp_capacity(task, env_kwargs, per_device * num_seeds))
     env = _make_env(task, env_kwargs)
     config.validate(env)
     seeds = list(args.seeds) if args.seeds else [experiment.seed if args.seed is None else args.seed]
@@ -387,7 +449,7 @@ def plan_fresh(args: argparse.Namespace, experiment: Experiment, module: Any, al
         video_every=experiment.video_every if args.video_every is None else args.video_every,
         preset=args.preset,
     )
-    run.shard = _check_sharding(run, config, args.shard)
+    run.shard = shard
     run_dir = Path(args.run_dir) if args.run_dir else _default_run_dir(task, algo)
     _check_fresh_run_dir(run_dir, bool(args.overwrite))
     return Plan(run=run, run_dir=run_dir, module=module, env=env, config=config, overwrite=bool(args.overwrite))
@@ -419,7 +481,7 @@ def plan_resume(args: argparse.Namespace, run: RunConfig, run_dir: Path) -> Plan
             setattr(run, key, getattr(args, key))
     if run.log_every < 1:
         raise UsageError(f"--log-every must be >= 1, got {run.log_every}")
-    run.shard = _check_sharding(run, config, args.shard if args.shard is not None else (run.shard or None))
+    run.shard = _check_sharding(config, args.shard if args.shard is not None else (run.shard or None))
     checkpoints = ckpt_lib.Checkpointer(run_dir / runlog.CHECKPOINT_DIR, keep=None)
     step = checkpoints.latest_step()
     if step is None:
@@ -510,17 +572,23 @@ def distinct_buffers(tree: Any) -> Any:
     return jax.tree.map(fresh, tree)
 
 
-def shard_state(ts: Any, vmap_seeds: bool) -> Any:
-    """Shard the env batch axis of ``ts.env_state`` over all devices; replicate the rest."""
+def shard_state(ts: Any, vmap_seeds: bool, mesh: Any = None) -> Any:
+    """``ts`` placed on ``mesh`` (default: ``jaxpg.distributed.env_mesh()``, every device of every
+    process): the env axis of ``ts.env_state`` split over the ``"envs"`` axis (after the seed axis
+    with ``vmap_seeds``), everything else replicated, including MuJoCo Warp's per-batch buffers
+    (``common.env_batch_mask``). Every process passes the same ``ts``; each places its share."""
     import jax
-    from jax.sharding import Mesh, NamedSharding, PartitionSpec
+    from jax.sharding import NamedSharding
 
-    mesh = Mesh(np.array(jax.devices()), ("envs",))
-    batch = NamedSharding(mesh, PartitionSpec(*([None] if vmap_seeds else []), "envs"))
-    replicated = NamedSharding(mesh, PartitionSpec())
-    env_state = jax.device_put(ts.env_state, jax.tree.map(lambda _: batch, ts.env_state))
-    rest = ts.replace(env_state=())
-    rest = jax.device_put(rest, jax.tree.map(lambda _: replicated, rest))
+    from jaxpg import distributed
+    from jaxpg.algos import common
+
+    mesh = distributed.env_mesh() if mesh is None else mesh
+    lead = 1 if vmap_seeds else 0
+    mask = common.env_batch_mask(common.sampler_env(ts), ts.env_state, leading=lead)
+    shardings = jax.tree.map(lambda batched: NamedSharding(mesh, distributed.batch_spec(batched, lead)), mask)
+    env_state = distributed.put_global(ts.env_state, shardings)
+    rest = distributed.replicated(ts.replace(env_state=()), mesh)
     return rest.replace(env_state=env_state)
 
 
@@ -574,6 +642,7 @@ class _Callbacks:
         self.block_times: list[tuple[int, float]] = []
         self.videos_enabled = self.run.video_every > 0
         self.samples = plan_.config.samples_per_iteration * len(self.run.seeds)
+        self.primary = _primary()
 
     def _wall(self, now: float) -> float:
         return self.wall_offset + (now - self.t_start)
@@ -602,9 +671,10 @@ class _Callbacks:
             self.pending, self.pending_steps, self.pending_time = [], 0, 0.0
             self.first_block = False
         if (self.run.checkpoint_every and last % self.run.checkpoint_every == 0) or at_end:
-            self.save(ts, last, metrics)
-            self.plot()
-        if self.videos_enabled and (last % self.run.video_every == 0 or at_end):
+            self.save(ts, last, metrics)  # every process: gathers the state; process 0 writes
+            if self.primary:
+                self.plot()
+        if self.primary and self.videos_enabled and (last % self.run.video_every == 0 or at_end):
             self.video(ts, last)
         # Host work (checkpoints, plots, videos) is left out of the next block's throughput.
         self.t_last = time.perf_counter()
@@ -631,12 +701,14 @@ class _Callbacks:
             self.progress.write(f"warning: curves.png not updated ({type(e).__name__}: {e})")
 
     def video(self, ts: Any, step: int) -> None:
+        from jaxpg import distributed
         from jaxpg import video as video_lib
 
         path = self.plan.run_dir / runlog.VIDEO_DIR / f"iter_{step:06d}.mp4"
         try:
-            params = _seed_slice(ts.params, 0, self.run.vmap_seeds)
-            stats = _seed_slice(ts.obs_stats, 0, self.run.vmap_seeds)
+            # Host copies: the video is recorded by process 0 alone, off the training mesh.
+            params = _seed_slice(distributed.host_copy(ts.params), 0, self.run.vmap_seeds)
+            stats = _seed_slice(distributed.host_copy(ts.obs_stats), 0, self.run.vmap_seeds)
             out, ret, length = video_lib.record_policy(self.plan.env, ts.policy, params, stats, path, seed=step)
             self.progress.write(
                 f"video {out} (mean policy, seed {self.run.seeds[0]}: return {ret:.1f}, {length} steps)"
@@ -646,8 +718,32 @@ class _Callbacks:
             self.progress.write(f"warning: videos disabled: {type(e).__name__}: {e}")
 
 
+def _primary() -> bool:
+    """This process writes files and prints (``jaxpg.distributed.is_primary``)."""
+    from jaxpg import distributed
+
+    return distributed.is_primary()
+
+
 def _print(line: str) -> None:
-    print(line, flush=True)
+    if _primary():
+        print(line, flush=True)
+
+
+class _Silent:
+    """Metrics writer and progress of the processes other than 0, which write nothing."""
+
+    def write(self, *args: Any) -> None:
+        pass
+
+    def add_text(self, *args: Any) -> None:
+        pass
+
+    def update(self, *args: Any) -> None:
+        pass
+
+    def close(self) -> None:
+        pass
 
 
 def prepare_run_dir(plan_: Plan) -> float:
@@ -678,38 +774,50 @@ def execute(plan_: Plan) -> int:
     import jax
 
     from jaxpg import checkpoint as ckpt_lib
-    from jaxpg import train
+    from jaxpg import distributed, train
 
     run, run_dir = plan_.run, plan_.run_dir
-    wall_offset = prepare_run_dir(plan_)
+    primary = _primary()
+    # Process 0 writes the run directory once every process has checked it, before any reads it.
+    distributed.barrier("jaxpg: planned")
+    wall_offset = prepare_run_dir(plan_) if primary else 0.0
+    distributed.barrier("jaxpg: run directory ready")
     verb = f"resuming at iteration {plan_.start}" if plan_.start else "training"
     seeds = " ".join(map(str, run.seeds))
     _print(
         f"{verb}: {run.algo} on {run.task} ({plan_.env!r}), seed{'s' if len(run.seeds) > 1 else ''} {seeds}, "
         f"{run.iterations} iterations of {plan_.config.samples_per_iteration:,} samples, "
-        f"{jax.device_count()} {jax.devices()[0].device_kind} device(s) -> {run_dir}"
+        f"{jax.device_count()} {jax.devices()[0].device_kind} device(s)"
+        f"{f' in {jax.process_count()} processes' if jax.process_count() > 1 else ''} -> {run_dir}"
     )
     if plan_.state is not None:
         ts = plan_.state
     else:
         ts = initial_state(plan_.module, plan_.env, plan_.config, run.seeds)
     ts = distinct_buffers(ts)
-    if run.shard:
-        ts = shard_state(ts, run.vmap_seeds)
+    update = plan_.module.update
+    mesh = distributed.env_mesh() if run.shard else None
+    if mesh is not None:
+        # The env batch splits over the mesh: sampling under shard_map, learning under jit's partitioner.
+        ts = shard_state(ts, run.vmap_seeds, mesh)
+        update = distributed.on_mesh(update, mesh)
     if plan_.profile:
-        timings = run_profile(plan_, ts, _print)
-        if timings is not None:
+        with jax.set_mesh(mesh) if mesh is not None else contextlib.nullcontext():
+            timings = run_profile(plan_, ts, _print)
+        if timings is not None and primary:
             runlog.write_json_atomic(run_dir / "profile.json", {"phases_s": timings, "iteration": plan_.start})
     remaining = run.iterations - plan_.start
     if remaining <= 0:
         _print(f"nothing to do: {run_dir} has done {plan_.start} of {run.iterations} iterations (raise --iterations)")
         return 0
     checkpoints = ckpt_lib.Checkpointer(run_dir / runlog.CHECKPOINT_DIR, keep=run.keep_checkpoints, create=True)
-    writer = runlog.MetricsWriter(run_dir, run.seeds, start_iteration=plan_.start)
+    writer: Any = runlog.MetricsWriter(run_dir, run.seeds, start_iteration=plan_.start) if primary else _Silent()
     if plan_.start == 0:
         writer.add_text("config", "```\n" + json.dumps(run.to_json(), indent=2) + "\n```")
-    progress = runlog.Progress(
-        run.iterations, initial=plan_.start, enabled=plan_.progress, desc=f"{run.algo} {run.task}"
+    progress: Any = (
+        runlog.Progress(run.iterations, initial=plan_.start, enabled=plan_.progress, desc=f"{run.algo} {run.task}")
+        if primary
+        else _Silent()
     )
     callbacks = _Callbacks(plan_, checkpoints, writer, progress, wall_offset)
     block = run.block_size
@@ -724,7 +832,7 @@ def execute(plan_: Plan) -> int:
     try:
         for count in segments:
             ts = train.train(
-                plan_.module.update,
+                update,
                 ts,
                 count,
                 block_size=min(block, count),
@@ -747,8 +855,9 @@ def execute(plan_: Plan) -> int:
         progress.close()
         writer.close()
         checkpoints.close()
-    if status == 0:
+    if status == 0 and primary:
         _report_end(plan_, callbacks)
+    distributed.barrier("jaxpg: done")  # the processes leave together (JAX's shutdown waits for all)
     return status
 
 
@@ -794,8 +903,9 @@ def main(argv: Sequence[str] | None = None, experiment: Experiment | None = None
     experiment = experiment or Experiment(prog="python -m jaxpg.cli", epilog=DEFAULT_EPILOG)
     argv = list(sys.argv[1:] if argv is None else argv)
     try:
+        start_processes(argv)
         plan_ = plan(argv, experiment)
-    except ValueError as e:  # UsageError, RunDirError, CheckpointError, Config.validate
+    except ValueError as e:  # UsageError, RunDirError, CheckpointError, Config.validate, DistributedError
         message = str(e).strip().splitlines()
         print(f"error: {message[0] if message else type(e).__name__}", file=sys.stderr)
         return 2

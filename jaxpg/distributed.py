@@ -262,6 +262,8 @@ def initialize(config: DistributedConfig) -> None:
             num_processes=config.num_processes,
             process_id=config.process_id,
             initialization_timeout=config.timeout_s,
+            # A process that failed waits this long at exit for the others before JAX aborts them.
+            shutdown_timeout_seconds=config.timeout_s,
         )
     except Exception as e:  # noqa: BLE001 - any failure to join is reported as one line
         first = (str(e).strip().splitlines() or [type(e).__name__])[0]

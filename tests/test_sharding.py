@@ -24,6 +24,7 @@ import os
 import subprocess
 import sys
 import textwrap
+from pathlib import Path
 
 import jax
 import numpy as np
@@ -33,6 +34,8 @@ import jaxpg.envs as envs
 from jaxpg import rollout as rollout_lib
 from jaxpg.algos import common, npg
 from jaxpg.envs.mjx_env import warp_available
+
+ROOT = Path(__file__).resolve().parents[1]
 
 CARTPOLE_SCRIPT = textwrap.dedent(
     """
@@ -182,3 +185,18 @@ def test_episodes_equals_rollout_episodes(jit):
     ours, reference = (jax.jit(both) if jit else both)(key)
     assert float(np.min(np.asarray(reference.valid))) == 0.0  # some episodes ended inside the horizon
     jax.tree.map(np.testing.assert_array_equal, ours, reference)
+
+
+def test_scaling_benchmark_runs_on_cpu(tmp_path):
+    """``benchmarks/scaling.py`` with its docstring's CPU command (tiny sizes, 2 forced devices)."""
+    out = tmp_path / "scaling.json"
+    env = {**os.environ, "XLA_FLAGS": "--xla_force_host_platform_device_count=2", "JAX_PLATFORMS": "cpu"}
+    cmd = [sys.executable, str(ROOT / "benchmarks" / "scaling.py"), "--task", "cartpole"]
+    cmd += ["--envs-per-device", "8", "--horizon", "4", "--iterations", "1", "--json", str(out)]
+    proc = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=600)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    rows = json.loads(out.read_text())
+    assert [(r["devices"], r["num_envs"]) for r in rows] == [(1, 8), (2, 16)]
+    assert all(r["train_steps_per_s"] > 0 and r["raw_steps_per_s"] > 0 for r in rows)
+    assert rows[0]["train_efficiency"] == 1.0
+    assert "| devices | envs | raw env steps/s" in proc.stdout

@@ -1,9 +1,11 @@
 """Several processes train as one, through ``jax.distributed`` (CPU collectives over gloo).
 
-Two processes on 127.0.0.1, one CPU device each, run the README's multi-host command
-(``python -m jaxpg.cli ... --coordinator-address HOST:PORT --num-processes 2 --process-id I``):
-the env batch is split over the two devices of the two processes, and the metrics must equal those
-of one process on one device up to float reduction order (see ``tests/test_sharding.py``).
+Two processes on 127.0.0.1, one CPU device each, run the two command lines of the README's
+"Several hosts" (``python -m jaxpg.cli ... --coordinator-address 127.0.0.1:7777 --num-processes 2
+--process-id I``, on a free port and in a temporary run directory): the env batch is split over
+the two devices of the two processes, and the metrics must equal those of one process on one
+device (the same command without the three flags) up to float reduction order (see
+``tests/test_sharding.py``).
 Tolerance: rtol 1e-4 on the first iteration, 1e-3 over all, CG residual not compared; measured
 about 1e-5 relative (printed with ``-s``). The runs use ``--cg-damping 0.01``: with a nearly
 singular Fisher matrix (the default damping 1e-4 on this tiny batch) ten float32 CG iterations
@@ -15,6 +17,7 @@ from __future__ import annotations
 
 import json
 import os
+import shlex
 import shutil
 import socket
 import subprocess
@@ -27,11 +30,40 @@ import pytest
 
 from jaxpg.distributed import DistributedConfig, DistributedError
 
-ARGS = [
-    "--env", "cartpole", "--num-envs", "16", "--horizon", "32", "--value-batch-size", "64",
-    "--eval-envs", "4", "--cg-damping", "0.01", "--log-every", "2", "--checkpoint-every", "2",
-]  # fmt: skip
-ITERATIONS = 4
+ROOT = Path(__file__).resolve().parents[1]
+README_ADDRESS, README_RUN_DIR = "127.0.0.1:7777", "runs/cartpole-2p"
+DISTRIBUTED_FLAGS = ("--coordinator-address", "--num-processes", "--process-id")
+
+
+def readme_commands() -> list[list[str]]:
+    """The README's two launch commands of "Several hosts", as argument lists after ``python -m jaxpg.cli``."""
+    lines = [line.rstrip(" &") for line in (ROOT / "README.md").read_text().splitlines()]
+    commands = [
+        shlex.split(line)[3:] for line in lines if line.startswith("python -m jaxpg.cli") and "--process-id" in line
+    ]
+    assert len(commands) == 2, commands
+    return commands
+
+
+def drop_options(args: list[str], names: tuple[str, ...]) -> list[str]:
+    """``args`` without the options ``names`` and their values."""
+    out, skip = [], False
+    for arg in args:
+        if skip:
+            skip = False
+        elif arg in names:
+            skip = True
+        else:
+            out.append(arg)
+    return out
+
+
+def option(args: list[str], name: str) -> str:
+    return args[args.index(name) + 1]
+
+
+ARGS = drop_options(readme_commands()[0], (*DISTRIBUTED_FLAGS, "--run-dir"))  # the one-process command
+ITERATIONS = int(option(ARGS, "--iterations"))
 
 
 def free_port() -> int:
@@ -53,18 +85,11 @@ def cli(*args: str) -> list[str]:
     return [sys.executable, "-m", "jaxpg.cli", *args]
 
 
-def run_processes(args: list[str], count: int = 2, timeout: float = 240) -> list[subprocess.CompletedProcess]:
-    """``count`` processes of the same command, ``--process-id 0 .. count-1``, on 127.0.0.1."""
-    address = f"127.0.0.1:{free_port()}"
+def launch(commands: list[list[str]], envs: list[dict[str, str]], timeout: float = 240) -> list:
+    """Run the processes ``python -m jaxpg.cli <commands[i]>`` together; their results."""
     procs = [
-        subprocess.Popen(
-            cli(*args, "--coordinator-address", address, "--num-processes", str(count), "--process-id", str(i)),
-            stdout=subprocess.PIPE,
-            stderr=subprocess.PIPE,
-            text=True,
-            env=cpu_env(),
-        )
-        for i in range(count)
+        subprocess.Popen(cli(*args), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+        for args, env in zip(commands, envs, strict=True)
     ]
     results = []
     try:
@@ -76,6 +101,14 @@ def run_processes(args: list[str], count: int = 2, timeout: float = 240) -> list
             if proc.poll() is None:
                 proc.kill()
     return results
+
+
+def run_processes(args: list[str], count: int = 2, timeout: float = 240) -> list[subprocess.CompletedProcess]:
+    """``count`` processes of ``args``, told where the coordinator is by ``JAX_COORDINATOR_ADDRESS``,
+    ``JAX_NUM_PROCESSES`` and ``JAX_PROCESS_ID`` (the README's alternative to the flags)."""
+    address = f"127.0.0.1:{free_port()}"
+    env = {**cpu_env(), "JAX_COORDINATOR_ADDRESS": address, "JAX_NUM_PROCESSES": str(count)}
+    return launch([args] * count, [{**env, "JAX_PROCESS_ID": str(i)} for i in range(count)], timeout)
 
 
 def metrics(run_dir: Path) -> list[dict]:
@@ -98,9 +131,9 @@ def compare(reference: list[dict], other: list[dict]) -> float:
 
 @pytest.fixture(scope="module")
 def one_process(tmp_path_factory) -> Path:
-    """The reference: one process, one device, ``ITERATIONS`` iterations, checkpoints at 2 and 4."""
+    """The reference: the README's command as one process on one device; checkpoints at 2 and 4."""
     run_dir = tmp_path_factory.mktemp("one") / "run"
-    args = [*ARGS, "--iterations", str(ITERATIONS), "--run-dir", str(run_dir)]
+    args = [*ARGS, "--checkpoint-every", "2", "--run-dir", str(run_dir)]
     proc = subprocess.run(cli(*args), capture_output=True, text=True, env=cpu_env(), timeout=240)
     assert proc.returncode == 0, proc.stderr[-3000:]
     return run_dir
@@ -115,19 +148,25 @@ def check_only_process_0_wrote(results: list[subprocess.CompletedProcess], run_d
 
 
 def test_two_processes_train_like_one(one_process, tmp_path):
-    run_dir = tmp_path / "run"
+    """The README's two commands, on a free port and into a temporary run directory."""
+    run_dir, address = tmp_path / "run", f"127.0.0.1:{free_port()}"
+    commands = readme_commands()
+    assert [drop_options(c, DISTRIBUTED_FLAGS) for c in commands] == [drop_options(commands[0], DISTRIBUTED_FLAGS)] * 2
+    assert [option(c, "--process-id") for c in commands] == ["0", "1"]
+    substitute = {README_ADDRESS: address, README_RUN_DIR: str(run_dir)}
+    commands = [[substitute.get(arg, arg) for arg in c] for c in commands]
     start = time.perf_counter()
-    results = run_processes([*ARGS, "--iterations", str(ITERATIONS), "--run-dir", str(run_dir)])
+    results = launch(commands, [cpu_env()] * 2)
     check_only_process_0_wrote(results, run_dir)
     assert "2 cpu device(s) in 2 processes" in results[0].stdout
-    assert sorted(p.name for p in (run_dir / "checkpoints").iterdir() if p.name.isdigit()) == ["2", "4"]
+    assert sorted(p.name for p in (run_dir / "checkpoints").iterdir() if p.name.isdigit()) == [str(ITERATIONS)]
     worst = compare(metrics(one_process), metrics(run_dir))
     print(f"\n1 vs 2 processes: largest relative difference {worst:.1e} ({time.perf_counter() - start:.0f} s)")
 
 
 def test_two_processes_resume_a_run(one_process, tmp_path):
     """Every process restores the one-process run's checkpoint 2 and they continue it together to
-    iteration 4, as the one process did."""
+    iteration 4, as the one process did (told about each other by environment variables)."""
     run_dir = tmp_path / "run"
     shutil.copytree(one_process, run_dir)
     shutil.rmtree(run_dir / "checkpoints" / str(ITERATIONS))
@@ -152,7 +191,8 @@ def test_unreachable_coordinator_fails_with_one_line(tmp_path):
 
 
 def test_batch_must_split_over_all_processes(tmp_path):
-    results = run_processes([*ARGS, "--num-envs", "15", "--run-dir", str(tmp_path / "run")], timeout=120)
+    args = [*drop_options(ARGS, ("--num-envs",)), "--num-envs", "15"]
+    results = run_processes([*args, "--run-dir", str(tmp_path / "run")], timeout=120)
     for result in results:
         assert result.returncode == 2, result.stderr[-2000:]
         assert "error: --num-envs 15 is not divisible by the 2 devices (2 processes)" in result.stderr

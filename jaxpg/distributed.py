@@ -146,7 +146,8 @@ class DistributedConfig:
       coordinator_address: ``host:port`` of process 0, which runs JAX's coordination service there.
       num_processes: how many processes train together (one launch command each).
       process_id: this process's index, ``0 .. num_processes - 1``.
-      timeout_s: seconds to wait for the coordinator (and, on process 0, for the others).
+      timeout_s: seconds to wait for the coordinator (and, on process 0, for the others); also how
+        long a process that ends waits for the others at exit before JAX gives up on them.
     """
 
     coordinator_address: str

@@ -6,6 +6,13 @@ extends ``BaseConfig``), ``init(key, env, config) -> TrainState`` and
 ``update(train_state) -> (train_state, metrics)``. ``TrainState`` carries the env, config and
 networks as static fields, so ``update`` needs nothing else and can be ``jit``-ed, ``vmap``-ed over
 seeds and ``lax.scan``-ned over iterations as it is.
+
+Several devices: traced under a mesh with an ``"envs"`` axis (``jaxpg.distributed.on_mesh``),
+``sample`` and ``evaluate`` split the env batch with ``jax.shard_map``, every device stepping its
+own envs (MuJoCo Warp's step is a custom call that jit's partitioner cannot split). The learning
+side of ``update`` stays as written, under jit's partitioner: its reductions over the batch are
+then global without any change to the algorithms, and the results equal one device's up to the
+order of float summation.
 """
 
 from __future__ import annotations
@@ -353,8 +360,8 @@ def evaluate(ts: TrainState, key: jax.Array, deterministic: bool = True) -> dict
     """
     config = ts.config
     horizon = config.eval_horizon or ts.env.max_episode_steps
-    count = config.eval_envs
-    padded = -(-count // distributed.context_env_shards()) * distributed.context_env_shards()
+    count, shards = config.eval_envs, distributed.context_env_shards()
+    padded = -(-count // shards) * shards
     reset_key, steps_key = jax.random.split(key)
     reset_keys = jax.random.split(reset_key, count)[np.arange(padded) % count]
 

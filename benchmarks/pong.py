@@ -14,6 +14,7 @@ Two measurements on jaxpg's pure-JAX Pong (``experiments/pong.py``'s env: frame 
 
     python benchmarks/pong.py --fps-envs 1024 4096 --train-envs 1024 --seconds 240 --json pong.json
     python benchmarks/pong.py --fps-envs 8 --train-envs 8 --seconds 5 --size 40     # CPU smoke run
+    python benchmarks/pong.py --plot docs/pong_a2c_h200.png benchmarks/results/2026-11-22-h200/pong*.json
 """
 
 from __future__ import annotations
@@ -100,7 +101,11 @@ def time_to_beat(pong: ModuleType, num_envs: int, seconds: float, size: int, thr
             None if first is None else {"seconds": first["wall_s"], "env_steps": first["env_steps"]}
         )
     last = record.rows[-1]
-    curve = [{k: (None if isinstance(v, float) and math.isnan(v) else v) for k, v in r.items()} for r in record.rows]
+    curve, last_kept = [], -math.inf  # at most two points a second: a block is a few milliseconds
+    for r in record.rows:
+        if r["wall_s"] - last_kept >= 0.5 or r is record.rows[-1]:
+            curve.append({k: (None if isinstance(v, float) and math.isnan(v) else v) for k, v in r.items()})
+            last_kept = r["wall_s"]
     return {
         "num_envs": num_envs,
         "compile_s": compile_s,
@@ -113,6 +118,30 @@ def time_to_beat(pong: ModuleType, num_envs: int, seconds: float, size: int, thr
     }
 
 
+def plot(json_paths: list[str], out: str) -> None:
+    """Running reward against wall clock for every A2C run in the ``--json`` files, into ``out``."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(7, 4))
+    for path in json_paths:
+        with open(path) as f:
+            result = json.load(f)
+        for run in result["beat"]:
+            t = [row["wall_s"] for row in run["curve"]]
+            ax.plot(t, [row["running_reward"] for row in run["curve"]], label=f"A2C, {run['num_envs']} envs")
+    ax.axhline(0.0, color="k", lw=0.8, ls="--")
+    ax.set_xlabel("wall-clock seconds (compilation excluded)")
+    ax.set_ylabel("running reward (EMA of game score)")
+    ax.set_title(f"jaxpg Pong from frame differences, {result['device']}")
+    ax.legend()
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(out, dpi=100)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--fps-envs", type=int, nargs="*", default=[1024, 4096])
@@ -122,7 +151,11 @@ def main() -> None:
     parser.add_argument("--thresholds", type=float, nargs="+", default=[0.0, 10.0])
     parser.add_argument("--size", type=int, default=80)
     parser.add_argument("--json", help="write the results here")
+    parser.add_argument("--plot", nargs="+", metavar=("OUT", "JSON"), help="only plot earlier --json results")
     args = parser.parse_args()
+    if args.plot:
+        plot(args.plot[1:], args.plot[0])
+        return
     compile_cache.enable()
 
     pong = load_experiment()

@@ -83,6 +83,11 @@ def numpy_returns(ref, normalization):
     return out
 
 
+def env_major(x):
+    """``[T, B, ...] -> [B * T, ...]``, the order of jaxpg's flat batches (``common.flatten_samples``)."""
+    return np.swapaxes(np.asarray(x), 0, 1).reshape((-1,) + np.shape(x)[2:])
+
+
 def numpy_gradient(params, ref, advantages, entropy_coef, discrete):
     """Gradient of ``-sum(w A log pi) / sum(w) - c sum(w H) / sum(w)`` for a linear policy.
 
@@ -144,7 +149,7 @@ def test_reinforce_gradient_matches_numpy(discrete, normalization, use_jit):
     expected_adv = numpy_returns(ref, normalization)
     np.testing.assert_allclose(
         np.asarray(batch.advantages),
-        (expected_adv * ref["valid"]).reshape(-1),
+        env_major(expected_adv * ref["valid"]),
         rtol=1e-5,
         atol=1e-5,
     )
@@ -162,9 +167,9 @@ def test_vpg_advantages_subtract_baseline_from_normalised_returns(use_jit):
     ts = fake_state(policy, vpg.Config(gamma=GAMMA, return_normalization="batch"), value_fn, value_params)
     traj, ref = fixed_trajectory(True)
     batch = maybe_jit(lambda traj: vpg.phase_advantages(ts, reinforce.phase_returns(ts, traj)), use_jit)(traj)
-    g = numpy_returns(ref, "batch").reshape(-1)
-    baseline = np.asarray(value_fn.apply(value_params, ref["obs"].reshape(-1, OBS)))
-    valid = ref["valid"].reshape(-1)
+    g = env_major(numpy_returns(ref, "batch"))
+    baseline = np.asarray(value_fn.apply(value_params, env_major(ref["obs"])))
+    valid = env_major(ref["valid"])
     np.testing.assert_allclose(np.asarray(batch.value_targets), g, rtol=1e-5, atol=1e-5)
     np.testing.assert_allclose(np.asarray(batch.advantages), (g - baseline) * valid, rtol=1e-5, atol=1e-5)
 

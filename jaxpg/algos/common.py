@@ -91,11 +91,12 @@ class RunningStats:
 
     def update(self, batch: jax.Array, weights: jax.Array | None = None) -> RunningStats:
         """Merge a batch ``[..., obs_dim]`` (optionally weighted ``[...]``) into the statistics."""
-        x = batch.reshape(-1, batch.shape[-1])
-        w = jnp.ones(x.shape[0]) if weights is None else weights.reshape(-1)
+        # Sums over the leading axes, not a reshape: a batch sharded over envs stays sharded.
+        axes = tuple(range(batch.ndim - 1))
+        w = jnp.ones(batch.shape[:-1]) if weights is None else jnp.broadcast_to(weights, batch.shape[:-1])
         n = jnp.sum(w)
-        batch_mean = jnp.sum(x * w[:, None], 0) / jnp.maximum(n, 1.0)
-        batch_var = jnp.sum(jnp.square(x - batch_mean) * w[:, None], 0) / jnp.maximum(n, 1.0)
+        batch_mean = jnp.sum(batch * w[..., None], axes) / jnp.maximum(n, 1.0)
+        batch_var = jnp.sum(jnp.square(batch - batch_mean) * w[..., None], axes) / jnp.maximum(n, 1.0)
         total = self.count + n
         delta = batch_mean - self.mean
         mean = self.mean + delta * n / jnp.maximum(total, 1.0)
@@ -415,6 +416,17 @@ def sampling_metrics(ts: TrainState, traj: rollout_lib.Trajectory, eval_summary:
         "nonfinite": jnp.sum(traj.metrics["nonfinite"] * traj.valid),
         "mean_reward": weighted_mean(traj.rewards, traj.valid),
     }
+
+
+def flatten_samples(x: jax.Array) -> jax.Array:
+    """``[T, B, ...] -> [B * T, ...]``, env-major: row ``b * T + t`` is env ``b``'s step ``t``.
+
+    Env-major, because each device's envs then stay one contiguous block of rows: a batch whose
+    env axis is sharded over devices stays sharded after flattening, and the learning side
+    (gradients, Fisher-vector products, value fit) runs on each device's own samples. Time-major
+    rows would interleave the devices' envs and make XLA gather the whole batch everywhere.
+    """
+    return jnp.swapaxes(x, 0, 1).reshape((-1,) + x.shape[2:])
 
 
 def weighted_mean(x: jax.Array, weights: jax.Array) -> jax.Array:

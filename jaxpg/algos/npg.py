@@ -170,9 +170,7 @@ def phase_advantages(ts: TrainState, traj: Trajectory) -> Batch:
     if config.normalize_advantages:
         advantages = returns.normalize(advantages, mask=traj.valid)
 
-    def flat(x: jax.Array) -> jax.Array:
-        return x.reshape((-1,) + x.shape[2:])
-
+    flat = common.flatten_samples
     return Batch(
         obs=flat(obs),
         actions=flat(traj.actions),

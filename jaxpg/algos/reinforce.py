@@ -147,8 +147,8 @@ def normalized_returns(traj: Trajectory, gamma: float, normalization: str) -> ja
 
 
 def flatten(batch: npg.Batch) -> npg.Batch:
-    """``[T, B, ...] -> [T * B, ...]`` on every field."""
-    return jax.tree.map(lambda x: x.reshape((-1,) + x.shape[2:]), batch)
+    """``[T, B, ...] -> [B * T, ...]`` on every field (env-major, ``common.flatten_samples``)."""
+    return jax.tree.map(common.flatten_samples, batch)
 
 
 def phase_returns(ts: TrainState, traj: Trajectory) -> npg.Batch:

@@ -6,6 +6,9 @@
 #   bash benchmarks/device_session.sh ttr      # time to a Hopper return of 3000, NPG and PPO, 3 seeds each
 #   bash benchmarks/device_session.sh env      # raw env throughput table (issue 2), then Pong figures
 #   bash benchmarks/device_session.sh gym      # the README's GPU training commands, then Gymnasium evaluation
+#   bash benchmarks/device_session.sh scaling  # NPG over 1, 2, ... GPUs at a fixed batch per GPU (issue 7)
+#   bash benchmarks/device_session.sh extra S  # 2 GPUs: Pong A2C for S seconds on GPU 1 while GPU 0 tests
+#                                              # whether XLA command buffers slow the fused scan of iterations
 #
 # Logs and JSON go to $OUT (default: benchmarks/results/latest). Every stage caps its parts with
 # `timeout`, so that a slow part costs its own figures, not the whole call.
@@ -49,8 +52,23 @@ gym)
     done
   done
   ;;
+scaling)
+  timeout 420 $py benchmarks/scaling.py --task hopper --envs-per-device 16384 --horizon 32 --iterations 5 \
+    --json "$OUT/scaling.json" 2>&1 | tee "$OUT/scaling.log" | grep -E "^\||^#|rror"
+  ;;
+extra)
+  seconds=${2:-240}
+  CUDA_VISIBLE_DEVICES=1 timeout $((seconds + 60)) $py benchmarks/pong.py --fps-envs --train-envs 2048 \
+    --seconds "$seconds" --json "$OUT/pong_long.json" > "$OUT/pong_long.log" 2>&1 &
+  for flags in "" "--xla_gpu_enable_command_buffer="; do
+    CUDA_VISIBLE_DEVICES=0 XLA_FLAGS="$flags" timeout 150 $py benchmarks/train_throughput.py --task hopper \
+      --impl warp --batch-sizes 4096 --horizon 32 --iterations 5 2>&1 | grep -E "^\| warp" | sed "s|^|XLA_FLAGS='$flags' |"
+  done
+  wait
+  grep -A4 "^| A2C" "$OUT/pong_long.log"
+  ;;
 *)
-  echo "usage: bash benchmarks/device_session.sh ttr|env|gym" >&2
+  echo "usage: bash benchmarks/device_session.sh ttr|env|gym|scaling|extra [seconds]" >&2
   exit 2
   ;;
 esac

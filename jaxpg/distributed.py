@@ -48,7 +48,21 @@ def env_mesh(devices: Any = None) -> Mesh:
     """A 1-D mesh with the axis ``ENV_AXIS`` over ``devices`` (default: ``jax.devices()``, i.e.
     every device of every process). Its axis is ``Auto``: outside ``shard_map`` jit partitions."""
     devices = jax.devices() if devices is None else list(devices)
+    if len(devices) > 1:
+        use_gspmd_partitioner()
     return Mesh(np.array(devices), (ENV_AXIS,), axis_types=(AxisType.Auto,))
+
+
+def use_gspmd_partitioner() -> None:
+    """Partition sharded programs with GSPMD instead of Shardy (JAX's default since 0.7).
+
+    With JAX 0.11.2 on GPUs, XLA's compiler crashed (segmentation fault in the ``shardy-xla`` pass)
+    on jaxpg's rollout under ``shard_map`` over 2 H200s, with both MJX implementations; with GSPMD
+    the same program compiles and scales (BENCHMARKS.md, 2026-11-22). A multi-device ``env_mesh``
+    calls this, on every backend, so that the CPU tests run the partitioner the GPUs use.
+    """
+    if getattr(jax.config, "jax_use_shardy_partitioner", False):
+        jax.config.update("jax_use_shardy_partitioner", False)
 
 
 def context_env_shards() -> int:

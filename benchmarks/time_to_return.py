@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import ast
+import dataclasses
 import json
 import os
 import subprocess
@@ -56,11 +57,14 @@ def run_one(args: argparse.Namespace, seed: int) -> dict:
     module = algos.get(args.algo)
     overrides = dict(module.PRESETS.get(args.preset, {})) if args.preset else {}
     overrides.update(parse_overrides(args.set))
-    overrides.update(eval_envs=args.eval_envs, eval_every=10**9)  # evaluation is done below, per block
+    # No evaluation inside the training program (a cond around it would still be compiled into
+    # it, and would run at iteration 0): the evaluation below runs per block, with eval_envs.
+    overrides.update(eval_envs=0)
     config = module.Config(**overrides)
     env = envs.make(args.task, impl=args.impl, fidelity=args.fidelity, **warp_capacity(args.impl, config.num_envs))
     ts = module.init(jax.random.PRNGKey(seed), env, config)
-    evaluate = jax.jit(common.evaluate)
+    eval_config = dataclasses.replace(config, eval_envs=args.eval_envs)
+    evaluate = jax.jit(lambda ts, key: common.evaluate(ts.replace(config=eval_config), key))
     per_call = args.iterations_per_call or args.block
     block_fn = train_lib.compiled_block(module.update, per_call, False)
 
@@ -103,6 +107,7 @@ def run_one(args: argparse.Namespace, seed: int) -> dict:
         "compilation_cache": str(cache) if cache else None,
         "device": jax.devices()[0].device_kind,
         "config": {k: v for k, v in overrides.items()},
+        "eval_envs": args.eval_envs,
         "history": history,
     }
 

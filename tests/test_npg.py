@@ -146,17 +146,7 @@ def test_same_seed_same_numbers_and_seed_vmap_matches(pendulum):
 
 @pytest.mark.slow
 def test_npg_solves_inverted_pendulum(pendulum):
-    config = npg.Config(
-        num_envs=32,
-        horizon=128,
-        gamma=0.99,
-        step_size=0.1,
-        policy_hidden=(32, 32),
-        value_hidden=(64, 64),
-        value_batch_size=512,
-        eval_envs=8,
-        eval_every=10,
-    )
+    config = npg.Config(**npg.PRESETS["pendulum_cpu"], eval_envs=8, eval_every=10)
     ts = npg.init(jax.random.PRNGKey(0), pendulum, config)
     best = []
 

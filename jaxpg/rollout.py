@@ -107,7 +107,14 @@ def rollout_episodes(env: Env, act_fn: ActFn, params: Any, key: jax.Array, num_e
     ``valid`` is 1 up to and including the step where each env's first episode ended.
     """
     reset_key, steps_key = jax.random.split(key)
-    state = reset_batch(env, reset_key, num_envs)
+    return rollout_episodes_from(env, act_fn, params, reset_batch(env, reset_key, num_envs), steps_key, horizon)
+
+
+def rollout_episodes_from(
+    env: Env, act_fn: ActFn, params: Any, state: State, key: jax.Array, horizon: int
+) -> Trajectory:
+    """``rollout_episodes`` from given initial states ``state [B]`` (e.g. a device's share of a
+    batch reset from its own keys); ``key`` draws the steps. Returns ``[horizon, B]``."""
 
     def body(carry: tuple[State, jax.Array], step_key: jax.Array) -> tuple[tuple[State, jax.Array], dict]:
         state, alive = carry
@@ -116,8 +123,8 @@ def rollout_episodes(env: Env, act_fn: ActFn, params: Any, key: jax.Array, num_e
         alive = jnp.logical_and(alive, ~next_state.done)
         return (next_state, alive), record
 
-    alive = jnp.ones((num_envs,), bool)
-    _, records = jax.lax.scan(body, (state, alive), jax.random.split(steps_key, horizon))
+    alive = jnp.ones(state.obs.shape[:1], bool)
+    _, records = jax.lax.scan(body, (state, alive), jax.random.split(key, horizon))
     return Trajectory(**records)
 
 

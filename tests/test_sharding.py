@@ -183,8 +183,9 @@ def test_warp_sampling_under_shard_map():
 
 
 @pytest.mark.parametrize("jit", [False, True])
-def test_episodes_equals_rollout_episodes(jit):
-    """``common.episodes`` from split reset keys is ``rollout_episodes`` step for step."""
+def test_episodes_from_split_resets_equal_rollout_episodes(jit):
+    """``rollout_episodes_from`` states reset from split keys (how a device starts its share of
+    the episodes) is ``rollout_episodes`` step for step."""
     env = envs.make("cartpole", max_episode_steps=20)
     config = npg.Config(num_envs=5, horizon=30, value_batch_size=8)
     ts = npg.init(jax.random.PRNGKey(3), env, config)
@@ -193,7 +194,8 @@ def test_episodes_equals_rollout_episodes(jit):
 
     def both(key: jax.Array) -> tuple:
         reset_key, steps_key = jax.random.split(key)
-        ours = common.episodes(env, act, ts.params, jax.random.split(reset_key, 5), steps_key, 30)
+        states = jax.vmap(env.reset)(jax.random.split(reset_key, 5))
+        ours = rollout_lib.rollout_episodes_from(env, act, ts.params, states, steps_key, 30)
         return ours, rollout_lib.rollout_episodes(env, act, ts.params, key, 5, 30)
 
     ours, reference = (jax.jit(both) if jit else both)(key)

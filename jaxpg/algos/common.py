@@ -302,20 +302,6 @@ def split_over_envs(fn: Any, num_envs: int, in_specs: Any, out_specs: Any, *args
     return jax.shard_map(per_device, in_specs=in_specs, out_specs=out_specs, check_vma=False)(*args)
 
 
-def episodes(env: Env, act: rollout_lib.ActFn, params: Any, reset_keys: jax.Array, key: jax.Array, horizon: int) -> Any:
-    """Episodic sampling from ``reset_keys [B, 2]``: ``rollout_lib.rollout_episodes`` with the
-    reset keys given, so that they can be split over devices with the envs.
-
-    Returns a ``[horizon, B]`` ``Trajectory`` whose ``valid`` is 1 up to and including each env's
-    first episode end; with ``reset_keys = split(k1, B)`` and ``key = k2`` it equals
-    ``rollout_episodes`` from the key that split into ``(k1, k2)``.
-    """
-    state = jax.vmap(env.reset)(reset_keys)
-    _, traj = rollout_lib.rollout(env, act, params, state, key, horizon)
-    alive = jnp.cumprod(1.0 - traj.dones.astype(jnp.float32), axis=0)
-    return traj.replace(valid=jnp.concatenate([jnp.ones_like(alive[:1]), alive[:-1]], axis=0))
-
-
 TIME_ENVS = PartitionSpec(None, distributed.ENV_AXIS)  # a [T, B, ...] trajectory split over its envs
 ENVS = PartitionSpec(distributed.ENV_AXIS)
 REPLICATED = PartitionSpec()
@@ -344,7 +330,8 @@ def sample(ts: TrainState, key: jax.Array) -> tuple[State, rollout_lib.Trajector
     reset_key, steps_key = jax.random.split(key)
 
     def episodic(params: Any, stats: RunningStats, reset_keys: jax.Array, key: jax.Array, rows: Any) -> Any:
-        return episodes(env, make_act(ts.policy, stats, rows=rows), params, reset_keys, key, config.horizon)
+        act = make_act(ts.policy, stats, rows=rows)
+        return rollout_lib.rollout_episodes_from(env, act, params, jax.vmap(env.reset)(reset_keys), key, config.horizon)
 
     in_specs = (REPLICATED, REPLICATED, ENVS, REPLICATED)
     args = (ts.params, ts.obs_stats, jax.random.split(reset_key, config.num_envs), steps_key)
@@ -368,7 +355,7 @@ def evaluate(ts: TrainState, key: jax.Array, deterministic: bool = True) -> dict
 
     def run(params: Any, stats: RunningStats, reset_keys: jax.Array, key: jax.Array, rows: Any) -> Any:
         act = make_act(ts.policy, stats, deterministic, rows=rows)
-        return episodes(ts.env, act, params, reset_keys, key, horizon)
+        return rollout_lib.rollout_episodes_from(ts.env, act, params, jax.vmap(ts.env.reset)(reset_keys), key, horizon)
 
     in_specs = (REPLICATED, REPLICATED, ENVS, REPLICATED)
     args = (ts.params, ts.obs_stats, reset_keys, steps_key)

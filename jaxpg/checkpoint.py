@@ -38,6 +38,8 @@ from typing import Any
 import jax
 import numpy as np
 
+from jaxpg import distributed
+
 STATE, POLICY, META = "state", "policy", "meta"
 
 
@@ -101,7 +103,7 @@ class Checkpointer:
 
         self.directory = Path(directory).absolute()
         self.keep = keep
-        self.writer = jax.process_index() == 0
+        self.writer = distributed.is_primary()
         if not create and not self.directory.is_dir():
             raise CheckpointError(f"no checkpoints: {self.directory} does not exist")
         self._ocp = ocp
@@ -196,8 +198,6 @@ class Checkpointer:
         ``train_state``'s buffers right after. With several processes every process calls
         ``save`` (the copy gathers arrays split over processes) and process 0 alone writes.
         """
-        from jaxpg import distributed
-
         ocp = self._ocp
         train_state = distributed.host_copy(train_state)
         if not self.writer:

@@ -66,33 +66,39 @@ def env_fps(pong: ModuleType, num_envs: int, horizon: int, size: int, repeats: i
     return {"fps": num_envs * horizon * repeats / (time.perf_counter() - start), "compile_s": compile_s}
 
 
-def train_fps(pong: ModuleType, num_envs: int, size: int, iterations: int = 20) -> dict:
-    """Frames/s of A2C training iterations (sampling + update), one compiled call per iteration."""
+def train_fps(pong: ModuleType, num_envs: int, size: int, per_call: int = 1, iterations: int = 24) -> dict:
+    """Frames/s of A2C training iterations (sampling + update), ``per_call`` iterations per compiled
+    call (a ``lax.scan``), calls dispatched without waiting."""
     from jaxpg import train as train_lib
 
     env = pong.make_env(size)
     config = pong.make_config("a2c", num_envs)
     init, update = pong.ALGORITHMS["a2c"]
     ts = train_lib._private_copy(init(jax.random.PRNGKey(0), env, config))
-    step = train_lib.compiled_block(update, 1, False)
+    step = train_lib.compiled_block(update, per_call, False)
     start = time.perf_counter()
     ts, _ = jax.block_until_ready(step(ts))
     compile_s = time.perf_counter() - start
+    calls = max(1, iterations // per_call)
     start = time.perf_counter()
-    for _ in range(iterations):
+    for _ in range(calls):
         ts, _ = step(ts)
     jax.block_until_ready(ts)
     return {
-        "fps": config.samples_per_iteration * iterations / (time.perf_counter() - start),
+        "fps": config.samples_per_iteration * per_call * calls / (time.perf_counter() - start),
         "compile_s": compile_s,
+        "iterations_per_call": per_call,
     }
 
 
-def time_to_beat(pong: ModuleType, num_envs: int, seconds: float, size: int, thresholds: list[float]) -> dict:
-    """Train A2C for up to ``seconds``; wall-clock seconds and env steps at which the running
-    reward first exceeds each threshold (``None`` where it never did)."""
+def time_to_beat(
+    pong: ModuleType, num_envs: int, seconds: float, size: int, thresholds: list[float], **overrides: float
+) -> dict:
+    """Train A2C (``overrides`` on ``experiments/pong.py``'s settings, e.g. ``lr``, ``horizon``) for
+    up to ``seconds``; wall-clock seconds and env steps at which the running reward first exceeds
+    each threshold (``None`` where it never did)."""
     env = pong.make_env(size)
-    config = pong.make_config("a2c", num_envs)
+    config = pong.make_config("a2c", num_envs, **overrides)
     _, record, compile_s = pong.train_for("a2c", env, config, seconds, log=lambda line: print(line, flush=True))
     reached = {}
     for threshold in thresholds:
@@ -101,13 +107,15 @@ def time_to_beat(pong: ModuleType, num_envs: int, seconds: float, size: int, thr
             None if first is None else {"seconds": first["wall_s"], "env_steps": first["env_steps"]}
         )
     last = record.rows[-1]
-    curve, last_kept = [], -math.inf  # at most two points a second: a block is a few milliseconds
+    curve, last_kept = [], -math.inf  # at most two points a second
     for r in record.rows:
         if r["wall_s"] - last_kept >= 0.5 or r is record.rows[-1]:
             curve.append({k: (None if isinstance(v, float) and math.isnan(v) else v) for k, v in r.items()})
             last_kept = r["wall_s"]
     return {
         "num_envs": num_envs,
+        "lr": config.lr,
+        "horizon": config.horizon,
         "compile_s": compile_s,
         "reached": reached,
         "final_running_reward": last["running_reward"],
@@ -131,7 +139,8 @@ def plot(json_paths: list[str], out: str) -> None:
             result = json.load(f)
         for run in result["beat"]:
             t = [row["wall_s"] for row in run["curve"]]
-            ax.plot(t, [row["running_reward"] for row in run["curve"]], label=f"A2C, {run['num_envs']} envs")
+            settings = f", t_max {run['horizon']}, lr {run['lr']:g}" if "lr" in run else ""
+            ax.plot(t, [row["running_reward"] for row in run["curve"]], label=f"A2C, {run['num_envs']} envs{settings}")
     ax.axhline(0.0, color="k", lw=0.8, ls="--")
     ax.set_xlabel("wall-clock seconds (compilation excluded)")
     ax.set_ylabel("running reward (EMA of game score)")
@@ -148,6 +157,9 @@ def main() -> None:
     parser.add_argument("--horizon", type=int, default=128, help="env steps per timed call (fps)")
     parser.add_argument("--train-envs", type=int, nargs="*", default=[1024])
     parser.add_argument("--seconds", type=float, default=240.0, help="wall-clock budget of each A2C run")
+    parser.add_argument("--lr", type=float, nargs="+", default=[1e-3], help="A2C runs for each learning rate")
+    parser.add_argument("--t-max", type=int, nargs="+", default=[8], help="A2C runs for each t_max (horizon)")
+    parser.add_argument("--scan", type=int, default=8, help="also time A2C with this many iterations per call")
     parser.add_argument("--thresholds", type=float, nargs="+", default=[0.0, 10.0])
     parser.add_argument("--size", type=int, default=80)
     parser.add_argument("--json", help="write the results here")
@@ -163,30 +175,48 @@ def main() -> None:
     print(f"device: {device}, jax {jax.__version__}", flush=True)
     fps_rows = []
     for n in args.fps_envs:
-        row = {"num_envs": n, "env": env_fps(pong, n, args.horizon, args.size), "a2c": train_fps(pong, n, args.size)}
+        row = {
+            "num_envs": n,
+            "env": env_fps(pong, n, args.horizon, args.size),
+            "a2c": train_fps(pong, n, args.size),
+            "a2c_scan": train_fps(pong, n, args.size, per_call=args.scan),
+        }
         fps_rows.append(row)
-        print(f"fps envs={n}: env {row['env']['fps']:,.0f}/s, A2C training {row['a2c']['fps']:,.0f}/s", flush=True)
-    beat_rows = [time_to_beat(pong, n, args.seconds, args.size, args.thresholds) for n in args.train_envs]
+        print(
+            f"fps envs={n}: env {row['env']['fps']:,.0f}/s, A2C training {row['a2c']['fps']:,.0f}/s "
+            f"(scan of {args.scan}: {row['a2c_scan']['fps']:,.0f}/s)",
+            flush=True,
+        )
+    beat_rows = [
+        time_to_beat(pong, n, args.seconds, args.size, args.thresholds, lr=lr, horizon=t_max)
+        for n in args.train_envs
+        for t_max in args.t_max
+        for lr in args.lr
+    ]
 
     print(f"\nPong {args.size}x{args.size}, {device}")
-    print("| envs | env frames/s (random actions) | A2C training frames/s | compile env / A2C s |")
-    print("|---|---|---|---|")
+    print(
+        f"| envs | env frames/s (random actions) | A2C training frames/s, 1 iteration per call "
+        f"| scan of {args.scan} per call | compile env / A2C s |"
+    )
+    print("|---|---|---|---|---|")
     for r in fps_rows:
         print(
             f"| {r['num_envs']} | {r['env']['fps'] / 1e6:.2f} M | {r['a2c']['fps'] / 1e6:.2f} M "
-            f"| {r['env']['compile_s']:.1f} / {r['a2c']['compile_s']:.1f} |"
+            f"| {r['a2c_scan']['fps'] / 1e6:.2f} M | {r['env']['compile_s']:.1f} / {r['a2c']['compile_s']:.1f} |"
         )
     print()
     heads = " | ".join(f"running reward > {t:g}" for t in args.thresholds)
-    print(f"| A2C envs | {heads} | final running reward | games | env steps | compile s |")
-    print("|---|" + "---|" * (len(args.thresholds) + 4))
+    print(f"| A2C envs | t_max | lr | {heads} | final running reward | games | env steps | compile s |")
+    print("|---|---|---|" + "---|" * (len(args.thresholds) + 4))
     for r in beat_rows:
         cells = [
             f"{v['seconds']:.0f} s ({v['env_steps'] / 1e6:.1f} M steps)" if v else f"not in {r['wall_s']:.0f} s"
             for v in r["reached"].values()
         ]
         print(
-            f"| {r['num_envs']} | {' | '.join(cells)} | {r['final_running_reward']:.2f} | {r['games']} "
+            f"| {r['num_envs']} | {r['horizon']} | {r['lr']:g} | {' | '.join(cells)} "
+            f"| {r['final_running_reward']:.2f} | {r['games']} "
             f"| {r['env_steps'] / 1e6:.1f} M | {r['compile_s']:.1f} |"
         )
     if args.json:

@@ -209,26 +209,37 @@ def train_for(
     config: Any,
     seconds: float,
     seed: int = 0,
-    block_steps: int = 2048,
+    call_steps: int = 2048,
+    block_seconds: float = 0.5,
     log: Callable[[str], None] = print,
     log_every_s: float = 15.0,
 ) -> tuple[TrainState, RunningReward, float]:
     """Train ``algo`` for ``seconds`` of wall-clock time, compilation excluded.
 
-    Blocks hold about ``block_steps`` env steps each. The block's program is compiled (and run
-    once on a throwaway copy of the state) before the clock starts. Returns the final state, the
-    ``RunningReward`` record and the compilation seconds.
+    Each compiled call runs ``per_call = clip(round(call_steps / samples_per_iteration), 1, 256)``
+    iterations in a ``lax.scan`` (one iteration per call at GPU-sized batches, many at small
+    ones, where a call's latency would otherwise dominate). Calls are dispatched without waiting,
+    and the host fetches metrics once per block of calls; the number of calls per block adapts so
+    that a block takes about ``block_seconds``, because waiting for the device after every
+    iteration costs a third of the throughput at 2048 envs on an H200. The program is compiled
+    (and run once on a throwaway copy of the state) before the clock starts. Returns the final
+    state, the ``RunningReward`` record and the compilation seconds.
     """
     init, update = ALGORITHMS[algo]
-    block = max(1, round(block_steps / config.samples_per_iteration))
+    per_call = int(np.clip(round(call_steps / config.samples_per_iteration), 1, 256))
     t0 = time.perf_counter()
     ts = init(jax.random.PRNGKey(seed), env, config)
-    jax.block_until_ready(train_lib.compiled_block(update, block, False)(_jitted_copy(ts)))
+    jax.block_until_ready(train_lib.compiled_block(update, per_call, False)(_jitted_copy(ts)))
     compile_s = time.perf_counter() - t0
     record = RunningReward(config.samples_per_iteration)
     last_log = record.start
+    calls = 1
     while time.perf_counter() - record.start < seconds:
-        ts = train_lib.train(update, ts, block, block_size=block, callbacks=[record])
+        started = time.perf_counter()
+        n = calls * per_call
+        ts = train_lib.train(update, ts, n, block_size=n, callbacks=[record], iterations_per_call=per_call)
+        took = time.perf_counter() - started
+        calls = int(np.clip(calls * block_seconds / max(took, 1e-6), 1, 2 * calls))
         now = time.perf_counter()
         if now - last_log >= log_every_s:
             last_log = now
@@ -284,7 +295,9 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--horizon", type=int, help="steps per env per update (A2C's t_max)")
     parser.add_argument("--lr", type=float, help="learning rate")
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--block-steps", type=int, default=2048, help="env steps per compiled block")
+    parser.add_argument(
+        "--call-steps", type=int, default=2048, help="about this many env steps per compiled call (a lax.scan)"
+    )
     parser.add_argument("--run-dir", type=Path, help="default: runs/pong-<algo>-<time>")
     return parser
 
@@ -316,7 +329,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         for n, config in configs.items():
             print(f"{algo} with {n} envs (horizon {config.horizon}, {config.samples_per_iteration} samples/iteration)")
             _, record, compile_s = train_for(
-                algo, env, config, 60.0 * args.minutes, seed=args.seed, block_steps=args.block_steps
+                algo, env, config, 60.0 * args.minutes, seed=args.seed, call_steps=args.call_steps
             )
             for row in record.rows:
                 row = {k: None if isinstance(v, float) and math.isnan(v) else v for k, v in row.items()}

@@ -6,15 +6,18 @@ Two measurements on jaxpg's pure-JAX Pong (``experiments/pong.py``'s env: frame 
   fps     frames (env steps) per second of ``--fps-envs`` games with random actions, in a jitted
           ``lax.scan`` of ``--horizon`` steps, timed after compilation; and of A2C training
           (sampling with the seed's 6400 -> 200 -> 2 network plus the update) at the same batch;
-  beat    A2C (``experiments/pong.py``'s settings) with ``--train-envs`` games, trained for at
-          most ``--seconds`` of wall clock: when the seed's running reward (EMA over games of the
-          final score difference) first exceeds each of ``--thresholds`` (0: the agent beats the
-          scripted opponent on average; 10: by 10 points of 21). The clock starts after
+  beat    A2C (``experiments/pong.py``'s settings, but ``--lr`` 2e-3 by default: the best of
+          1e-3 / 2e-3 / 4e-3 at 1024 envs on an H200) with ``--train-envs`` games and each of
+          ``--seeds``, ``--lr`` and ``--t-max``, trained for at most ``--seconds`` of wall clock:
+          when the seed's running reward (EMA over games of the final score difference) first
+          exceeds each of ``--thresholds`` (0: the agent beats the scripted opponent on average;
+          10: by 10 points of 21). The clock starts after
           compilation, as in ``experiments/pong.py``; compilation is reported apart.
 
-    python benchmarks/pong.py --fps-envs 1024 4096 --train-envs 1024 --seconds 240 --json pong.json
+    python benchmarks/pong.py --fps-envs 1024 4096 --train-envs 1024 --seeds 0 1 2 --seconds 150 --json pong.json
     python benchmarks/pong.py --fps-envs 8 --train-envs 8 --seconds 5 --size 40     # CPU smoke run
     python benchmarks/pong.py --plot docs/pong_a2c_h200.png benchmarks/results/2026-11-22-h200/pong*.json
+    python benchmarks/pong.py --fps-envs --train-envs 2048 --lr 1e-3 2e-3 4e-3 --seconds 125   # the lr sweep
 """
 
 from __future__ import annotations
@@ -92,14 +95,23 @@ def train_fps(pong: ModuleType, num_envs: int, size: int, per_call: int = 1, ite
 
 
 def time_to_beat(
-    pong: ModuleType, num_envs: int, seconds: float, size: int, thresholds: list[float], **overrides: float
+    pong: ModuleType,
+    num_envs: int,
+    seconds: float,
+    size: int,
+    thresholds: list[float],
+    seed: int = 0,
+    call_steps: int = 2048,
+    **overrides: float,
 ) -> dict:
     """Train A2C (``overrides`` on ``experiments/pong.py``'s settings, e.g. ``lr``, ``horizon``) for
     up to ``seconds``; wall-clock seconds and env steps at which the running reward first exceeds
     each threshold (``None`` where it never did)."""
     env = pong.make_env(size)
     config = pong.make_config("a2c", num_envs, **overrides)
-    _, record, compile_s = pong.train_for("a2c", env, config, seconds, log=lambda line: print(line, flush=True))
+    _, record, compile_s = pong.train_for(
+        "a2c", env, config, seconds, seed=seed, call_steps=call_steps, log=lambda line: print(line, flush=True)
+    )
     reached = {}
     for threshold in thresholds:
         first = next((r for r in record.rows if r["running_reward"] > threshold), None)
@@ -114,6 +126,8 @@ def time_to_beat(
             last_kept = r["wall_s"]
     return {
         "num_envs": num_envs,
+        "seed": seed,
+        "call_steps": call_steps,
         "lr": config.lr,
         "horizon": config.horizon,
         "compile_s": compile_s,
@@ -157,7 +171,9 @@ def main() -> None:
     parser.add_argument("--horizon", type=int, default=128, help="env steps per timed call (fps)")
     parser.add_argument("--train-envs", type=int, nargs="*", default=[1024])
     parser.add_argument("--seconds", type=float, default=240.0, help="wall-clock budget of each A2C run")
-    parser.add_argument("--lr", type=float, nargs="+", default=[1e-3], help="A2C runs for each learning rate")
+    parser.add_argument("--lr", type=float, nargs="+", default=[2e-3], help="A2C runs for each learning rate")
+    parser.add_argument("--seeds", type=int, nargs="+", default=[0], help="A2C runs for each seed")
+    parser.add_argument("--call-steps", type=int, default=2048, help="env steps per compiled call while training")
     parser.add_argument("--t-max", type=int, nargs="+", default=[8], help="A2C runs for each t_max (horizon)")
     parser.add_argument("--scan", type=int, default=8, help="also time A2C with this many iterations per call")
     parser.add_argument("--thresholds", type=float, nargs="+", default=[0.0, 10.0])
@@ -188,10 +204,11 @@ def main() -> None:
             flush=True,
         )
     beat_rows = [
-        time_to_beat(pong, n, args.seconds, args.size, args.thresholds, lr=lr, horizon=t_max)
+        time_to_beat(pong, n, args.seconds, args.size, args.thresholds, seed, args.call_steps, lr=lr, horizon=t_max)
         for n in args.train_envs
         for t_max in args.t_max
         for lr in args.lr
+        for seed in args.seeds
     ]
 
     print(f"\nPong {args.size}x{args.size}, {device}")
@@ -207,15 +224,15 @@ def main() -> None:
         )
     print()
     heads = " | ".join(f"running reward > {t:g}" for t in args.thresholds)
-    print(f"| A2C envs | t_max | lr | {heads} | final running reward | games | env steps | compile s |")
-    print("|---|---|---|" + "---|" * (len(args.thresholds) + 4))
+    print(f"| A2C envs | t_max | lr | seed | {heads} | final running reward | games | env steps | compile s |")
+    print("|---|---|---|---|" + "---|" * (len(args.thresholds) + 4))
     for r in beat_rows:
         cells = [
             f"{v['seconds']:.0f} s ({v['env_steps'] / 1e6:.1f} M steps)" if v else f"not in {r['wall_s']:.0f} s"
             for v in r["reached"].values()
         ]
         print(
-            f"| {r['num_envs']} | {r['horizon']} | {r['lr']:g} | {' | '.join(cells)} "
+            f"| {r['num_envs']} | {r['horizon']} | {r['lr']:g} | {r['seed']} | {' | '.join(cells)} "
             f"| {r['final_running_reward']:.2f} | {r['games']} "
             f"| {r['env_steps'] / 1e6:.1f} M | {r['compile_s']:.1f} |"
         )

@@ -37,6 +37,7 @@ import json
 import math
 import sys
 import time
+import typing
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
@@ -56,6 +57,8 @@ from jaxpg.envs.pong import FrameDifference, Pong
 SEED_NETWORK: dict[str, Any] = dict(policy_hidden=(200,), policy_activation="relu")
 
 # A2C on Pong: t_max 8, Adam, GAE lambda 0.95, entropy bonus 0.01, value network like the policy's.
+# lr 1e-3 suits small batches (32 envs on a CPU: tests/test_pong.py; 2e-3 did worse there); with
+# 1024 or more envs on a GPU, 2e-3 reached a running reward of 10 sooner (BENCHMARKS.md, section J).
 A2C_DEFAULTS: dict[str, Any] = dict(
     **SEED_NETWORK,
     value_hidden=(200,),
@@ -277,8 +280,19 @@ def plot_curves(curves: dict[str, Sequence[dict[str, float]]], path: Path, title
     plt.close(fig)
 
 
+class UsageError(ValueError):
+    """Bad command-line input: reported as one ``error:`` line with exit status 2."""
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse that raises ``UsageError`` instead of printing the usage and exiting."""
+
+    def error(self, message: str) -> typing.NoReturn:
+        raise UsageError(message)
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="python experiments/pong.py",
         description=__doc__.split("\n\n")[0],
         formatter_class=argparse.RawDescriptionHelpFormatter,
@@ -290,7 +304,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--compare-envs", type=int, nargs="+", help="A2C with each number of envs; plot into pong_envs.png"
     )
     parser.add_argument("--minutes", type=float, default=5.0, help="wall-clock budget of each run")
-    parser.add_argument("--size", type=int, default=80, help="frames are size x size pixels")
+    parser.add_argument("--size", type=int, default=80, help="frames are size x size pixels (>= 8)")
     parser.add_argument("--stay-action", action="store_true", help="actions {stay, up, down}")
     parser.add_argument("--horizon", type=int, help="steps per env per update (A2C's t_max)")
     parser.add_argument("--lr", type=float, help="learning rate")
@@ -298,37 +312,104 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "--call-steps", type=int, default=2048, help="about this many env steps per compiled call (a lax.scan)"
     )
-    parser.add_argument("--run-dir", type=Path, help="default: runs/pong-<algo>-<time>")
+    parser.add_argument(
+        "--video-steps",
+        type=int,
+        default=1000,
+        help="after each run, a GIF of the trained agent playing this many steps (0: none)",
+    )
+    parser.add_argument("--run-dir", type=Path, help="default: runs/pong-<algo>-<time>; must not exist")
     return parser
 
 
+def check_args(args: argparse.Namespace) -> None:
+    """Raise ``UsageError`` (one line) for arguments that cannot run, before anything is written."""
+    counts = args.compare_envs if args.compare_envs is not None else args.num_envs
+    if any(n < 1 for n in counts):
+        raise UsageError(f"numbers of envs must be >= 1, got {' '.join(map(str, counts))}")
+    if not args.minutes > 0:
+        raise UsageError(f"--minutes must be > 0, got {args.minutes:g}")
+    if args.size < 8:
+        raise UsageError(f"--size must be >= 8, got {args.size}")
+    if args.horizon is not None and args.horizon < 1:
+        raise UsageError(f"--horizon must be >= 1, got {args.horizon}")
+    if args.lr is not None and not args.lr > 0:
+        raise UsageError(f"--lr must be > 0, got {args.lr:g}")
+    if args.call_steps < 1 or args.video_steps < 0:
+        raise UsageError("--call-steps must be >= 1 and --video-steps >= 0")
+    if args.run_dir.exists():
+        raise UsageError(f"run directory {args.run_dir} exists; choose another --run-dir (nothing was changed)")
+
+
+def record_game(env: Env, ts: TrainState, key: jax.Array, steps: int) -> np.ndarray:
+    """``[steps, size, size]`` uint8 frames of the trained policy (sampling) playing from a fresh
+    game; a game that ends starts again (``AutoReset``)."""
+    from jaxpg.envs import AutoReset
+
+    game = AutoReset(env)
+    size = int(math.isqrt(env.observation_size))
+
+    @jax.jit
+    def play(key: jax.Array) -> jax.Array:
+        reset_key, act_key = jax.random.split(key)
+
+        def step(state: Any, k: jax.Array) -> tuple[Any, jax.Array]:
+            action = ts.policy.sample(ts.params, ts.obs_stats.normalize(state.obs[None]), k)[0][0]
+            state = game.step(state, action)
+            return state, state.info["prev_frame"]
+
+        _, frames = jax.lax.scan(step, game.reset(reset_key), jax.random.split(act_key, steps))
+        return frames
+
+    frames = np.asarray(play(key)).reshape(steps, size, size)
+    return (np.clip(frames, 0.0, 1.0) * 255).astype(np.uint8)
+
+
+def save_game_gif(frames: np.ndarray, path: Path, scale: int = 3, fps: float = 50.0) -> Path:
+    """Write ``[T, size, size]`` uint8 frames, each pixel ``scale x scale``, as a looping GIF."""
+    from jaxpg import video
+
+    big = frames.repeat(scale, axis=1).repeat(scale, axis=2)
+    return video.write_video([np.stack([f, f, f], axis=-1) for f in big], path, fps)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+    """Entry point; returns the exit status (2 with one ``error:`` line for bad input)."""
+    try:
+        args = build_parser().parse_args(argv)
+        algo = "a2c" if args.compare_envs is not None else args.algo
+        args.run_dir = args.run_dir or Path("runs") / f"pong-{algo}-{time.strftime('%Y%m%d-%H%M%S')}"
+        check_args(args)
+    except UsageError as e:
+        print(f"error: {str(e).strip().splitlines()[0]}", file=sys.stderr)
+        return 2
+    from jaxpg import compile_cache
+
+    compile_cache.enable()
     compare = args.compare_envs is not None
-    algo = "a2c" if compare else args.algo
     counts = args.compare_envs if compare else args.num_envs
-    if any(n < 1 for n in counts) or args.minutes <= 0:
-        raise SystemExit("numbers of envs must be >= 1 and --minutes > 0")
     overrides = {k: v for k, v in (("horizon", args.horizon), ("lr", args.lr)) if v is not None}
-    run_dir = args.run_dir or Path("runs") / f"pong-{algo}-{time.strftime('%Y%m%d-%H%M%S')}"
-    run_dir.mkdir(parents=True, exist_ok=True)
     env = make_env(args.size, args.stay_action)
     configs = {n: make_config(algo, n, **overrides) for n in counts}
+    run_dir = args.run_dir
+    run_dir.mkdir(parents=True)
+    device = jax.devices()[0]
     info = {
         "argv": list(sys.argv if argv is None else argv),
         "algo": algo,
-        "device": str(jax.devices()[0]),
+        "device": f"{device} ({device.device_kind})",
+        "jax": jax.__version__,
         "env": repr(env),
         "configs": {n: dataclasses.asdict(c) for n, c in configs.items()},
     }
     (run_dir / "config.json").write_text(json.dumps(info, indent=2, default=str))
-    print(f"run directory {run_dir}; {algo} on {env!r}, {args.minutes:g} min per run on {jax.devices()[0]}")
+    print(f"run directory {run_dir}; {algo} on {env!r}, {args.minutes:g} min per run on {device.device_kind}")
 
     curves: dict[str, list[dict[str, float]]] = {}
     with open(run_dir / "metrics.jsonl", "w") as out:
         for n, config in configs.items():
             print(f"{algo} with {n} envs (horizon {config.horizon}, {config.samples_per_iteration} samples/iteration)")
-            _, record, compile_s = train_for(
+            ts, record, compile_s = train_for(
                 algo, env, config, 60.0 * args.minutes, seed=args.seed, call_steps=args.call_steps
             )
             for row in record.rows:
@@ -341,9 +422,13 @@ def main(argv: Sequence[str] | None = None) -> int:
                 f"{last['games']} games in {last['wall_s']:.0f} s; running reward {last['running_reward']:.2f}"
             )
             curves[f"{n} env{'s' if n > 1 else ''}"] = record.rows
+            if args.video_steps:
+                frames = record_game(env, ts, jax.random.PRNGKey(args.seed + 1), args.video_steps)
+                print(f"wrote {save_game_gif(frames, run_dir / f'pong_{algo}_{n}envs.gif')}")
 
     name = "pong_envs.png" if compare else f"pong_{algo}.png"
-    title = f"{algo.upper()} on jaxpg Pong ({args.size}x{args.size} frame differences), {jax.devices()[0].platform}"
+    lr = configs[counts[0]].lr
+    title = f"{algo.upper()} on jaxpg Pong ({args.size}x{args.size} frame differences, lr {lr:g}), {device.device_kind}"
     plot_curves(curves, run_dir / name, title)
     print(f"wrote {run_dir / name}")
     return 0

@@ -5,9 +5,11 @@ frame against an independent NumPy drawing, the frame-difference wrapper, the pe
 from __future__ import annotations
 
 import importlib.util
+import json
 import time
 from pathlib import Path
 
+import imageio.v2 as imageio
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -333,3 +335,56 @@ def test_a2c_beats_a_random_policy():
     random = mean_reward_per_step(env, uniform, 128, 1000, key)
     print(f"A2C pong: reward/step {learned:.4f} vs random {random:.4f} in {time.perf_counter() - start:.0f} s")
     assert learned > random + 0.001
+
+
+def test_experiment_compare_mode(tmp_path):
+    """``experiments/pong.py --compare-envs``: one curve per number of envs in ``metrics.jsonl``
+    (env steps in whole iterations, the running reward a finite score difference once games
+    ended), the comparison plot, a GIF of each trained agent, and its config with the defaults
+    it ran."""
+    exp = load_experiment()
+    run_dir = tmp_path / "compare"
+    argv = ["--compare-envs", "1", "4", "--minutes", "0.05", "--size", str(SMALL), "--video-steps", "30"]
+    assert exp.main([*argv, "--run-dir", str(run_dir)]) == 0
+    rows = [json.loads(line) for line in (run_dir / "metrics.jsonl").read_text().splitlines()]
+    for n in (1, 4):
+        curve = [r for r in rows if r["num_envs"] == n]
+        assert curve and all(r["algo"] == "a2c" for r in curve)
+        assert [r["env_steps"] for r in curve] == sorted(r["env_steps"] for r in curve)
+        assert all(r["env_steps"] == r["iteration"] * n * exp.A2C_DEFAULTS["horizon"] for r in curve)
+        finished = [r for r in curve if r["games"] > 0]
+        assert finished, f"no game ended with {n} envs"
+        assert all(-21 <= r["running_reward"] <= 21 for r in finished)
+        frames = imageio.mimread(run_dir / f"pong_a2c_{n}envs.gif")
+        assert len(frames) == 30 and frames[0].shape == (3 * SMALL, 3 * SMALL, 3)
+        assert max(int(f.max()) for f in frames) > 0
+    assert (run_dir / "pong_envs.png").stat().st_size > 0
+    config = json.loads((run_dir / "config.json").read_text())
+    assert config["configs"]["4"]["lr"] == exp.A2C_DEFAULTS["lr"]
+
+
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["--num-envs", "0"], "numbers of envs must be >= 1"),
+        (["--minutes", "0"], "--minutes must be > 0"),
+        (["--size", "4"], "--size must be >= 8"),
+        (["--lr", "-1"], "--lr must be > 0"),
+        (["--algo", "ppo"], "invalid choice"),
+        (["--frobnicate"], "unrecognized arguments"),
+        (["--run-dir", "EXISTING"], "exists"),
+    ],
+)
+def test_experiment_bad_input(tmp_path, capsys, argv, message):
+    """Bad input: exit status 2, one ``error:`` line, and an existing run directory untouched."""
+    existing = tmp_path / "run"
+    existing.mkdir()
+    (existing / "metrics.jsonl").write_text("keep\n")
+    argv = [str(existing) if a == "EXISTING" else a for a in argv]
+    if "--run-dir" not in argv:
+        argv += ["--run-dir", str(tmp_path / "new")]
+    assert load_experiment().main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("error: ") and message in err[0], err
+    assert (existing / "metrics.jsonl").read_text() == "keep\n"
+    assert not (tmp_path / "new").exists()

@@ -147,19 +147,28 @@ def plot(json_paths: list[str], out: str) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(7, 4))
+    runs, device = [], ""
     for path in json_paths:
         with open(path) as f:
             result = json.load(f)
-        for run in result["beat"]:
-            t = [row["wall_s"] for row in run["curve"]]
-            settings = f", t_max {run['horizon']}, lr {run['lr']:g}" if "lr" in run else ""
-            ax.plot(t, [row["running_reward"] for row in run["curve"]], label=f"A2C, {run['num_envs']} envs{settings}")
+        runs += result["beat"]
+        device = result["device"]
+    settings = sorted({(r["num_envs"], r.get("horizon", 8), r.get("lr", 1e-3)) for r in runs})
+    colors = dict(zip(settings, plt.get_cmap("tab10").colors, strict=False))
+    fig, ax = plt.subplots(figsize=(8, 4.5))
+    labelled = set()
+    for run in runs:
+        key = (run["num_envs"], run.get("horizon", 8), run.get("lr", 1e-3))
+        label = None if key in labelled else f"A2C, {key[0]} envs, t_max {key[1]}, lr {key[2]:g}"
+        labelled.add(key)
+        t = [row["wall_s"] for row in run["curve"]]
+        ax.plot(t, [row["running_reward"] for row in run["curve"]], color=colors.get(key), lw=1.2, label=label)
     ax.axhline(0.0, color="k", lw=0.8, ls="--")
+    ax.axhline(10.0, color="k", lw=0.8, ls=":")
     ax.set_xlabel("wall-clock seconds (compilation excluded)")
     ax.set_ylabel("running reward (EMA of game score)")
-    ax.set_title(f"jaxpg Pong from frame differences, {result['device']}")
-    ax.legend()
+    ax.set_title(f"jaxpg Pong from frame differences, {device}: one line per run (seed)")
+    ax.legend(fontsize=8)
     ax.grid(alpha=0.3)
     fig.tight_layout()
     fig.savefig(out, dpi=100)

@@ -24,6 +24,7 @@ more environments learn faster in wall-clock time. Every run writes ``config.jso
 ``metrics.jsonl`` (one line per compiled block of iterations) to the run directory.
 
     python experiments/pong.py --algo a2c --num-envs 16 --minutes 10
+    python experiments/pong.py --algo a2c --num-envs 1024 --lr 2e-3 --minutes 3        # one GPU
     python experiments/pong.py --algo reinforce --num-envs 16 --minutes 30
     python experiments/pong.py --compare-envs 1 2 4 16 64 256 --minutes 5
     python experiments/pong.py --compare-envs 1 4 16 --minutes 1 --size 40      # a quick look on a CPU
@@ -373,13 +374,19 @@ def save_game_gif(frames: np.ndarray, path: Path, scale: int = 3, fps: float = 5
     return video.write_video([np.stack([f, f, f], axis=-1) for f in big], path, fps)
 
 
+def plan(argv: Sequence[str] | None) -> argparse.Namespace:
+    """Parsed and checked arguments, with the run directory filled in; ``UsageError`` if bad."""
+    args = build_parser().parse_args(argv)
+    algo = "a2c" if args.compare_envs is not None else args.algo
+    args.run_dir = args.run_dir or Path("runs") / f"pong-{algo}-{time.strftime('%Y%m%d-%H%M%S')}"
+    check_args(args)
+    return args
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point; returns the exit status (2 with one ``error:`` line for bad input)."""
     try:
-        args = build_parser().parse_args(argv)
-        algo = "a2c" if args.compare_envs is not None else args.algo
-        args.run_dir = args.run_dir or Path("runs") / f"pong-{algo}-{time.strftime('%Y%m%d-%H%M%S')}"
-        check_args(args)
+        args = plan(argv)
     except UsageError as e:
         print(f"error: {str(e).strip().splitlines()[0]}", file=sys.stderr)
         return 2
@@ -387,6 +394,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     compile_cache.enable()
     compare = args.compare_envs is not None
+    algo = "a2c" if compare else args.algo
     counts = args.compare_envs if compare else args.num_envs
     overrides = {k: v for k, v in (("horizon", args.horizon), ("lr", args.lr)) if v is not None}
     env = make_env(args.size, args.stay_action)

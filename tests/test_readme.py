@@ -6,6 +6,8 @@
   InvertedPendulum-v5 and must reach the same.
 * The GPU training commands are planned as the CLI plans them (flags, preset, config validated
   against the task, env built) without training, which needs a GPU.
+* The Pong commands (``experiments/pong.py``, its own command line) pass that script's argument
+  checks; ``tests/test_pong.py`` runs its comparison mode on the CPU.
 * The several-process launch lines are run word for word by ``tests/test_distributed.py``.
 * The install, test and venv steps are what ``.ci/run`` runs.
 
@@ -51,10 +53,18 @@ def is_distributed(command: str) -> bool:
     return "--coordinator-address" in command
 
 
+def is_pong(command: str) -> bool:
+    return shlex.split(command)[1] == "experiments/pong.py"
+
+
 def is_planned(command: str) -> bool:
-    """A training command checked with ``cli.plan`` (everything but the main job)."""
+    """A training command checked with ``cli.plan`` (everything but the main job and Pong)."""
     words = shlex.split(command)
-    return command != MAIN_JOB and (words[1].startswith("experiments/") or words[1:3] == ["-m", "jaxpg.cli"])
+    return (
+        command != MAIN_JOB
+        and not is_pong(command)
+        and (words[1].startswith("experiments/") or words[1:3] == ["-m", "jaxpg.cli"])
+    )
 
 
 def test_every_command_is_covered():
@@ -63,7 +73,9 @@ def test_every_command_is_covered():
     evaluates = [c for c in commands if c.startswith("python -m jaxpg.evaluate runs/pendulum")]
     assert evaluates, "the README evaluates the main job's run directory"
     uncovered = [
-        c for c in commands if c != MAIN_JOB and c not in evaluates and not is_distributed(c) and not is_planned(c)
+        c
+        for c in commands
+        if c != MAIN_JOB and c not in evaluates and not is_distributed(c) and not is_planned(c) and not is_pong(c)
     ]
     assert not uncovered, f"README commands no test runs: {uncovered}"
 
@@ -85,6 +97,17 @@ def test_training_commands_plan(command, tmp_path):
         argv[argv.index("--run-dir") + 1] = str(tmp_path / "run")
     planned = cli.plan(argv, experiment)
     assert planned.config.num_envs >= 1 and planned.run.iterations >= 1
+
+
+@pytest.mark.parametrize("command", [c for c in readme_python_commands() if is_pong(c)])
+def test_pong_commands_pass_their_checks(command, tmp_path):
+    spec = importlib.util.spec_from_file_location("pong_experiment", ROOT / "experiments" / "pong.py")
+    pong = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(pong)
+    argv = shlex.split(command)[2:]
+    argv[argv.index("--run-dir") + 1] = str(tmp_path / "run")
+    args = pong.plan(argv)
+    assert args.minutes > 0 and not args.run_dir.exists()
 
 
 @pytest.mark.slow

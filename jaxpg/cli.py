@@ -94,7 +94,7 @@ class Experiment:
 # --------------------------------------------------------------------------- argument parsing
 
 
-class _Parser(argparse.ArgumentParser):
+class Parser(argparse.ArgumentParser):
     """argparse that raises ``UsageError`` instead of printing the usage and exiting."""
 
     def error(self, message: str) -> typing.NoReturn:
@@ -178,14 +178,12 @@ def _positive(text: str) -> int:
     return value
 
 
-def build_parser(
-    experiment: Experiment, algo: str, config_cls: type | None, config_defaults: dict[str, Any]
-) -> _Parser:
+def build_parser(experiment: Experiment, algo: str, config_cls: type | None, config_defaults: dict[str, Any]) -> Parser:
     """The full parser: run flags plus the ``Config`` flags of ``algo``."""
     from jaxpg import envs
 
     tasks = experiment.tasks or tuple(envs.names())
-    parser = _Parser(
+    parser = Parser(
         prog=experiment.prog,
         description=experiment.description or __doc__.split("\n\n")[0],
         epilog=experiment.epilog,
@@ -295,7 +293,7 @@ def distributed_config(argv: Sequence[str]) -> Any:
     (``None``: one process), read before the full parse so that JAX is initialised first."""
     from jaxpg import distributed
 
-    pre = _Parser(add_help=False)
+    pre = Parser(add_help=False)
     add_distributed_flags(pre)
     args, _ = pre.parse_known_args(argv)
     return distributed.DistributedConfig.resolve(
@@ -304,7 +302,7 @@ def distributed_config(argv: Sequence[str]) -> Any:
 
 
 def _pre_parse(argv: Sequence[str]) -> argparse.Namespace:
-    pre = _Parser(add_help=False)
+    pre = Parser(add_help=False)
     pre.add_argument("--task", "--env", dest="task")
     pre.add_argument("--algo")
     pre.add_argument("--resume")

@@ -367,10 +367,12 @@ def save_game_gif(frames: np.ndarray, path: Path, scale: int = 3, fps: float = 5
 
 
 def plan(argv: Sequence[str] | None) -> argparse.Namespace:
-    """Parsed and checked arguments, with the run directory filled in; ``UsageError`` if bad."""
+    """Parsed and checked arguments, with the run directory filled in and ``algo`` set to
+    ``"a2c"`` in comparison mode; ``UsageError`` if bad."""
     args = build_parser().parse_args(argv)
-    algo = "a2c" if args.compare_envs is not None else args.algo
-    args.run_dir = args.run_dir or Path("runs") / f"pong-{algo}-{time.strftime('%Y%m%d-%H%M%S')}"
+    if args.compare_envs is not None:
+        args.algo = "a2c"  # the comparison is A2C's
+    args.run_dir = args.run_dir or Path("runs") / f"pong-{args.algo}-{time.strftime('%Y%m%d-%H%M%S')}"
     check_args(args)
     return args
 
@@ -386,7 +388,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     compile_cache.enable()
     compare = args.compare_envs is not None
-    algo = "a2c" if compare else args.algo
+    algo = args.algo
     counts = args.compare_envs if compare else args.num_envs
     overrides = {k: v for k, v in (("horizon", args.horizon), ("lr", args.lr)) if v is not None}
     env = make_env(args.size, args.stay_action)

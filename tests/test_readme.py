@@ -80,12 +80,17 @@ def test_every_command_is_covered():
     assert not uncovered, f"README commands no test runs: {uncovered}"
 
 
-def load_experiment(script: str) -> cli.Experiment:
-    """The ``EXPERIMENT`` of ``experiments/<name>.py``."""
+def load_script(script: str):
+    """``experiments/<name>.py`` as a module."""
     spec = importlib.util.spec_from_file_location(Path(script).stem, ROOT / script)
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
-    return module.EXPERIMENT
+    return module
+
+
+def load_experiment(script: str) -> cli.Experiment:
+    """The ``EXPERIMENT`` of ``experiments/<name>.py``."""
+    return load_script(script).EXPERIMENT
 
 
 @pytest.mark.parametrize("command", [c for c in readme_python_commands() if is_planned(c) and not is_distributed(c)])
@@ -101,9 +106,7 @@ def test_training_commands_plan(command, tmp_path):
 
 @pytest.mark.parametrize("command", [c for c in readme_python_commands() if is_pong(c)])
 def test_pong_commands_pass_their_checks(command, tmp_path):
-    spec = importlib.util.spec_from_file_location("pong_experiment", ROOT / "experiments" / "pong.py")
-    pong = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(pong)
+    pong = load_script("experiments/pong.py")
     argv = shlex.split(command)[2:]
     argv[argv.index("--run-dir") + 1] = str(tmp_path / "run")
     args = pong.plan(argv)

@@ -3,6 +3,8 @@
 # (10 minutes). Run from the repository root on the GPU machine, after the wheels are installed
 # (../shared/gpu/README.md) and PYTHONPATH points at them and at the checkout:
 #
+#   bash benchmarks/device_session.sh card     # `python experiments/hopper.py --num-envs 256`, 3 seeds, cold and warm
+#   bash benchmarks/device_session.sh sweep    # NPG settings at 256 envs, 3 seeds vmapped, to 2 M env steps
 #   bash benchmarks/device_session.sh ttr      # time to a Hopper return of 3000, NPG and PPO, 3 seeds each
 #   bash benchmarks/device_session.sh env      # raw env throughput table (issue 2), then Pong figures
 #   bash benchmarks/device_session.sh gym      # the README's GPU training commands, then Gymnasium evaluation
@@ -20,8 +22,16 @@ py=${PYTHON:-python3}
 nvidia-smi --query-gpu=name,memory.total,driver_version --format=csv,noheader > "$OUT/gpu.txt" 2>&1
 
 case "${1:-}" in
+card)
+  timeout 570 $py benchmarks/card_command.py --seeds 0 1 2 --modes cold warm --out /tmp/card \
+    --json "$OUT/card.json" 2>&1 | tee "$OUT/card.log" | grep -v "^WARN"
+  ;;
+sweep)
+  timeout 570 $py benchmarks/hopper_sweep.py --impl warp --settings base step07 step07vep10 s10vep10 \
+    --seeds 0 1 2 --steps 2e6 --json "$OUT/sweep.json" 2>&1 | tee "$OUT/sweep.log" | grep -v "^WARN"
+  ;;
 ttr)
-  common=(--block 10 --iterations-per-call 1 --seeds 0 1 2 --warmup --max-seconds 150)
+  common=(--block 10 --seeds 0 1 2 --warmup --max-seconds 150)
   timeout 330 $py benchmarks/time_to_return.py --algo npg --preset hopper_gpu "${common[@]}" \
     --json "$OUT/ttr_npg.json" 2>&1 | tee "$OUT/ttr_npg.log" | grep -v "^  seed"
   timeout 240 $py benchmarks/time_to_return.py --algo ppo --preset hopper_gpu "${common[@]}" \
@@ -68,7 +78,7 @@ extra)
   grep -A4 "^| A2C" "$OUT/pong_long.log"
   ;;
 *)
-  echo "usage: bash benchmarks/device_session.sh ttr|env|gym|scaling|extra [seconds]" >&2
+  echo "usage: bash benchmarks/device_session.sh card|sweep|ttr|env|gym|scaling|extra [seconds]" >&2
   exit 2
   ;;
 esac

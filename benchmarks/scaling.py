@@ -117,8 +117,8 @@ def measure(task: str, impl: str | None, devices: int, envs_per_device: int, hor
     sample = jax.jit(distributed.on_mesh(sample_step, mesh), donate_argnums=0)
     _, sample_s, _ = timed(sample, jax.tree.map(jnp.copy, ts), iterations)
 
-    # train: whole iterations, compiled and called as jaxpg.train does
-    per_call = min(train.default_iterations_per_call(ts, iterations), iterations)
+    # train: whole iterations, compiled and called as jaxpg.train does (one scan per block)
+    per_call = iterations
     block = train.compiled_block(distributed.on_mesh(npg.update, mesh), per_call, False)
     calls = max(iterations // per_call, 1)
     train_first, train_s, ts = timed(block, ts, calls)

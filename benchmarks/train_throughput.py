@@ -4,7 +4,7 @@ For each (impl, num_envs) this measures, in a fresh process (so that peak memory
   raw    env steps/s of the simulation a training iteration needs: the same env (auto-reset
          included), batch and horizon, random actions, ``lax.scan`` over the horizon;
   train  env steps/s of full training iterations (sampling, GAE, policy step, value fit), several
-         iterations per compiled call exactly as ``jaxpg.train`` runs them;
+         iterations per compiled call exactly as ``jaxpg.train`` runs them, and one per call;
 and reports their ratio, both compile times and the peak device memory per env.
 
     python benchmarks/train_throughput.py --task hopper --impl warp jax \
@@ -82,18 +82,25 @@ def measure(task: str, impl: str, fidelity: str, num_envs: int, horizon: int, al
 
     module = algos.get(algo)
     config = algo_config(algo, num_envs, horizon)
-    ts = module.init(jax.random.PRNGKey(0), env, config)
+    # Commit every leaf to the device first. A state built eagerly mixes uncommitted leaves with
+    # committed ones (MuJoCo Warp's buffers), while a jitted call's outputs are all committed, and
+    # jit compiles a separate executable for each mix: without this the first timed call after
+    # the compiling call compiled the whole program again, which an earlier version of this
+    # benchmark reported as a 10-17x slower scan (BENCHMARKS.md).
+    ts = jax.device_put(module.init(jax.random.PRNGKey(0), env, config), jax.devices()[0])
     # Several iterations in one compiled lax.scan, as jaxpg.train runs them by default ...
     block = jax.jit(lambda ts: train_lib.scan_updates(module.update, ts, iterations))
     start = time.perf_counter()
     ts2, metrics = jax.block_until_ready(block(ts))
     train_compile = time.perf_counter() - start
+    ts2, metrics = jax.block_until_ready(block(ts2))  # warm-up with the call's own outputs
     start = time.perf_counter()
     ts2, metrics = jax.block_until_ready(block(ts2))
     train_s = (time.perf_counter() - start) / iterations
     # ... and one iteration per compiled call (block_size=1), dispatched from the host.
     single = jax.jit(module.update)
     ts3, _ = jax.block_until_ready(single(ts2))
+    ts3, _ = jax.block_until_ready(single(ts3))
     start = time.perf_counter()
     for _ in range(iterations):
         ts3, _ = single(ts3)

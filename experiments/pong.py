@@ -125,7 +125,7 @@ def reinforce_update(ts: TrainState) -> tuple[TrainState, dict[str, jax.Array]]:
     """One REINFORCE iteration with per-point returns normalised over the batch (module
     docstring); ``jaxpg.algos.reinforce``'s pieces with ``point_returns`` for its returns."""
     old = ts
-    ts, traj, eval_key = npg.phase_sample(ts)
+    ts, traj, _ = npg.phase_sample(ts)
     g, complete = point_returns(traj.rewards, traj.terminated, traj.truncated, ts.config.gamma)
     weights = traj.valid * complete
     advantages = returns.normalize(g, mask=weights)
@@ -145,7 +145,7 @@ def reinforce_update(ts: TrainState) -> tuple[TrainState, dict[str, jax.Array]]:
         "kl": npg.mean_kl(ts, old.params, ts.params, batch),
         "complete_fraction": jnp.mean(weights),
     }
-    return npg.finish_iteration(old, ts, traj, eval_key, diagnostics["loss"], metrics)
+    return npg.finish_iteration(old, ts, traj, diagnostics["loss"], metrics)
 
 
 def make_config(algo: str, num_envs: int, **overrides: Any) -> Any:

@@ -13,7 +13,8 @@ A run directory (see ``jaxpg.runlog``) gets ``config.json``, ``metrics.jsonl``, 
 events, ``curves.png``, Orbax ``checkpoints/`` and ``videos/``. An existing run directory is only
 replaced with ``--overwrite`` or continued with ``--resume``; a resumed run continues from its
 latest checkpoint and produces the same metrics, bit for bit on the same device, as a run that
-was never interrupted.
+was never interrupted (the iteration where an earlier process ended also holds that process's
+final evaluation of the mean policy: every run evaluates its last iteration).
 
 Bad input (unknown task or algorithm, impossible sizes, a run directory that exists, a resume of
 a missing or foreign directory, an unusable checkpoint) is reported as one ``error: ...`` line on
@@ -647,6 +648,9 @@ class _Callbacks:
         self.videos_enabled = self.run.video_every > 0
         self.samples = plan_.config.samples_per_iteration * len(self.run.seeds)
         self.primary = _primary()
+        self.eval_seconds = 0.0
+        self.evaluations = 0
+        self.overflow_noted = False
 
     def _wall(self, now: float) -> float:
         return self.wall_offset + (now - self.t_start)
@@ -658,20 +662,27 @@ class _Callbacks:
         last = first + n
         wall_times = [self._wall(self.t_last + duration * (i + 1) / n) for i in range(n)]
         self.t_last = now
-        self.block_times.append((n, duration))
+        # Evaluation ran between this block's training calls: keep it out of the training rate.
+        eval_s = float(np.max(np.sum(metrics["eval_seconds"], axis=0))) if "eval_seconds" in metrics else 0.0
+        self.eval_seconds += eval_s
+        self.evaluations += int(np.max(np.sum(metrics.get("evaluated", np.zeros(1)), axis=0)))
+        train_s = max(duration - eval_s, 1e-9)
+        self.block_times.append((n, train_s))
         self.writer.write(runlog.block_records(metrics, first, self.run.seeds, wall_times))
-        steps_per_s = self.samples * n / max(duration, 1e-9)
+        steps_per_s = self.samples * n / train_s
         self.progress.update(n, metrics, steps_per_s)
         self.pending.append(metrics)
         self.pending_steps += self.samples * n
-        self.pending_time += duration
+        self.pending_time += train_s
         self.last_iteration = last
         at_end = last >= self.run.iterations
+        self._note_overflow(metrics, first)
         if last % self.run.log_every == 0 or at_end:
             merged = {k: np.concatenate([m[k] for m in self.pending]) for k in self.pending[0]}
             rate = self.pending_steps / max(self.pending_time, 1e-9)
             note = " (incl. compile)" if self.first_block else ""
-            self.progress.write(runlog.summary_line(merged, last, self.run.iterations, rate, note))
+            line = runlog.summary_line(merged, last, self.run.iterations, rate, note, self.eta(last))
+            self.progress.write(line)
             self.pending, self.pending_steps, self.pending_time = [], 0, 0.0
             self.first_block = False
         if (self.run.checkpoint_every and last % self.run.checkpoint_every == 0) or at_end:
@@ -682,6 +693,35 @@ class _Callbacks:
             self.video(ts, last)
         # Host work (checkpoints, plots, videos) is left out of the next block's throughput.
         self.t_last = time.perf_counter()
+
+    def eta(self, last: int) -> float | None:
+        """Seconds left at the training rate measured after the first block (which compiles), plus
+        the evaluations still due at their measured cost; ``None`` until a block after the first."""
+        timed = self.block_times[1:]
+        iterations = sum(n for n, _ in timed)
+        if not iterations:
+            return None
+        left = self.run.iterations - last
+        per_eval = self.eval_seconds / self.evaluations if self.evaluations else 0.0
+        every = int(self.plan.config.eval_every) if getattr(self.plan.config, "eval_envs", 0) else 0
+        evals_left = (left // every if every else 0) + (1 if every else 0)
+        return left * sum(t for _, t in timed) / iterations + evals_left * per_eval
+
+    def _note_overflow(self, metrics: dict[str, np.ndarray], first: int) -> None:
+        """One line, the first time the physics reports an overflow (MuJoCo Warp's solver at its
+        iteration limit, or a full contact buffer); afterwards only the metric counts them."""
+        if self.overflow_noted or "physics_overflow" not in metrics:
+            return
+        counts = np.asarray(metrics["physics_overflow"]).reshape(len(metrics["physics_overflow"]), -1).sum(axis=1)
+        hits = np.flatnonzero(counts > 0)
+        if hits.size:
+            self.overflow_noted = True
+            row = int(hits[0])
+            self.progress.write(
+                f"note: the physics hit a solver or buffer limit in {counts[row]:.0f} of "
+                f"{self.samples:,} env steps of iteration {first + row + 1} (MuJoCo Warp overflow flags; "
+                "counted per iteration in metrics.jsonl as physics_overflow, not reported again)"
+            )
 
     def save(self, ts: Any, step: int, metrics: dict[str, np.ndarray]) -> None:
         last_metrics = {
@@ -799,12 +839,13 @@ def execute(plan_: Plan) -> int:
     else:
         ts = initial_state(plan_.module, plan_.env, plan_.config, run.seeds)
     ts = distinct_buffers(ts)
-    update = plan_.module.update
+    update, evaluate = plan_.module.update, train.evaluate_state
     mesh = distributed.env_mesh() if run.shard else None
     if mesh is not None:
         # The env batch splits over the mesh: sampling under shard_map, learning under jit's partitioner.
         ts = shard_state(ts, run.vmap_seeds, mesh)
         update = distributed.on_mesh(update, mesh)
+        evaluate = distributed.on_mesh(evaluate, mesh)
     if plan_.profile:
         with jax.set_mesh(mesh) if mesh is not None else contextlib.nullcontext():
             timings = run_profile(plan_, ts, _print)
@@ -834,7 +875,7 @@ def execute(plan_: Plan) -> int:
         segments.append(remaining - sum(segments))
     status = 0
     try:
-        for count in segments:
+        for index, count in enumerate(segments):
             ts = train.train(
                 update,
                 ts,
@@ -842,6 +883,8 @@ def execute(plan_: Plan) -> int:
                 block_size=min(block, count),
                 callbacks=[callbacks],
                 seeds=run.vmap_seeds,
+                evaluate=evaluate,
+                final_eval=index == len(segments) - 1,  # the run's last iteration is always evaluated
             )
     except KeyboardInterrupt:
         progress.close()
@@ -872,11 +915,18 @@ def _report_end(plan_: Plan, callbacks: _Callbacks) -> None:
     iters = sum(n for n, _ in timed)
     secs = sum(t for _, t in timed)
     total = sum(t for _, t in callbacks.block_times)
+    total += callbacks.eval_seconds
     if iters and secs > 0:
         rate = callbacks.samples * iters / secs
         _print(f"done in {total:.1f} s: {secs / iters:.3f} s per iteration, {rate:,.0f} env steps/s after compilation")
     else:
         _print(f"done in {total:.1f} s (including compilation)")
+    if callbacks.evaluations:
+        share = 100 * callbacks.eval_seconds / max(total, 1e-9)
+        _print(
+            f"evaluation: {callbacks.evaluations} of the mean policy ({run.config.get('eval_envs')} episodes each), "
+            f"{callbacks.eval_seconds:.1f} s ({share:.1f}% of the training loop's wall clock)"
+        )
     if plan_.profile and iters:
         seeds = f", {len(run.seeds)} seeds vmapped" if run.vmap_seeds else ""
         _print(f"fused update (scan of {run.block_size} iterations{seeds}): {secs / iters * 1e3:.2f} ms per iteration")

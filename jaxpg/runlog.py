@@ -91,9 +91,10 @@ class RunConfig:
     @property
     def block_size(self) -> int:
         """Iterations per compiled call: divides every host-side period, so that logging,
-        checkpoints and videos all fall on block boundaries."""
+        checkpoints, videos and evaluations all fall on block boundaries."""
         size = self.log_every
-        for every in (self.checkpoint_every, self.video_every):
+        eval_every = int(self.config.get("eval_every", 0)) if self.config.get("eval_envs", 0) else 0
+        for every in (self.checkpoint_every, self.video_every, eval_every):
             if every > 0:
                 size = math.gcd(size, every)
         return max(size, 1)
@@ -484,11 +485,27 @@ def _rate(x: float) -> str:
     return f"{x:.0f}"
 
 
+def _duration(seconds: float) -> str:
+    seconds = max(0, round(seconds))
+    return (
+        f"{seconds // 3600}:{seconds // 60 % 60:02d}:{seconds % 60:02d}"
+        if seconds >= 3600
+        else f"{seconds // 60}:{seconds % 60:02d}"
+    )
+
+
 def summary_line(
-    metrics: dict[str, np.ndarray], last_iteration: int, total: int, steps_per_s: float, note: str = ""
+    metrics: dict[str, np.ndarray],
+    last_iteration: int,
+    total: int,
+    steps_per_s: float,
+    note: str = "",
+    eta_s: float | None = None,
 ) -> str:
-    """One line about a logging block: progress, throughput, returns (mean over the block's
-    iterations; ``mean +- std`` over seeds) and the algorithm's main diagnostics."""
+    """One line about a logging block: progress, time left, throughput, returns (mean over the
+    block's iterations; ``mean +- std`` over seeds) and the algorithm's main diagnostics.
+
+    ``eta_s``: the estimated seconds left (``None``: not known yet, e.g. while compiling)."""
     several = np.ndim(next(iter(metrics.values()))) > 1
 
     def stat(key: str, digits: int = 4, spread: bool = True) -> str:
@@ -500,6 +517,8 @@ def summary_line(
 
     width = len(str(total))
     parts = [f"[{last_iteration:>{width}}/{total}]"]
+    if eta_s is not None and last_iteration < total:
+        parts.append(f"ETA {_duration(eta_s)}")
     if "env_steps" in metrics:
         steps = float(np.max(metrics["env_steps"]))
         parts.append(f"steps {steps:,.0f}")

@@ -1,15 +1,22 @@
-"""The training loop: many iterations per compiled call, host callbacks between calls.
+"""The training loop: many iterations per compiled call, evaluation and host callbacks between calls.
 
 ``update`` (from any ``jaxpg.algos`` module) is ``lax.scan``-ned over ``block_size`` iterations in
 one jitted program; after each block the host receives the block's metrics (``[block_size]``
 arrays, or ``[block_size, num_seeds]`` when training several seeds) and calls the callbacks
 (logging, checkpoints, progress bars). Several seeds train in one program by ``vmap``-ing ``init``
 and ``update`` (``init_seeds`` / ``seeds=True``).
+
+The mean policy is evaluated by a separate jitted function (``evaluate_state``) between compiled
+training calls, after every ``config.eval_every``-th iteration and after the last one, as Brax's
+evaluator runs between epochs: the training program never contains the evaluation rollout, so
+iterations that are not evaluated pay nothing for it. Its metrics (``EVAL_METRICS``) are NaN on
+the other iterations, and ``evaluated`` (1 or 0) says which iterations were evaluated.
 """
 
 from __future__ import annotations
 
 import functools
+import time
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -17,10 +24,16 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from jaxpg.algos import common
 from jaxpg.algos.common import TrainState
 
 UpdateFn = Callable[[TrainState], tuple[TrainState, dict[str, jax.Array]]]
 Callback = Callable[[TrainState, dict[str, np.ndarray], int], None]
+EvaluateFn = Callable[[TrainState], dict[str, jax.Array]]
+
+EVAL_METRICS = ("return_mean_policy", "episode_length_mean_policy", "eval_metric_mean_policy")
+# Folded into the training key to seed evaluations: they never consume or change training's draws.
+EVAL_STREAM = 0x65766C
 
 
 class TrainingDiverged(RuntimeError):
@@ -54,14 +67,62 @@ def _private_copy(tree: Any) -> Any:
     return jax.tree.map(jnp.copy, tree)
 
 
-def default_iterations_per_call(train_state: TrainState, block_size: int) -> int:
-    """1 for MuJoCo Warp tasks (see ``train``), else ``block_size``."""
-    return 1 if getattr(train_state.env.unwrapped, "impl", None) == "warp" else block_size
+def evaluate_state(train_state: TrainState) -> dict[str, jax.Array]:
+    """Mean-policy evaluation of ``train_state``: ``config.eval_envs`` fresh episodes of the mode
+    of the policy (``common.evaluate``), keyed by the training key folded with ``EVAL_STREAM``.
+
+    Returns ``[]`` scalars named as in ``EVAL_METRICS``. Pure and jittable; ``train`` runs it
+    between compiled training calls, never inside ``update``.
+    """
+    summary = common.evaluate(train_state, jax.random.fold_in(train_state.key, EVAL_STREAM))
+    return {
+        "return_mean_policy": summary["episode_return"],
+        "episode_length_mean_policy": summary["episode_length"],
+        "eval_metric_mean_policy": summary["episode_eval_metric"],
+    }
+
+
+@functools.lru_cache(maxsize=32)
+def compiled_evaluate(evaluate: EvaluateFn, seeds: bool) -> Callable:
+    """The jitted ``evaluate`` (``vmap``-ed over the leading seed axis with ``seeds``)."""
+    return jax.jit(jax.vmap(evaluate) if seeds else evaluate)
 
 
 def _chunk_sizes(total: int, per_call: int) -> list[int]:
     """``total`` iterations as calls of ``per_call`` (the last one shorter)."""
     return [min(per_call, total - start) for start in range(0, total, per_call)]
+
+
+def _calls(first: int, n: int, per_call: int, eval_every: int) -> list[int]:
+    """Sizes of the compiled calls for iterations ``first + 1 .. first + n``: at most
+    ``per_call`` each, and ending at every multiple of ``eval_every`` (0: no evaluation)."""
+    sizes: list[int] = []
+    done = first
+    while done < first + n:
+        stop = first + n
+        if eval_every > 0:
+            stop = min(stop, (done // eval_every + 1) * eval_every)
+        sizes.extend(_chunk_sizes(stop - done, per_call))
+        done = stop
+    return sizes
+
+
+def _with_evaluations(metrics: dict[str, np.ndarray], evaluations: dict[int, tuple[dict, float]]) -> dict:
+    """Add the ``EVAL_METRICS`` columns (NaN where not evaluated), ``evaluated`` (1 / 0) and
+    ``eval_seconds`` (host wall time of the evaluation, 0 elsewhere) to a block's metrics;
+    ``evaluations`` maps a row index to ``(evaluation metrics, seconds)``."""
+    shape = next(iter(metrics.values())).shape
+    out = dict(metrics)
+    out["evaluated"] = np.zeros(shape, np.float32)
+    out["eval_seconds"] = np.zeros(shape, np.float32)
+    for name in EVAL_METRICS:
+        out[name] = np.full(shape, np.nan, np.float32)
+    for row, (values, seconds) in evaluations.items():
+        out["evaluated"][row] = 1.0
+        out["eval_seconds"][row] = seconds
+        for name in EVAL_METRICS:
+            out[name][row] = np.asarray(values[name])
+    return out
 
 
 def train(
@@ -73,6 +134,9 @@ def train(
     seeds: bool = False,
     max_consecutive_failures: int = 10,
     iterations_per_call: int | None = None,
+    evaluate: EvaluateFn | None = evaluate_state,
+    eval_every: int | None = None,
+    final_eval: bool = True,
 ) -> TrainState:
     """Run ``num_iterations`` more iterations from ``train_state``.
 
@@ -80,32 +144,50 @@ def train(
       update: an algorithm's ``update``.
       train_state: from the algorithm's ``init`` (or ``init_seeds`` with ``seeds=True``).
       num_iterations: how many iterations to run; the last block may be shorter (one extra compile).
-      block_size: iterations per compiled call, i.e. how often the host sees metrics.
+      block_size: iterations per block, i.e. how often the host sees metrics.
       callbacks: ``callback(train_state, metrics, first_iteration)`` after each block, where
         ``metrics`` maps names to NumPy arrays ``[n]`` (``[n, num_seeds]`` with seeds) and
         ``first_iteration`` is the 0-based index of the block's first iteration.
       seeds: ``train_state`` has a leading seed axis.
       max_consecutive_failures: raise ``TrainingDiverged`` once this many updates in a row were
         rejected as non-finite.
-      iterations_per_call: iterations fused into one compiled ``lax.scan`` inside a block. By
-        default the whole block, except with MuJoCo Warp (``impl="warp"``), where the scan over
-        iterations runs 4-16x slower than one iteration per call on an H100
-        (BENCHMARKS.md), so the default there is 1; the block's metrics are the same either way.
+      iterations_per_call: iterations fused into one compiled ``lax.scan`` (default: the whole
+        block). The block's metrics are the same either way.
+      evaluate: the evaluation run between calls (default ``evaluate_state``; ``None``: none). Wrap
+        it like ``update`` (e.g. ``jaxpg.distributed.on_mesh``) when training on a mesh.
+      eval_every: evaluate after every iteration whose 1-based count is a multiple of this
+        (default: ``config.eval_every``; evaluation is off when ``config.eval_envs`` is 0).
+      final_eval: also evaluate after the last of the ``num_iterations``.
     Returns the final ``TrainState``.
     """
+    config = train_state.config
+    if evaluate is None or getattr(config, "eval_envs", 0) == 0:
+        eval_every, final_eval = 0, False
+    elif eval_every is None:
+        eval_every = config.eval_every
     # Donation needs every leaf in its own buffer (states built eagerly can alias, e.g. an
     # observation stored twice), and a jitted copy also commits the leaves to their device the way
     # the block's outputs are, so the second block reuses the first block's compilation.
     train_state = _private_copy(train_state)
+    start = int(np.max(jax.device_get(train_state.iteration)))
     done = 0
     while done < num_iterations:
         n = min(block_size, num_iterations - done)
-        first = int(np.max(jax.device_get(train_state.iteration)))
-        chunks = []
-        for size in _chunk_sizes(n, iterations_per_call or default_iterations_per_call(train_state, block_size)):
+        first = start + done
+        chunks, evaluations, position = [], {}, first
+        for size in _calls(first, n, iterations_per_call or block_size, eval_every):
             train_state, chunk = compiled_block(update, size, seeds)(train_state)
             chunks.append(chunk)
+            position += size
+            is_last = done + n == num_iterations and position == first + n
+            if (eval_every and position % eval_every == 0) or (final_eval and is_last):
+                jax.block_until_ready(train_state)  # time the evaluation alone, not the training queued before it
+                t0 = time.perf_counter()
+                values = jax.device_get(compiled_evaluate(evaluate, seeds)(train_state))
+                evaluations[position - first - 1] = (values, time.perf_counter() - t0)
         metrics = jax.tree.map(lambda *xs: np.concatenate([np.asarray(x) for x in xs]), *jax.device_get(chunks))
+        if evaluate is not None:
+            metrics = _with_evaluations(metrics, evaluations)
         for callback in callbacks:
             callback(train_state, metrics, first)
         failures = int(np.max(jax.device_get(train_state.failures)))

@@ -253,7 +253,8 @@ def test_multi_seed_training_matches_single_seeds(cartpole, module):
     for i, seed in enumerate(seeds):
         alone = block_metrics(module, module.init(jax.random.PRNGKey(seed), cartpole, config), 2)
         for name, value in alone.items():
-            np.testing.assert_allclose(together[name][:, i], value, rtol=1e-4, atol=1e-5, err_msg=name)
+            if name != "eval_seconds":  # host wall time
+                np.testing.assert_allclose(together[name][:, i], value, rtol=1e-4, atol=1e-5, err_msg=name)
 
 
 def train_until(module, ts, max_iterations, block_size, solved):
@@ -317,8 +318,8 @@ def test_vpg_improves_inverted_pendulum():
     maximum 1000 and stops at the first perfect one."""
     env = envs.make("inverted_pendulum")
     ts = vpg.init(jax.random.PRNGKey(0), env, PENDULUM)
+    initial = float(jax.jit(train_lib.evaluate_state)(ts)["return_mean_policy"])
     iterations, metrics, wall = train_until(vpg, ts, 80, 5, lambda m: np.nanmax(m["return_mean_policy"]) >= 1000)
-    initial = metrics["return_mean_policy"][0]
     best = np.nanmax(metrics["return_mean_policy"])
     print(
         f"VPG inverted_pendulum: mean-policy return {initial:.0f} -> {best:.0f}, {iterations} iterations, {wall:.0f} s"

@@ -9,7 +9,7 @@
   3. one gradient step on ``-E[A log pi(a|s)] + value_coef * E[(V(s) - R)^2]
      - entropy_coef * E[H(pi(.|s))]`` with RMSprop (the paper's choice) or Adam, after clipping
      the global gradient norm; policy and value share the optimizer (``ppo.gradient_step``);
-  4. reject non-finite updates, update observation statistics, evaluate (``npg.finish_iteration``).
+  4. reject non-finite updates, update observation statistics (``npg.finish_iteration``).
 
 It works with every policy ``common.make_networks`` builds: categorical on a discrete task
 (``cartpole``), Gaussian on a continuous one (``inverted_pendulum``).
@@ -125,4 +125,4 @@ def update(ts: TrainState) -> tuple[TrainState, dict[str, jax.Array]]:
         "grad_norm": diagnostics["grad_norm"],
         "loss": diagnostics["loss"],
     }
-    return npg.finish_iteration(old, ts, traj, key, diagnostics["loss"], metrics)
+    return npg.finish_iteration(old, ts, traj, diagnostics["loss"], metrics)

@@ -41,8 +41,9 @@ class BaseConfig:
     iteration holds ``num_envs * horizon`` samples. ``sampling="continuing"`` carries the env
     state across iterations with automatic resets (Brax / PureJaxRL); ``"episodic"`` resets all
     envs every iteration and masks steps after each episode's end (LyceumAI / mjrl).
-    Evaluation: every ``eval_every`` iterations, ``eval_envs`` episodes of the mean (mode) policy
-    of up to ``eval_horizon`` steps (0: the env's limit); ``eval_envs=0`` turns it off.
+    Evaluation (``jaxpg.train``, between compiled training calls, never inside ``update``): after
+    every ``eval_every``-th iteration and after the last one, ``eval_envs`` episodes of the mean
+    (mode) policy of up to ``eval_horizon`` steps (0: the env's limit); ``eval_envs=0`` turns it off.
     """
 
     num_envs: int = 64
@@ -58,7 +59,7 @@ class BaseConfig:
     value_hidden: tuple[int, ...] = (64, 64)
     value_activation: str = "tanh"
     eval_envs: int = 8
-    eval_every: int = 1
+    eval_every: int = 10
     eval_horizon: int = 0
 
     @property
@@ -372,35 +373,22 @@ def evaluate(ts: TrainState, key: jax.Array, deterministic: bool = True) -> dict
     }
 
 
-def maybe_evaluate(ts: TrainState, key: jax.Array) -> dict[str, jax.Array]:
-    """``evaluate`` on the iterations ``eval_every`` selects (NaN metrics on the others)."""
-    config = ts.config
-    nan = jnp.full((), jnp.nan)
-    skipped = {
-        "episode_return": nan,
-        "episode_length": nan,
-        "episode_eval_metric": nan,
-        "episodes": jnp.zeros(()),
-    }
-    if config.eval_envs == 0:
-        return skipped
-    if config.eval_every == 1:
-        return evaluate(ts, key)
-    return jax.lax.cond(ts.iteration % config.eval_every == 0, lambda: evaluate(ts, key), lambda: skipped)
+def sampling_metrics(ts: TrainState, traj: rollout_lib.Trajectory) -> dict[str, jax.Array]:
+    """The metrics every algorithm reports about its samples (the episodes that ended in them).
 
-
-def sampling_metrics(ts: TrainState, traj: rollout_lib.Trajectory, eval_summary: dict) -> dict[str, jax.Array]:
-    """The metrics every algorithm reports about its samples and its evaluation."""
+    ``physics_overflow`` counts the env steps whose physics solve hit a capacity or iteration
+    limit (MuJoCo Warp reports these; always 0 with MJX's JAX implementation).
+    """
     summary = rollout_lib.episode_summary(traj)
+    overflow = traj.metrics.get("physics_overflow", jnp.zeros_like(traj.rewards))
     return {
         "env_steps": (ts.iteration + 1).astype(jnp.float32) * ts.config.samples_per_iteration,
         "return_stochastic": summary["episode_return"],
-        "return_mean_policy": eval_summary["episode_return"],
         "episode_length": summary["episode_length"],
         "eval_metric": summary["episode_eval_metric"],
-        "eval_metric_mean_policy": eval_summary["episode_eval_metric"],
         "episodes": summary["episodes"],
         "nonfinite": jnp.sum(traj.metrics["nonfinite"] * traj.valid),
+        "physics_overflow": jnp.sum(overflow * traj.valid),
         "mean_reward": weighted_mean(traj.rewards, traj.valid),
     }
 

@@ -83,6 +83,25 @@ PRESETS: dict[str, dict[str, Any]] = {
         value_hidden=(64, 64),
         value_batch_size=512,
     ),
+    # Hopper from the command line (the defaults of experiments/hopper.py): 256 envs x 64 steps,
+    # 120 iterations (1.97 M env steps). Chosen by benchmarks/hopper_sweep.py on one H100 over
+    # three seeds (BENCHMARKS.md): a normalised step of 0.07 and 10 value epochs per iteration
+    # took every seed's mean policy past 3000 by 1.97 M steps there; 0.05 with 3 epochs took
+    # 2.5-2.9 M. Not every run gets there: some stay in the "one dive forward" local optimum
+    # (return ~235). The mean policy is evaluated after the last iteration (and every 120):
+    # one evaluation (1000 sequential steps, ~1.8 s on an H100) is ~4% of a warm run.
+    "hopper": dict(
+        num_envs=256,
+        horizon=64,
+        step_size=0.07,
+        normalize_observations=True,
+        log_std_init=-0.5,
+        value_hidden=(128, 128),
+        value_epochs=10,
+        value_batch_size=1024,
+        eval_envs=16,
+        eval_every=120,
+    ),
     # Hopper on one GPU (BENCHMARKS.md: mean-policy return 3000 in a median 46 s on an H200).
     "hopper_gpu": dict(
         num_envs=8192,
@@ -245,16 +264,19 @@ def phase_value_fit(ts: TrainState, batch: Batch, key: jax.Array) -> tuple[Train
 
 
 def finish_iteration(
-    old: TrainState, ts: TrainState, traj: Trajectory, eval_key: jax.Array, loss: jax.Array, metrics: dict
+    old: TrainState, ts: TrainState, traj: Trajectory, loss: jax.Array, metrics: dict
 ) -> tuple[TrainState, dict[str, jax.Array]]:
     """Common end of an iteration: reject non-finite updates, update observation statistics,
-    evaluate the mean policy, count the iteration, and assemble the metrics."""
+    count the iteration, and assemble the metrics.
+
+    The mean policy is not evaluated here: evaluation runs between compiled training calls
+    (``jaxpg.train.evaluator``), so that it costs nothing on the iterations it skips.
+    """
     ts, rejected = common.accept_if_finite(old, ts, loss)
     if ts.config.normalize_observations:
         ts = ts.replace(obs_stats=ts.obs_stats.update(traj.obs, traj.valid))
-    eval_summary = common.maybe_evaluate(ts, eval_key)
     all_metrics = {
-        **common.sampling_metrics(old, traj, eval_summary),
+        **common.sampling_metrics(old, traj),
         **metrics,
         "update_rejected": rejected,
         "consecutive_failures": ts.failures.astype(jnp.float32),
@@ -266,7 +288,7 @@ def update(ts: TrainState) -> tuple[TrainState, dict[str, jax.Array]]:
     """One NPG iteration (module docstring); pure, jittable, vmappable over seeds."""
     old = ts
     ts, traj, key = phase_sample(ts)
-    value_key, eval_key = jax.random.split(key)
+    value_key, _ = jax.random.split(key)
     batch = phase_advantages(ts, traj)
     grad = phase_gradient(ts, batch)
     cg = phase_natural_gradient(ts, batch, grad)
@@ -285,7 +307,7 @@ def update(ts: TrainState) -> tuple[TrainState, dict[str, jax.Array]]:
         "grad_norm": jnp.linalg.norm(grad),
         "value_loss": value_loss,
     }
-    return finish_iteration(old, ts, traj, eval_key, value_loss + kl, metrics)
+    return finish_iteration(old, ts, traj, value_loss + kl, metrics)
 
 
 def profile_phases(ts: TrainState) -> tuple[TrainState, dict[str, float]]:

@@ -14,7 +14,7 @@ One iteration:
      where ``L_V`` is the mean squared error to the value targets (optionally clipped around the
      old predictions), and one optax optimizer (gradient clipping, then Adam) updates policy and
      value parameters together;
-  4. reject the update if anything became non-finite, update observation statistics, evaluate
+  4. reject the update if anything became non-finite, update observation statistics
      (``npg.finish_iteration``).
 
 Both scans (epochs, minibatches) run inside ``jit``. The optimizer state covers
@@ -350,7 +350,7 @@ def update(ts: TrainState) -> tuple[TrainState, dict[str, jax.Array]]:
     """One PPO iteration (module docstring); pure, jittable, vmappable over seeds."""
     old = ts
     ts, traj, key = npg.phase_sample(ts)
-    epochs_key, eval_key = jax.random.split(key)
+    epochs_key, _ = jax.random.split(key)
     batch = phase_advantages(ts, traj)
     ts, diagnostics = phase_epochs(ts, batch, epochs_key)
     metrics = {
@@ -359,4 +359,4 @@ def update(ts: TrainState) -> tuple[TrainState, dict[str, jax.Array]]:
         "kl": npg.mean_kl(ts, old.params, ts.params, batch),
         "learning_rate": learning_rate(ts.config, old.iteration),
     }
-    return npg.finish_iteration(old, ts, traj, eval_key, diagnostics["loss"], metrics)
+    return npg.finish_iteration(old, ts, traj, diagnostics["loss"], metrics)

@@ -14,7 +14,7 @@ One iteration:
 
      the means taken over the valid samples of the batch (Williams' eq. for the episodic case,
      with the batch mean in place of a sum over one episode: with Adam the scale does not matter);
-  4. reject non-finite updates, update observation statistics, evaluate (``npg.finish_iteration``).
+  4. reject non-finite updates, update observation statistics (``npg.finish_iteration``).
 
 No value function is learned: ``TrainState.value_params`` is ``{}``. The returns of an episode
 cut by ``horizon`` (or, in continuing sampling, by the end of the batch) are those of the part
@@ -190,8 +190,8 @@ def policy_step(ts: TrainState, batch: npg.Batch) -> tuple[TrainState, dict[str,
 def update(ts: TrainState) -> tuple[TrainState, dict[str, jax.Array]]:
     """One REINFORCE iteration (module docstring); pure, jittable, vmappable over seeds."""
     old = ts
-    ts, traj, eval_key = npg.phase_sample(ts)
+    ts, traj, _ = npg.phase_sample(ts)
     batch = phase_returns(ts, traj)
     ts, diagnostics = policy_step(ts, batch)
     metrics = {**diagnostics, "kl": npg.mean_kl(ts, old.params, ts.params, batch)}
-    return npg.finish_iteration(old, ts, traj, eval_key, diagnostics["loss"], metrics)
+    return npg.finish_iteration(old, ts, traj, diagnostics["loss"], metrics)

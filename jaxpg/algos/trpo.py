@@ -82,7 +82,7 @@ def update(ts: TrainState) -> tuple[TrainState, dict[str, jax.Array]]:
     """One TRPO iteration: NPG phases, then the line search instead of the fixed normalised step."""
     old = ts
     ts, traj, key = npg.phase_sample(ts)
-    value_key, eval_key = jax.random.split(key)
+    value_key, _ = jax.random.split(key)
     batch = npg.phase_advantages(ts, traj)
     grad = npg.phase_gradient(ts, batch)
     cg = npg.phase_natural_gradient(ts, batch, grad)
@@ -97,4 +97,4 @@ def update(ts: TrainState) -> tuple[TrainState, dict[str, jax.Array]]:
         "grad_norm": jnp.linalg.norm(grad),
         "value_loss": value_loss,
     }
-    return npg.finish_iteration(old, ts, traj, eval_key, value_loss + search["kl"], metrics)
+    return npg.finish_iteration(old, ts, traj, value_loss + search["kl"], metrics)

@@ -11,7 +11,7 @@ One iteration:
   5. fit the baseline to the normalised returns ``G^_t`` by ``value_epochs`` passes of minibatch
      Adam on the mean squared error (by default one full-batch step, our reading of the seed's
      one Lightning step per epoch on the whole data set);
-  6. reject non-finite updates, update observation statistics, evaluate (``npg.finish_iteration``).
+  6. reject non-finite updates, update observation statistics (``npg.finish_iteration``).
 
 Fitting the baseline to *normalised* returns keeps its targets on one scale while the policy
 improves and the raw returns grow by orders of magnitude (1 to 1000 on the inverted pendulum), so
@@ -135,7 +135,7 @@ def update(ts: TrainState) -> tuple[TrainState, dict[str, jax.Array]]:
     """One VPG iteration (module docstring); pure, jittable, vmappable over seeds."""
     old = ts
     ts, traj, key = npg.phase_sample(ts)
-    value_key, eval_key = jax.random.split(key)
+    value_key, _ = jax.random.split(key)
     batch = phase_advantages(ts, reinforce.phase_returns(ts, traj))
     ts, diagnostics = reinforce.policy_step(ts, batch)
     ts, value_loss = phase_value_fit(ts, batch, value_key)
@@ -144,4 +144,4 @@ def update(ts: TrainState) -> tuple[TrainState, dict[str, jax.Array]]:
         "value_loss": value_loss,
         "kl": npg.mean_kl(ts, old.params, ts.params, batch),
     }
-    return npg.finish_iteration(old, ts, traj, eval_key, diagnostics["loss"] + value_loss, metrics)
+    return npg.finish_iteration(old, ts, traj, diagnostics["loss"] + value_loss, metrics)

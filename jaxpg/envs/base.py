@@ -32,7 +32,8 @@ class State:
       reward: ``[]`` float32 reward of the step that led here (0 after ``reset``).
       terminated: ``[]`` bool, the task ended (no bootstrapping past it).
       truncated: ``[]`` bool, the time limit ended the episode (bootstrap from ``obs``).
-      metrics: per-step scalars (reward terms, ``eval_metric``, ``nonfinite``); same keys always.
+      metrics: per-step scalars (reward terms, ``eval_metric``, ``nonfinite``, ``physics_overflow``);
+        same keys always.
       info: bookkeeping that wrappers thread through: ``step`` (int32 step count in the episode),
         ``rng`` (key for the next reset) and whatever wrappers add.
     """
@@ -91,11 +92,17 @@ class Env(abc.ABC):
         leaves = [jnp.all(jnp.isfinite(x)) for x in jax.tree.leaves(data) if jnp.issubdtype(x.dtype, jnp.floating)]
         return jnp.all(jnp.stack(leaves)) if leaves else jnp.array(True)
 
+    def _physics_overflow(self, data: Any) -> jax.Array:
+        """``[]`` float32: 1 when the simulator hit one of its limits in the last step (MuJoCo
+        Warp's solver iterations or buffers); pure-JAX tasks never do."""
+        del data
+        return jnp.zeros((), jnp.float32)
+
     def reset(self, key: jax.Array) -> State:
         """Start an episode. ``key``: a PRNG key; returns the initial ``State`` (reward 0)."""
         key, reset_key = jax.random.split(key)
         data, obs, metrics = self._reset(reset_key)
-        metrics = {**metrics, "nonfinite": jnp.zeros((), jnp.float32)}
+        metrics = {**metrics, "nonfinite": jnp.zeros((), jnp.float32), "physics_overflow": jnp.zeros((), jnp.float32)}
         info = {"step": jnp.zeros((), jnp.int32), "rng": key}
         return State(
             data=data,
@@ -121,7 +128,11 @@ class Env(abc.ABC):
         terminated = jnp.logical_or(terminated, ~finite)
         steps = state.info["step"] + 1
         truncated = jnp.logical_and(steps >= self.max_episode_steps, ~terminated)
-        metrics = {**metrics, "nonfinite": (~finite).astype(jnp.float32)}
+        metrics = {
+            **metrics,
+            "nonfinite": (~finite).astype(jnp.float32),
+            "physics_overflow": self._physics_overflow(data),
+        }
         return state.replace(
             data=data,
             obs=obs,

@@ -2,15 +2,16 @@
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import importlib.util
+import io
 from pathlib import Path
 from typing import Any, Literal
 
 import jax
 import jax.numpy as jnp
 import mujoco
-from mujoco import mjx
 
 from jaxpg.envs.base import Env
 
@@ -29,6 +30,26 @@ FAST_LS_ITERATIONS = 8
 def warp_available() -> bool:
     """True when the ``warp-lang`` package (MuJoCo Warp's runtime) can be imported."""
     return importlib.util.find_spec("warp") is not None
+
+
+def _import_mjx() -> Any:
+    """``mujoco.mjx``, imported quietly: without warp-lang MJX prints "Failed to import warp" on
+    import (the JAX implementation works regardless), and with it Warp prints a banner and a line
+    per compiled module unless ``warp.config.quiet`` is set."""
+    if warp_available():
+        import warp
+
+        warp.config.quiet = True  # warp-lang 1.18
+        if hasattr(warp, "LOG_WARNING"):
+            warp.config.log_level = warp.LOG_WARNING  # warp-lang 1.19 replaced ``quiet`` by a log level
+        from mujoco import mjx
+    else:
+        with contextlib.redirect_stdout(io.StringIO()):
+            from mujoco import mjx
+    return mjx
+
+
+mjx = _import_mjx()
 
 
 def default_impl() -> Impl:
@@ -105,6 +126,10 @@ class MjxEnv(Env):
 
             put_kwargs["graph_mode"] = getattr(warp.JaxCallableGraphMode, warp_graph_mode.upper())
         self.mjx_model = mjx.put_model(self.mj_model, impl=impl, **put_kwargs)
+        if impl == "warp":
+            # Overflows are counted in metrics["physics_overflow"], not printed by every kernel.
+            opt = self.mjx_model.opt
+            self.mjx_model = self.mjx_model.replace(opt=opt.replace(_impl=opt._impl.replace(warn_overflow=0)))
         # naconmax is per batch in MJX's warp Data (see `max_batch`), njmax per env.
         make_kwargs: dict[str, Any] = {}
         if impl == "warp":
@@ -127,9 +152,22 @@ class MjxEnv(Env):
         return data
 
     def physics_step(self, data: Any, ctrl: jax.Array) -> Any:
-        """Set ``ctrl [nu]`` and run ``frame_skip`` MJX steps."""
+        """Set ``ctrl [nu]`` and run ``frame_skip`` MJX steps.
+
+        With MuJoCo Warp the overflow flags (solver iteration limit, contact or constraint
+        capacity) are cleared first, so that ``_physics_overflow`` reports this env step alone.
+        """
         data = data.replace(ctrl=ctrl.astype(data.ctrl.dtype))
+        if self.impl == "warp":
+            data = data.replace(_impl=data._impl.replace(overflow=jnp.zeros_like(data._impl.overflow)))
         return jax.lax.fori_loop(0, self.frame_skip, lambda _, d: mjx.step(self.mjx_model, d), data)
+
+    def _physics_overflow(self, data: Any) -> jax.Array:
+        """``[]`` float32: 1 when MuJoCo Warp flagged an overflow in the last ``physics_step`` (its
+        Newton solver stopped at the iteration limit, or a contact/constraint buffer was full)."""
+        if self.impl != "warp":
+            return jnp.zeros((), jnp.float32)
+        return jnp.any(data._impl.overflow != 0).astype(jnp.float32)
 
     def _physics_finite(self, data: Any) -> jax.Array:
         return jnp.all(jnp.isfinite(data.qpos)) & jnp.all(jnp.isfinite(data.qvel))

@@ -1,0 +1,99 @@
+"""The training loop: evaluation runs between compiled calls, scans equal single calls, and the
+Hopper command line's defaults hold for every batch size it accepts."""
+
+from __future__ import annotations
+
+import dataclasses
+import importlib.util
+from pathlib import Path
+
+import jax
+import numpy as np
+import pytest
+
+import jaxpg.envs as envs
+from jaxpg import cli
+from jaxpg import train as train_lib
+from jaxpg.algos import npg
+
+ROOT = Path(__file__).resolve().parent.parent
+CONFIG = npg.Config(num_envs=8, horizon=16, eval_envs=2, eval_every=3, eval_horizon=20, value_batch_size=32)
+TRAINING_KEYS = ("return_stochastic", "kl", "value_loss", "grad_norm", "step_size", "env_steps", "entropy")
+
+
+@pytest.fixture(scope="module")
+def cartpole():
+    return envs.make("cartpole")
+
+
+@pytest.fixture(scope="module")
+def state(cartpole):
+    return npg.init(jax.random.PRNGKey(0), cartpole, CONFIG)
+
+
+def run(state, iterations, **kwargs):
+    rows = []
+    final = train_lib.train(npg.update, state, iterations, callbacks=[lambda ts, m, first: rows.append(m)], **kwargs)
+    return final, {k: np.concatenate([m[k] for m in rows]) for k in rows[0]}
+
+
+def test_evaluation_is_not_compiled_into_update(state):
+    """The update's program is the same whatever the evaluation settings: nothing of the
+    evaluation rollout is traced into it, and it reports no mean-policy metrics."""
+    no_eval = state.replace(config=dataclasses.replace(CONFIG, eval_envs=0, eval_every=1))
+    assert str(jax.make_jaxpr(npg.update)(state)) == str(jax.make_jaxpr(npg.update)(no_eval))
+    _, metrics = jax.jit(npg.update)(state)
+    assert not set(train_lib.EVAL_METRICS) & set(metrics)
+
+
+def test_train_evaluates_between_calls_at_its_cadence_and_at_the_end(state):
+    final, metrics = run(state, 7, block_size=7)
+    np.testing.assert_array_equal(np.flatnonzero(metrics["evaluated"]) + 1, [3, 6, 7])
+    evaluated = ~np.isnan(metrics["return_mean_policy"])
+    np.testing.assert_array_equal(evaluated, metrics["evaluated"] == 1)
+    assert np.all(metrics["eval_seconds"][evaluated] > 0) and np.all(metrics["eval_seconds"][~evaluated] == 0)
+
+    # Evaluating changes nothing in training: the same run without evaluation has the same metrics.
+    _, plain = run(state, 7, block_size=7, evaluate=None)
+    for key in TRAINING_KEYS:
+        np.testing.assert_array_equal(metrics[key], plain[key], err_msg=key)
+    assert "evaluated" not in plain
+
+    # The logged evaluation is evaluate_state of the state after that iteration.
+    after_three, _ = run(state, 3, block_size=3, evaluate=None)
+    direct = jax.jit(train_lib.evaluate_state)(after_three)
+    assert float(direct["return_mean_policy"]) == metrics["return_mean_policy"][2]
+    assert int(final.iteration) == 7
+
+    _, no_final = run(state, 4, block_size=4, final_eval=False)
+    np.testing.assert_array_equal(np.flatnonzero(no_final["evaluated"]) + 1, [3])
+
+
+def test_scan_of_k_iterations_gives_the_metrics_of_k_single_calls(state):
+    scanned, fused = run(state, 4, block_size=4, evaluate=None)
+    single, one_by_one = run(state, 4, block_size=4, iterations_per_call=1, evaluate=None)
+    for key in fused:
+        np.testing.assert_allclose(fused[key], one_by_one[key], rtol=1e-5, atol=1e-6, err_msg=key)
+    for a, b in zip(jax.tree.leaves(scanned.params), jax.tree.leaves(single.params), strict=True):
+        np.testing.assert_allclose(a, b, rtol=1e-5, atol=1e-6)
+
+
+def _hopper_experiment():
+    spec = importlib.util.spec_from_file_location("hopper_experiment", ROOT / "experiments" / "hopper.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module.EXPERIMENT
+
+
+@pytest.mark.parametrize("num_envs", [64, 256, 1024, 4096, 65536])
+def test_hopper_command_line_defaults_hold_from_64_to_65536_envs(num_envs, tmp_path):
+    experiment = _hopper_experiment()
+    plan = cli.plan(["--num-envs", str(num_envs), "--run-dir", str(tmp_path / "run")], experiment)
+    config = plan.config
+    assert (plan.run.algo, config.num_envs, plan.run.iterations) == ("npg", num_envs, 120)
+    assert config.value_batch_size <= config.samples_per_iteration
+    assert config.normalize_observations and config.step_size == npg.PRESETS["hopper"]["step_size"]
+    # Evaluation costs little: a handful of evaluations, on block boundaries.
+    assert plan.run.iterations // config.eval_every <= 2
+    assert config.eval_every % plan.run.block_size == 0
+    assert not (tmp_path / "run").exists()  # planning writes nothing

@@ -36,7 +36,9 @@ import datetime
 import functools
 import importlib
 import json
+import os
 import shutil
+import signal
 import sys
 import time
 import typing
@@ -147,7 +149,10 @@ def add_config_flags(parser: argparse.ArgumentParser, config_cls: type, defaults
     given): ints, floats, strings, ``T | None`` (``none``), tuples (``nargs='*'``) and booleans
     (``--x/--no-x``). Help shows the effective default."""
     group = parser.add_argument_group(title)
+    unused = getattr(config_cls, "UNUSED_FIELDS", ())
     for name, tp in runlog.field_types(config_cls).items():
+        if name in unused:  # the algorithm ignores it: no flag, so that passing it is an error
+            continue
         if name in RUN_FLAGS:
             raise TypeError(f"{config_cls.__module__}.Config.{name} clashes with a command-line flag")
         base, optional = runlog.strip_optional(tp)
@@ -327,6 +332,8 @@ class Plan:
     start: int = 0
     state: Any = None
     overwrite: bool = False
+    replaced: Path | None = None  # the old run that --overwrite moved aside
+    created: bool = False  # this run created its directory
     profile: bool = False
     progress: bool | None = None
     command: list[str] = dataclasses.field(default_factory=list)
@@ -383,6 +390,7 @@ def _check_fresh_run_dir(run_dir: Path, overwrite: bool) -> None:
         )
     if not (run_dir / runlog.CONFIG_FILE).is_file():
         raise UsageError(f"refusing to --overwrite {str(run_dir)!r}: it is not a jaxpg run directory (no config.json)")
+    runlog.check_unlocked(run_dir)
 
 
 def _device_count() -> int:
@@ -427,6 +435,8 @@ def plan_fresh(args: argparse.Namespace, experiment: Experiment, module: Any, al
     for key in ("fidelity", "impl", "max_episode_steps"):
         if getattr(args, key) is not None:
             env_kwargs[key] = getattr(args, key)
+    if args.max_episode_steps is not None and args.max_episode_steps < 1:
+        raise UsageError(f"--max-episode-steps must be >= 1, got {args.max_episode_steps}")
     num_seeds = len(args.seeds) if args.seeds else 1
     shard = _check_sharding(config, args.shard)
     # With the batch split, each device steps (and MuJoCo Warp buffers contacts for) its own share.
@@ -487,10 +497,19 @@ def plan_resume(args: argparse.Namespace, run: RunConfig, run_dir: Path) -> Plan
     if run.log_every < 1:
         raise UsageError(f"--log-every must be >= 1, got {run.log_every}")
     run.shard = _check_sharding(config, args.shard if args.shard is not None else (run.shard or None))
+    runlog.check_unlocked(run_dir)
     checkpoints = ckpt_lib.Checkpointer(run_dir / runlog.CHECKPOINT_DIR, keep=None)
     step = checkpoints.latest_step()
     if step is None:
         raise UsageError(f"cannot resume {str(run_dir)!r}: it has no checkpoint yet")
+    metrics_path = run_dir / runlog.METRICS_FILE
+    logged = max((int(r.get("iteration", 0)) for r in runlog.read_metrics(metrics_path)), default=0)
+    if logged < step:
+        state = "is missing" if not metrics_path.exists() else f"ends at iteration {logged}"
+        raise UsageError(
+            f"cannot resume {str(run_dir)!r}: its metrics.jsonl {state} but its checkpoint is at iteration "
+            f"{step}; restore metrics.jsonl or start a new run"
+        )
     target = policy_io.abstract_train_state(run, env)
     state = checkpoints.restore(target, step, expect=policy_io.checkpoint_expectations(run))
     checkpoints.close()
@@ -633,6 +652,7 @@ class _Callbacks:
         writer: runlog.MetricsWriter,
         progress: runlog.Progress,
         wall_offset: float,
+        interrupts: Any = None,
     ):
         self.plan, self.run = plan_, plan_.run
         self.checkpoints, self.writer, self.progress = checkpoints, writer, progress
@@ -651,11 +671,14 @@ class _Callbacks:
         self.eval_seconds = 0.0
         self.evaluations = 0
         self.overflow_noted = False
+        self.interrupts = interrupts
 
     def _wall(self, now: float) -> float:
         return self.wall_offset + (now - self.t_start)
 
     def __call__(self, ts: Any, metrics: dict[str, np.ndarray], first: int) -> None:
+        if self.interrupts is not None:
+            self.interrupts.graceful = True  # a call has finished: from now on interrupts checkpoint first
         now = time.perf_counter()
         duration = now - self.t_last
         n = len(next(iter(metrics.values())))
@@ -683,6 +706,7 @@ class _Callbacks:
             note = " (incl. compile)" if self.first_block else ""
             line = runlog.summary_line(merged, last, self.run.iterations, rate, note, self.eta(last))
             self.progress.write(line)
+            self._note_rejections(merged, last - len(next(iter(merged.values()))))
             self.pending, self.pending_steps, self.pending_time = [], 0, 0.0
             self.first_block = False
         if (self.run.checkpoint_every and last % self.run.checkpoint_every == 0) or at_end:
@@ -691,8 +715,34 @@ class _Callbacks:
                 self.plot()
         if self.primary and self.videos_enabled and (last % self.run.video_every == 0 or at_end):
             self.video(ts, last)
+        if self.interrupts is not None and self.interrupts.requested is not None:
+            if self.last_saved != last:
+                self.save(ts, last, metrics)
+                if self.primary:
+                    self.plot()
+            raise _Stop(self.interrupts.requested)
         # Host work (checkpoints, plots, videos) is left out of the next block's throughput.
         self.t_last = time.perf_counter()
+
+    def _note_rejections(self, metrics: dict[str, np.ndarray], first: int) -> None:
+        """One line per block in which updates were rolled back (trust region or non-finite) or
+        TRPO's line search accepted no step, so that a policy that stops moving says why."""
+        n = len(next(iter(metrics.values())))
+        rejected = np.asarray(metrics.get("update_rejected", np.zeros(n))).reshape(n, -1).max(axis=1)
+        if "line_search_accepted" in metrics:
+            no_step = np.asarray(metrics["line_search_accepted"]).reshape(n, -1).min(axis=1) == 0
+            if no_step.any():
+                self.progress.write(
+                    f"warning: TRPO's line search accepted no step in {int(no_step.sum())} of iterations "
+                    f"{first + 1}-{first + n} (the policy did not move; is max_kl {self.plan.config.max_kl} too large "
+                    "or too small?)"
+                )
+        if rejected.any():
+            limit = getattr(self.plan.config, "max_update_kl", 0)
+            self.progress.write(
+                f"warning: {int((rejected > 0).sum())} of iterations {first + 1}-{first + n} were rolled back "
+                f"(mean KL above max_update_kl {limit}, or non-finite values); lower the step size or learning rate"
+            )
 
     def eta(self, last: int) -> float | None:
         """Seconds left at the training rate measured after the first block (which compiles), plus
@@ -791,7 +841,12 @@ class _Silent:
 
 
 def prepare_run_dir(plan_: Plan) -> float:
-    """Create (or replace, or reopen) the run directory; returns the wall-time offset."""
+    """Create (or replace, or reopen) the run directory; returns the wall-time offset.
+
+    ``--overwrite`` moves the old run aside (``plan_.replaced``) instead of deleting it: it is
+    deleted once the new run has written a checkpoint, and put back if the new run stops before
+    (``finish_run_dir``), so that nothing on disk is lost to a run that never got going.
+    """
     run_dir, run = plan_.run_dir, plan_.run
     if plan_.start > 0:
         wall_offset = runlog.truncate_metrics(run_dir, plan_.start)
@@ -805,16 +860,129 @@ def prepare_run_dir(plan_: Plan) -> float:
         )
         run.save(run_dir)
         return wall_offset
-    if plan_.overwrite and run_dir.exists():
-        shutil.rmtree(run_dir)
+    if plan_.overwrite and run_dir.exists() and any(run_dir.iterdir()):
+        plan_.replaced = run_dir.with_name(f"{run_dir.name}.replaced-{os.getpid()}")
+        run_dir.rename(plan_.replaced)
+    plan_.created = not run_dir.exists()
     run_dir.mkdir(parents=True, exist_ok=True)
     run.info = runlog.provenance([sys.argv[0], *plan_.command])
     run.save(run_dir)
     return 0.0
 
 
+def finish_run_dir(plan_: Plan, checkpointed: bool) -> str:
+    """After the run: drop the run it replaced once the new one has a checkpoint; otherwise (it
+    stopped before its first checkpoint) remove the new directory and put back what was there, so
+    that the same command can simply be run again. Returns a note for the user ('' if none)."""
+    run_dir = plan_.run_dir
+    if plan_.start > 0:
+        return ""
+    if checkpointed:
+        if plan_.replaced is not None:
+            shutil.rmtree(plan_.replaced, ignore_errors=True)
+        return ""
+    if plan_.replaced is not None:
+        shutil.rmtree(run_dir, ignore_errors=True)
+        plan_.replaced.rename(run_dir)
+        return f"; the run it was replacing is back in {run_dir}"
+    if plan_.created:
+        shutil.rmtree(run_dir, ignore_errors=True)
+        return f"; {run_dir} was removed (no checkpoint had been written)"
+    return ""
+
+
+class _Stop(Exception):
+    """Raised by the callbacks after an interrupt, once the current compiled call has finished and
+    its checkpoint is written."""
+
+    def __init__(self, signum: int):
+        super().__init__(signal.Signals(signum).name)
+        self.signum = signum
+
+
+class _Interrupts:
+    """SIGINT and SIGTERM. Once the first compiled call has finished (``graceful``), the first
+    signal asks to stop after the current call (``requested``) and a second SIGINT stops at once;
+    before that (building the state, compiling) any of them stops at once (``KeyboardInterrupt``),
+    so that an interrupted start leaves nothing behind. Only in a single-process run: several
+    processes must agree on when to stop, which they cannot here."""
+
+    def __init__(self) -> None:
+        self.requested: int | None = None
+        self.graceful = False
+        self.previous: dict[int, Any] = {}
+
+    def __enter__(self) -> _Interrupts:
+        import jax
+
+        if jax.process_count() == 1:
+            for signum in (signal.SIGINT, signal.SIGTERM):
+                self.previous[signum] = signal.signal(signum, self._handle)
+        return self
+
+    def _handle(self, signum: int, frame: Any) -> None:
+        at_once = not self.graceful or (self.requested is not None and signum == signal.SIGINT)
+        self.requested = signum if self.requested is None else self.requested
+        if at_once:
+            self.requested = signum
+            raise KeyboardInterrupt
+
+    def __exit__(self, *exc: Any) -> None:
+        for signum, handler in self.previous.items():
+            signal.signal(signum, handler)
+
+
+def _exit_status(signum: int) -> int:
+    return 128 + int(signum)
+
+
 def execute(plan_: Plan) -> int:
-    """Train as planned; returns the exit status."""
+    """Train as planned; returns the exit status.
+
+    The initial state is built (and its program compiled) before the run directory is touched.
+    SIGINT / SIGTERM finish the current compiled call, write a checkpoint, print one line and exit
+    with 130 / 143; a second SIGINT exits at once. Write errors (disk full, permissions) and
+    checkpoint errors are one ``error:`` line with status 2.
+    """
+    from jaxpg import distributed
+
+    run, run_dir = plan_.run, plan_.run_dir
+    primary = _primary()
+    with _Interrupts() as interrupts:
+        try:
+            ts = plan_.state
+            if ts is None:
+                ts = initial_state(plan_.module, plan_.env, plan_.config, run.seeds)
+        except KeyboardInterrupt:
+            name = signal.Signals(interrupts.requested or signal.SIGINT).name
+            print(f"\n{name}: stopped before training started; nothing was written", file=sys.stderr)
+            return _exit_status(interrupts.requested or signal.SIGINT)
+        # Process 0 writes the run directory once every process has checked it, before any reads it.
+        distributed.barrier("jaxpg: planned")
+        lock = runlog.RunLock(run_dir)
+        try:
+            if primary:
+                if run_dir.exists() and plan_.start > 0:
+                    lock.acquire()
+                wall_offset = prepare_run_dir(plan_)
+                if not lock.held:
+                    lock.acquire()
+            else:
+                wall_offset = 0.0
+        except OSError as e:
+            print(f"error: cannot write the run directory {str(run_dir)!r}: {e.strerror or e}", file=sys.stderr)
+            return 2
+        except runlog.RunDirError as e:
+            print(f"error: {e}", file=sys.stderr)
+            return 2
+        try:
+            return _train(plan_, ts, wall_offset, interrupts)
+        finally:
+            lock.release()
+
+
+def _train(plan_: Plan, ts: Any, wall_offset: float, interrupts: _Interrupts) -> int:
+    """The training loop of ``execute``, in a prepared and locked run directory."""
     import jax
 
     from jaxpg import checkpoint as ckpt_lib
@@ -822,9 +990,6 @@ def execute(plan_: Plan) -> int:
 
     run, run_dir = plan_.run, plan_.run_dir
     primary = _primary()
-    # Process 0 writes the run directory once every process has checked it, before any reads it.
-    distributed.barrier("jaxpg: planned")
-    wall_offset = prepare_run_dir(plan_) if primary else 0.0
     distributed.barrier("jaxpg: run directory ready")
     verb = f"resuming at iteration {plan_.start}" if plan_.start else "training"
     seeds = " ".join(map(str, run.seeds))
@@ -834,10 +999,6 @@ def execute(plan_: Plan) -> int:
         f"{jax.device_count()} {jax.devices()[0].device_kind} device(s)"
         f"{f' in {jax.process_count()} processes' if jax.process_count() > 1 else ''} -> {run_dir}"
     )
-    if plan_.state is not None:
-        ts = plan_.state
-    else:
-        ts = initial_state(plan_.module, plan_.env, plan_.config, run.seeds)
     ts = distinct_buffers(ts)
     update, evaluate = plan_.module.update, train.evaluate_state
     mesh = distributed.env_mesh() if run.shard else None
@@ -855,26 +1016,28 @@ def execute(plan_: Plan) -> int:
     if remaining <= 0:
         _print(f"nothing to do: {run_dir} has done {plan_.start} of {run.iterations} iterations (raise --iterations)")
         return 0
-    checkpoints = ckpt_lib.Checkpointer(run_dir / runlog.CHECKPOINT_DIR, keep=run.keep_checkpoints, create=True)
-    writer: Any = runlog.MetricsWriter(run_dir, run.seeds, start_iteration=plan_.start) if primary else _Silent()
-    if plan_.start == 0:
-        writer.add_text("config", "```\n" + json.dumps(run.to_json(), indent=2) + "\n```")
-    progress: Any = (
-        runlog.Progress(run.iterations, initial=plan_.start, enabled=plan_.progress, desc=f"{run.algo} {run.task}")
-        if primary
-        else _Silent()
-    )
-    callbacks = _Callbacks(plan_, checkpoints, writer, progress, wall_offset)
-    block = run.block_size
-    # Blocks start at multiples of block_size, as in an uninterrupted run.
-    segments = []
-    misaligned = (-plan_.start) % block
-    if misaligned:
-        segments.append(min(misaligned, remaining))
-    if remaining - sum(segments) > 0:
-        segments.append(remaining - sum(segments))
+    checkpoints = writer = progress = None
     status = 0
+    callbacks: _Callbacks | None = None
     try:
+        checkpoints = ckpt_lib.Checkpointer(run_dir / runlog.CHECKPOINT_DIR, keep=run.keep_checkpoints, create=True)
+        writer = runlog.MetricsWriter(run_dir, run.seeds, start_iteration=plan_.start) if primary else _Silent()
+        if plan_.start == 0:
+            writer.add_text("config", "```\n" + json.dumps(run.to_json(), indent=2) + "\n```")
+        progress = (
+            runlog.Progress(run.iterations, initial=plan_.start, enabled=plan_.progress, desc=f"{run.algo} {run.task}")
+            if primary
+            else _Silent()
+        )
+        callbacks = _Callbacks(plan_, checkpoints, writer, progress, wall_offset, interrupts)
+        block = run.block_size
+        # Blocks start at multiples of block_size, as in an uninterrupted run.
+        segments = []
+        misaligned = (-plan_.start) % block
+        if misaligned:
+            segments.append(min(misaligned, remaining))
+        if remaining - sum(segments) > 0:
+            segments.append(remaining - sum(segments))
         for index, count in enumerate(segments):
             ts = train.train(
                 update,
@@ -886,22 +1049,46 @@ def execute(plan_: Plan) -> int:
                 evaluate=evaluate,
                 final_eval=index == len(segments) - 1,  # the run's last iteration is always evaluated
             )
-    except KeyboardInterrupt:
+    except _Stop as stop:
         progress.close()
         print(
-            f"\ninterrupted after iteration {callbacks.last_iteration}; the latest checkpoint is iteration "
-            f"{callbacks.last_saved}. Continue with: python -m jaxpg.cli --resume {run_dir}",
+            f"{stop}: stopped after iteration {callbacks.last_iteration}, checkpoint {callbacks.last_saved} written. "
+            f"Continue with: python -m jaxpg.cli --resume {run_dir}",
             file=sys.stderr,
         )
-        status = 130
+        status = _exit_status(stop.signum)
+    except KeyboardInterrupt:
+        if progress is not None:
+            progress.close()
+        saved = callbacks.last_saved if callbacks is not None else plan_.start
+        note = finish_run_dir(plan_, checkpointed=saved > 0) if primary else ""
+        resume = f"; continue from checkpoint {saved} with: python -m jaxpg.cli --resume {run_dir}" if saved else ""
+        signum = interrupts.requested or signal.SIGINT
+        print(f"\n{signal.Signals(signum).name}: stopped at once{resume}{note}", file=sys.stderr)
+        return _exit_status(signum)
     except train.TrainingDiverged as e:
         progress.close()
         print(f"error: {e}; metrics and checkpoints up to then are in {run_dir}", file=sys.stderr)
         status = 1
+    except (OSError, ckpt_lib.CheckpointError) as e:
+        if progress is not None:
+            progress.close()
+        what = f"{e.strerror}: {e.filename}" if isinstance(e, OSError) and e.strerror else str(e).splitlines()[0]
+        hint = " (disk full?)" if isinstance(e, OSError) and e.errno == 28 else ""
+        print(f"error: writing the run directory failed: {what}{hint}", file=sys.stderr)
+        status = 2
     finally:
-        progress.close()
-        writer.close()
-        checkpoints.close()
+        for closable in (progress, writer, checkpoints):
+            if closable is not None:
+                try:
+                    closable.close()
+                except Exception:  # noqa: BLE001 - closing after a failure must not hide it
+                    pass
+    if primary:
+        saved = callbacks.last_saved if callbacks is not None else plan_.start
+        note = finish_run_dir(plan_, checkpointed=saved > 0)
+        if note:
+            print(f"the run stopped before its first checkpoint{note}", file=sys.stderr)
     if status == 0 and primary:
         _report_end(plan_, callbacks)
     distributed.barrier("jaxpg: done")  # the processes leave together (JAX's shutdown waits for all)

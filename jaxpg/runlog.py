@@ -17,6 +17,7 @@ the checkpoint of step ``n`` holds the state after it.
 
 from __future__ import annotations
 
+import atexit
 import dataclasses
 import datetime
 import functools
@@ -591,3 +592,89 @@ def latest_score(metrics: dict[str, np.ndarray]) -> float:
             if not math.isnan(value):
                 return value
     return -math.inf
+
+
+# --------------------------------------------------------------------------- one writer per run directory
+
+LOCK_FILE = ".jaxpg.lock"
+
+
+def _pid_alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # alive, another user's
+        return True
+    return True
+
+
+def lock_holder(run_dir: str | os.PathLike) -> dict[str, Any] | None:
+    """The live process holding ``run_dir``'s lock (``{"pid", "host", "started"}``), or ``None``
+    when the directory is free or its lock is stale (its process, on this host, has ended)."""
+    path = Path(run_dir) / LOCK_FILE
+    try:
+        holder = json.loads(path.read_text())
+        pid, host = int(holder["pid"]), str(holder["host"])
+    except FileNotFoundError:
+        return None
+    except (OSError, ValueError, KeyError, TypeError):
+        return None  # a torn lock file: its writer died while writing it
+    if host == platform.node() and (pid == os.getpid() or not _pid_alive(pid)):
+        return None
+    return holder
+
+
+def check_unlocked(run_dir: str | os.PathLike) -> None:
+    """``RunDirError`` (one line) when another live process writes ``run_dir``."""
+    holder = lock_holder(run_dir)
+    if holder is not None:
+        raise RunDirError(
+            f"run directory {str(run_dir)!r} is in use by process {holder['pid']} on {holder['host']} "
+            f"(since {holder.get('started', '?')}); wait for it to finish or stop it"
+        )
+
+
+class RunLock:
+    """The lock that makes one process the only writer of a run directory.
+
+    ``acquire`` creates ``.jaxpg.lock`` (process id, host, start time) atomically; a lock whose
+    process is gone (same host, PID no longer running) is stale and taken over. ``release``
+    removes it; it also runs at interpreter exit, so any normal or error exit frees the directory
+    (a ``kill -9`` leaves a stale lock, which the next writer detects by its PID).
+    """
+
+    def __init__(self, run_dir: str | os.PathLike):
+        self.path = Path(run_dir) / LOCK_FILE
+        self.held = False
+
+    def acquire(self) -> None:
+        record = {
+            "pid": os.getpid(),
+            "host": platform.node(),
+            "started": datetime.datetime.now().astimezone().isoformat(timespec="seconds"),
+        }
+        for _ in range(2):
+            try:
+                fd = os.open(self.path, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o644)
+            except FileExistsError:
+                check_unlocked(self.path.parent)
+                self.path.unlink(missing_ok=True)  # stale: its process has ended
+                continue
+            with os.fdopen(fd, "w") as f:
+                f.write(json.dumps(record))
+            self.held = True
+            atexit.register(self.release)
+            return
+        check_unlocked(self.path.parent)
+        raise RunDirError(f"cannot lock run directory {str(self.path.parent)!r}")
+
+    def release(self) -> None:
+        if self.held:
+            self.held = False
+            try:
+                holder = json.loads(self.path.read_text())
+                if int(holder.get("pid", -1)) == os.getpid():
+                    self.path.unlink()
+            except (OSError, ValueError):
+                pass

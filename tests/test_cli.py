@@ -292,7 +292,10 @@ def test_load_policy(trained):
     np.testing.assert_allclose(actions, np.clip(expected, policy.action_low, policy.action_high), rtol=1e-6)
     assert jaxpg.load_policy(trained, 2).step == 2
     stochastic = jaxpg.load_policy(trained, deterministic=False)
-    assert not np.array_equal(stochastic(obs), stochastic(obs))
+    # Near the upright state (where the pendulum's observations live) the samples are not all
+    # clipped to the action bounds, so two draws differ.
+    near = obs * 0.01
+    assert not np.array_equal(stochastic(near), stochastic(near))
     with pytest.raises(ValueError, match="expected an observation"):
         policy(np.zeros(3))
     with pytest.raises(ValueError, match="no checkpoint of step 3"):

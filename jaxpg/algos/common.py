@@ -18,6 +18,7 @@ order of float summation.
 from __future__ import annotations
 
 import dataclasses
+import math
 from typing import Any
 
 import jax
@@ -32,6 +33,8 @@ from jaxpg import rollout as rollout_lib
 from jaxpg.envs import AutoReset, Env, State
 from jaxpg.policies import CategoricalPolicy, GaussianPolicy, StateStdGaussianPolicy, ValueFunction
 
+POLICY_NAMES = ("gaussian", "state_std_gaussian")  # categorical is implied by a discrete env
+
 
 @dataclasses.dataclass(frozen=True)
 class BaseConfig:
@@ -44,6 +47,9 @@ class BaseConfig:
     Evaluation (``jaxpg.train``, between compiled training calls, never inside ``update``): after
     every ``eval_every``-th iteration and after the last one, ``eval_envs`` episodes of the mean
     (mode) policy of up to ``eval_horizon`` steps (0: the env's limit); ``eval_envs=0`` turns it off.
+    Trust-region guard: an update whose mean KL(old || new) over its batch exceeds
+    ``max_update_kl`` is rolled back and counted in ``update_rejected`` (NPG first shrinks its
+    step, see ``npg.update``); healthy updates move the policy by 0.001-0.1 nats. 0 turns it off.
     """
 
     num_envs: int = 64
@@ -61,21 +67,43 @@ class BaseConfig:
     eval_envs: int = 8
     eval_every: int = 10
     eval_horizon: int = 0
+    max_update_kl: float = 1.0
 
     @property
     def samples_per_iteration(self) -> int:
         return self.num_envs * self.horizon
 
     def validate(self, env: Env) -> None:
-        """Raise ``ValueError`` with one clear line for impossible settings."""
+        """Raise ``ValueError`` with one clear line for impossible settings (every field checked)."""
+        from jaxpg.networks import ACTIVATIONS, KERNEL_INITS
+
         if self.num_envs < 1:
             raise ValueError(f"num_envs must be >= 1, got {self.num_envs}")
         if self.horizon < 1:
             raise ValueError(f"horizon must be >= 1, got {self.horizon}")
         if self.sampling not in ("continuing", "episodic"):
             raise ValueError(f"sampling must be 'continuing' or 'episodic', got {self.sampling!r}")
-        if self.eval_envs < 0 or self.eval_every < 1:
-            raise ValueError("eval_envs must be >= 0 and eval_every >= 1")
+        if not 0 <= self.gamma <= 1:
+            raise ValueError(f"gamma must be in [0, 1], got {self.gamma}")
+        if self.policy not in POLICY_NAMES:
+            raise ValueError(f"unknown policy {self.policy!r}; expected one of {', '.join(POLICY_NAMES)}")
+        for name in ("policy_activation", "value_activation"):
+            if getattr(self, name) not in ACTIVATIONS:
+                raise ValueError(f"unknown {name} {getattr(self, name)!r}; expected one of {', '.join(ACTIVATIONS)}")
+        if self.policy_init not in KERNEL_INITS:
+            raise ValueError(f"unknown policy_init {self.policy_init!r}; expected one of {', '.join(KERNEL_INITS)}")
+        for name in ("policy_hidden", "value_hidden"):
+            if any(int(size) < 1 for size in getattr(self, name)):
+                raise ValueError(f"{name} must be positive layer sizes, got {' '.join(map(str, getattr(self, name)))}")
+        if not math.isfinite(self.log_std_init):
+            raise ValueError(f"log_std_init must be finite, got {self.log_std_init}")
+        if self.eval_envs < 0 or self.eval_every < 1 or self.eval_horizon < 0:
+            raise ValueError(
+                f"eval_envs and eval_horizon must be >= 0 and eval_every >= 1, got "
+                f"{self.eval_envs}, {self.eval_horizon}, {self.eval_every}"
+            )
+        if not self.max_update_kl >= 0:
+            raise ValueError(f"max_update_kl must be >= 0 (0: no check), got {self.max_update_kl}")
 
 
 @struct.dataclass
@@ -422,19 +450,24 @@ def all_finite(tree: Any) -> jax.Array:
     return jnp.all(jnp.stack(leaves)) if leaves else jnp.array(True)
 
 
-def accept_if_finite(old: TrainState, new: TrainState, loss: jax.Array) -> tuple[TrainState, jax.Array]:
-    """Keep ``new`` when its parameters, optimizer states and ``loss`` are finite, else roll the
-    learned state back to ``old`` (sampling state still advances) and count a failure.
+def accept_if_finite(
+    old: TrainState, new: TrainState, loss: jax.Array, within_trust_region: jax.Array | bool = True
+) -> tuple[TrainState, jax.Array]:
+    """Keep ``new`` when its parameters, optimizer states and ``loss`` are finite (and the update
+    stayed ``within_trust_region``), else roll the learned state back to ``old`` (the sampling
+    state still advances). Non-finite updates count as consecutive failures; a rolled-back
+    trust-region violation does not (the policy is intact).
 
     Returns the state to continue with and ``[]`` float32 1.0 where the update was rejected.
     """
     learned = (new.params, new.value_params, new.opt_state, new.value_opt_state)
-    ok = all_finite(learned) & jnp.isfinite(loss)
+    finite = all_finite(learned) & jnp.isfinite(loss)
+    ok = finite & jnp.asarray(within_trust_region)
     old_learned = (old.params, old.value_params, old.opt_state, old.value_opt_state)
     params, value_params, opt_state, value_opt_state = jax.tree.map(
         lambda n, o: jnp.where(ok, n, o), learned, old_learned
     )
-    failures = jnp.where(ok, 0, new.failures + 1)
+    failures = jnp.where(finite, 0, new.failures + 1)
     state = new.replace(
         params=params,
         value_params=value_params,

@@ -5,7 +5,8 @@ One iteration:
   2. advantages by GAE(gamma, lambda) (Schulman et al. 2016) from the current value function;
   3. vanilla policy gradient ``g = grad E[A log pi(a|s)]``;
   4. natural direction ``x = F^-1 g`` by conjugate gradient on Fisher-vector products;
-  5. normalised step ``theta += sqrt(delta / g'x) * x`` (so that 0.5 * step' F step = delta / 2);
+  5. normalised step ``theta += sqrt(delta / g'x) * x`` (so that 0.5 * step' F step = delta / 2),
+     halved while its measured mean KL exceeds ``kl_bound`` (twice the intended ``delta / 2``);
   6. fit the value function to its targets by minibatch Adam.
 
 Each phase is a named function of its own, so that ``update`` reads as the list above, TRPO
@@ -67,8 +68,17 @@ class Config(common.BaseConfig):
             raise ValueError(f"fvp must be 'gauss_newton' or 'kl_hessian', got {self.fvp!r}")
         if self.value_target not in ("gae", "returns"):
             raise ValueError(f"value_target must be 'gae' or 'returns', got {self.value_target!r}")
-        if self.step_size <= 0 or self.cg_iters < 1:
-            raise ValueError("step_size must be > 0 and cg_iters >= 1")
+        if not self.step_size > 0 or self.cg_iters < 1:
+            raise ValueError(f"step_size must be > 0 and cg_iters >= 1, got {self.step_size}, {self.cg_iters}")
+        if not 0 <= self.gae_lambda <= 1:
+            raise ValueError(f"gae_lambda must be in [0, 1], got {self.gae_lambda}")
+        if not self.cg_damping >= 0 or not self.value_lr > 0:
+            raise ValueError(f"cg_damping must be >= 0 and value_lr > 0, got {self.cg_damping}, {self.value_lr}")
+        if self.value_epochs < 1 or self.value_batch_size < 1 or self.sample_budget < 0:
+            raise ValueError(
+                "value_epochs and value_batch_size must be >= 1 and sample_budget >= 0, got "
+                f"{self.value_epochs}, {self.value_batch_size}, {self.sample_budget}"
+            )
 
 
 PRESETS: dict[str, dict[str, Any]] = {
@@ -239,6 +249,34 @@ def normalized_step(grad: jax.Array, direction: jax.Array, delta: float) -> jax.
     return jnp.sqrt(delta / jnp.maximum(jnp.dot(grad, direction), 1e-20))
 
 
+BACKTRACKS = 6  # halvings of the natural step tried when it overshoots its KL bound
+
+
+def kl_bound(config: Config) -> float:
+    """The mean KL an NPG step may reach: twice the ``step_size / 2`` that the normalised step
+    aims at in the Fisher metric, and never more than ``max_update_kl`` (when that is set)."""
+    return min(config.step_size, config.max_update_kl) if config.max_update_kl > 0 else config.step_size
+
+
+def step_within_kl(
+    ts: TrainState, batch: Batch, direction: jax.Array, step: jax.Array
+) -> tuple[Any, jax.Array, jax.Array]:
+    """The longest of ``step, step/2, ... step/2^(BACKTRACKS-1)`` along ``direction`` (flat
+    ``[num_params]``) whose mean KL stays within ``kl_bound``; all candidates are evaluated at once.
+
+    Returns ``(new_params, kl [], fraction [])``: ``fraction`` is the share of ``step`` taken, 0
+    (parameters unchanged, KL 0) when even the smallest candidate overshoots. The quadratic model
+    behind the normalised step is usually accurate, so the full step (``fraction`` 1) is the rule.
+    """
+    flat_params, unravel = ravel_pytree(ts.params)
+    fractions = 0.5 ** jnp.arange(BACKTRACKS, dtype=jnp.float32)
+    kls = jax.vmap(lambda f: mean_kl(ts, ts.params, unravel(flat_params + f * step * direction), batch))(fractions)
+    fits = kls <= kl_bound(ts.config)
+    first = jnp.argmax(fits)
+    fraction = jnp.where(jnp.any(fits), fractions[first], 0.0)
+    return unravel(flat_params + fraction * step * direction), jnp.where(jnp.any(fits), kls[first], 0.0), fraction
+
+
 def mean_kl(ts: TrainState, old_params: Any, new_params: Any, batch: Batch) -> jax.Array:
     """Mean KL(pi_old || pi_new) over the valid samples of ``batch``."""
     kl = ts.policy.kl(old_params, new_params, batch.obs)
@@ -269,10 +307,15 @@ def finish_iteration(
     """Common end of an iteration: reject non-finite updates, update observation statistics,
     count the iteration, and assemble the metrics.
 
-    The mean policy is not evaluated here: evaluation runs between compiled training calls
-    (``jaxpg.train.evaluator``), so that it costs nothing on the iterations it skips.
+    ``metrics["kl"]`` (the update's mean KL) above ``config.max_update_kl`` rolls the update back
+    (``update_rejected`` 1). The mean policy is not evaluated here: evaluation runs between
+    compiled training calls (``jaxpg.train.evaluate_state``).
     """
-    ts, rejected = common.accept_if_finite(old, ts, loss)
+    limit = ts.config.max_update_kl
+    within = (metrics["kl"] <= limit) if limit > 0 else True
+    if "step_fraction" in metrics:  # NPG: no step within its KL bound
+        within = jnp.logical_and(within, metrics["step_fraction"] > 0)
+    ts, rejected = common.accept_if_finite(old, ts, loss, within)
     if ts.config.normalize_observations:
         ts = ts.replace(obs_stats=ts.obs_stats.update(traj.obs, traj.valid))
     all_metrics = {
@@ -293,16 +336,15 @@ def update(ts: TrainState) -> tuple[TrainState, dict[str, jax.Array]]:
     grad = phase_gradient(ts, batch)
     cg = phase_natural_gradient(ts, batch, grad)
     step = normalized_step(grad, cg.x, ts.config.step_size)
-    flat_params, unravel = ravel_pytree(ts.params)
-    new_params = unravel(flat_params + step * cg.x)
-    kl = mean_kl(ts, ts.params, new_params, batch)
+    new_params, kl, fraction = step_within_kl(ts, batch, cg.x, step)
     entropy = common.weighted_mean(ts.policy.entropy(ts.params, batch.obs), batch.weights)
     ts = ts.replace(params=new_params)
     ts, value_loss = phase_value_fit(ts, batch, value_key)
     metrics = {
         "kl": kl,
         "entropy": entropy,
-        "step_size": step,
+        "step_size": fraction * step,
+        "step_fraction": fraction,
         "cg_residual": cg.residual_norm,
         "grad_norm": jnp.linalg.norm(grad),
         "value_loss": value_loss,

@@ -25,7 +25,7 @@ that was sampled; choose ``horizon`` >= the env's episode limit to avoid that bi
 from __future__ import annotations
 
 import dataclasses
-from typing import Any
+from typing import Any, ClassVar
 
 import jax
 import jax.numpy as jnp
@@ -64,8 +64,14 @@ class Config(common.BaseConfig):
     max_grad_norm: float = 0.0
     sample_budget: int = 0
 
+    # REINFORCE has no value function (command lines offer no flag for these).
+    UNUSED_FIELDS: ClassVar[tuple[str, ...]] = ("value_hidden", "value_activation")
+
     def validate(self, env: Env) -> None:
         super().validate(env)
+        for name in self.UNUSED_FIELDS:
+            if getattr(self, name) != getattr(common.BaseConfig, name):
+                raise ValueError(f"REINFORCE has no value function: {name} does not apply")
         if self.optimizer not in ("adam", "adamw"):
             raise ValueError(f"optimizer must be 'adam' or 'adamw', got {self.optimizer!r}")
         if not self.lr > 0:

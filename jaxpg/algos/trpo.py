@@ -10,7 +10,7 @@ is taken; if none qualifies the policy is left unchanged. All candidates are eva
 from __future__ import annotations
 
 import dataclasses
-from typing import Any
+from typing import Any, ClassVar
 
 import jax
 import jax.numpy as jnp
@@ -33,8 +33,13 @@ class Config(npg.Config):
     backtrack_ratio: float = 0.8
     accept_ratio: float = 0.1
 
+    # NPG's normalised step size: TRPO's step comes from max_kl (no command-line flag).
+    UNUSED_FIELDS: ClassVar[tuple[str, ...]] = ("step_size",)
+
     def validate(self, env: Env) -> None:
         super().validate(env)
+        if self.step_size != npg.Config.step_size:
+            raise ValueError("TRPO does not use step_size (NPG's normalised step); its trust region is max_kl")
         if self.max_kl <= 0 or self.backtracks < 1 or not 0 < self.backtrack_ratio < 1:
             raise ValueError("max_kl must be > 0, backtracks >= 1 and 0 < backtrack_ratio < 1")
 

@@ -1,0 +1,232 @@
+"""Nothing lost, nothing silent: bad values are refused before anything is written, one bad
+update cannot wreck a policy, interrupts checkpoint, and a run directory has one writer.
+
+Every refusal is checked for its exit status, a single ``error:`` line, and run directories
+that are byte-identical afterwards.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import jax
+import numpy as np
+import pytest
+
+from jaxpg import cli, envs, runlog
+from jaxpg.algos import npg, ppo
+
+ROOT = Path(__file__).resolve().parent.parent
+TINY = [
+    "--env", "inverted_pendulum", "--num-envs", "8", "--horizon", "32", "--eval-envs", "2",
+    "--eval-horizon", "32", "--max-episode-steps", "50", "--checkpoint-every", "2", "--log-every", "2",
+    "--no-progress",
+]  # fmt: skip
+
+
+def digest(path: Path) -> dict[str, str]:
+    """Every file under ``path`` with the hash of its bytes."""
+    files = (p for p in path.rglob("*") if p.is_file())
+    return {str(p.relative_to(path)): hashlib.sha256(p.read_bytes()).hexdigest() for p in files}
+
+
+@pytest.fixture(scope="module")
+def existing(tmp_path_factory) -> Path:
+    """A finished run: 4 iterations, checkpoints at 2 and 4."""
+    run_dir = tmp_path_factory.mktemp("runs") / "existing"
+    assert cli.main([*TINY, "--iterations", "4", "--run-dir", str(run_dir)]) == 0
+    return run_dir
+
+
+BAD_VALUES = [
+    (["--policy", "bogus"], "unknown policy 'bogus'"),
+    (["--policy-activation", "nope"], "unknown policy_activation"),
+    (["--value-activation", "nope"], "unknown value_activation"),
+    (["--policy-init", "nope"], "unknown policy_init"),
+    (["--policy-hidden", "0"], "policy_hidden must be positive"),
+    (["--value-hidden", "16", "-3"], "value_hidden must be positive"),
+    (["--gamma", "1.5"], "gamma must be in [0, 1]"),
+    (["--gamma", "-1"], "gamma must be in [0, 1]"),
+    (["--gae-lambda", "5"], "gae_lambda must be in [0, 1]"),
+    (["--max-episode-steps", "0"], "--max-episode-steps must be >= 1"),
+    (["--step-size", "0"], "step_size must be > 0"),
+    (["--step-size", "nan"], "step_size must be > 0"),
+    (["--cg-damping", "-1"], "cg_damping must be >= 0"),
+    (["--value-lr", "0"], "value_lr > 0"),
+    (["--value-epochs", "0"], "value_epochs"),
+    (["--num-envs", "0"], "num_envs must be >= 1"),
+    (["--horizon", "-4"], "horizon must be >= 1"),
+    (["--eval-every", "0"], "eval_every >= 1"),
+    (["--eval-horizon", "-1"], "eval_horizon must be >= 0"),
+    (["--max-update-kl", "-1"], "max_update_kl must be >= 0"),
+    (["--log-std-init", "inf"], "log_std_init must be finite"),
+    (["--sampling", "sideways"], "sampling must be"),
+    (["--algo", "trpo", "--step-size", "0.1"], "unrecognized arguments: --step-size"),
+    (["--algo", "reinforce", "--value-hidden", "8"], "unrecognized arguments: --value-hidden"),
+    (["--algo", "ppo", "--lr", "0"], "lr must be > 0"),
+    (["--algo", "a2c", "--gae-lambda", "2"], "gae_lambda must be in [0, 1]"),
+    (["--algo", "reinforce", "--gamma", "2"], "gamma must be in [0, 1]"),
+]
+
+
+@pytest.mark.parametrize(("flags", "message"), BAD_VALUES, ids=[" ".join(f) for f, _ in BAD_VALUES])
+def test_bad_values_are_one_line_and_the_existing_run_is_untouched(flags, message, existing, capsys):
+    before = digest(existing)
+    status = cli.main([*TINY, "--iterations", "4", "--run-dir", str(existing), "--overwrite", *flags])
+    err = capsys.readouterr().err
+    assert status == 2, err
+    assert err.count("\n") == 1 and err.startswith("error: ") and message in err, err
+    assert digest(existing) == before
+    assert not list(existing.parent.glob("existing.replaced-*"))
+
+
+def test_npg_step_that_overshoots_is_shrunk_or_rejected():
+    """With a normalised step of 1e6 every candidate overshoots: the update is rolled back (the
+    policy is unchanged) and counted; a sane step is taken whole and stays within its bound."""
+    env = envs.make("inverted_pendulum")
+    config = npg.Config(num_envs=8, horizon=32, eval_envs=0, value_batch_size=64, cg_damping=1e-2)
+    ts = npg.init(jax.random.PRNGKey(0), env, config)
+    update = jax.jit(npg.update)
+    wild = ts.replace(config=dataclasses.replace(config, step_size=1e6))
+    after, metrics = update(wild)
+    assert float(metrics["update_rejected"]) == 1.0 and float(metrics["step_fraction"]) == 0.0
+    for a, b in zip(jax.tree.leaves(after.params), jax.tree.leaves(ts.params), strict=True):
+        np.testing.assert_array_equal(a, b)
+    assert int(after.failures) == 0  # a rolled-back step is not a non-finite failure
+    after, metrics = update(ts)
+    assert float(metrics["update_rejected"]) == 0.0 and float(metrics["step_fraction"]) == 1.0
+    assert 0 < float(metrics["kl"]) <= npg.kl_bound(config)
+
+
+def test_ppo_update_far_outside_the_trust_region_is_rolled_back():
+    env = envs.make("inverted_pendulum")
+    config = ppo.Config(**{**ppo.PRESETS["pendulum"], "lr": 100.0, "eval_envs": 0})
+    ts = ppo.init(jax.random.PRNGKey(0), env, config)
+    after, metrics = jax.jit(ppo.update)(ts)
+    assert float(metrics["kl"]) > config.max_update_kl and float(metrics["update_rejected"]) == 1.0
+    for a, b in zip(jax.tree.leaves(after.params), jax.tree.leaves(ts.params), strict=True):
+        np.testing.assert_array_equal(a, b)
+
+
+def command(*args: str) -> list[str]:
+    return [sys.executable, "-m", "jaxpg.cli", *TINY, *args]
+
+
+def wait_for(path: Path, timeout: float = 240) -> None:
+    """Until ``path`` exists (a guard against hangs, not a speed requirement)."""
+    deadline = time.monotonic() + timeout
+    while not path.exists():
+        assert time.monotonic() < deadline, f"{path} never appeared"
+        time.sleep(0.2)
+
+
+@pytest.mark.parametrize(("signum", "status"), [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
+def test_interrupt_finishes_the_call_writes_a_checkpoint_and_resume_continues(signum, status, tmp_path):
+    run_dir = tmp_path / "run"
+    proc = subprocess.Popen(
+        command("--iterations", "100000", "--run-dir", str(run_dir)), stderr=subprocess.PIPE, text=True
+    )
+    wait_for(run_dir / runlog.METRICS_FILE)
+    while not runlog.read_metrics(run_dir):
+        time.sleep(0.2)
+    proc.send_signal(signum)
+    _, err = proc.communicate(timeout=240)
+    lines = [line for line in err.splitlines() if line.strip() and not line.startswith("WARNING")]
+    assert proc.returncode == status, err[-2000:]
+    assert len(lines) == 1 and f"{signal.Signals(signum).name}: stopped after iteration" in lines[0], lines
+    stopped = max(r["iteration"] for r in runlog.read_metrics(run_dir))
+    assert (run_dir / runlog.CHECKPOINT_DIR / str(stopped)).is_dir()
+    assert not (run_dir / runlog.LOCK_FILE).exists()
+    resumed = subprocess.run(
+        [sys.executable, "-m", "jaxpg.cli", "--resume", str(run_dir), "--iterations", str(stopped + 2)],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    assert resumed.returncode == 0, resumed.stderr[-2000:]
+    assert f"resuming at iteration {stopped}" in resumed.stdout
+
+
+def test_interrupt_before_the_first_iteration_leaves_nothing(tmp_path):
+    """While the first compiled call is still compiling an interrupt stops at once and removes the
+    new run directory, so that the same command can simply be run again."""
+    run_dir = tmp_path / "run"
+    argv = command("--iterations", "4", "--run-dir", str(run_dir))
+    proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    wait_for(run_dir / runlog.CONFIG_FILE)  # the directory exists, the first block is compiling
+    proc.send_signal(signal.SIGINT)
+    out, err = proc.communicate(timeout=240)
+    lines = [line for line in err.splitlines() if line.strip() and not line.startswith("WARNING")]
+    assert proc.returncode == 130, err[-2000:]
+    assert len(lines) == 1 and "SIGINT: stopped at once" in lines[0] and "was removed" in lines[0], lines
+    assert not run_dir.exists()
+    rerun = subprocess.run(argv, capture_output=True, timeout=600)
+    assert rerun.returncode == 0
+
+
+def test_overwritten_run_comes_back_when_the_new_run_writes_no_checkpoint(existing, tmp_path):
+    """``--overwrite`` moves the old run aside; a new run that ends without a checkpoint puts it
+    back (here: a planned run finished before any training)."""
+    copy = tmp_path / "copy"
+    subprocess.run(["cp", "-r", str(existing), str(copy)], check=True)
+    before = digest(copy)
+    plan = cli.plan([*TINY, "--iterations", "4", "--run-dir", str(copy), "--overwrite"], cli.Experiment())
+    cli.prepare_run_dir(plan)
+    assert plan.replaced is not None and plan.replaced.exists() and digest(copy) != before
+    note = cli.finish_run_dir(plan, checkpointed=False)
+    assert "is back" in note and digest(copy) == before and not plan.replaced.exists()
+
+
+def test_a_second_writer_is_refused_and_a_stale_lock_is_taken_over(existing, capsys, tmp_path):
+    copy = tmp_path / "copy"
+    subprocess.run(["cp", "-r", str(existing), str(copy)], check=True)
+    sleeper = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
+    try:
+        import platform
+
+        (copy / runlog.LOCK_FILE).write_text(json.dumps({"pid": sleeper.pid, "host": platform.node(), "started": "x"}))
+        before = digest(copy)
+        for argv in (["--resume", str(copy), "--iterations", "6"], [*TINY, "--run-dir", str(copy), "--overwrite"]):
+            assert cli.main(argv) == 2
+            err = capsys.readouterr().err
+            assert err.count("\n") == 1 and f"in use by process {sleeper.pid}" in err, err
+            assert digest(copy) == before
+    finally:
+        sleeper.kill()
+        sleeper.wait()
+    assert cli.main(["--resume", str(copy), "--iterations", "6"]) == 0  # the lock's process is gone
+    assert not (copy / runlog.LOCK_FILE).exists()
+    assert max(r["iteration"] for r in runlog.read_metrics(copy)) == 6
+
+
+@pytest.mark.parametrize("damage", ["deleted", "shortened"])
+def test_resume_refuses_metrics_that_do_not_reach_the_checkpoint(damage, existing, capsys, tmp_path):
+    copy = tmp_path / "copy"
+    subprocess.run(["cp", "-r", str(existing), str(copy)], check=True)
+    metrics = copy / runlog.METRICS_FILE
+    if damage == "deleted":
+        metrics.unlink()
+    else:
+        metrics.write_text("".join(metrics.read_text().splitlines(keepends=True)[:1]))
+    before = digest(copy)
+    assert cli.main(["--resume", str(copy)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "metrics.jsonl" in err and "checkpoint is at iteration 4" in err, err
+    assert digest(copy) == before
+
+
+def test_unwritable_run_directory_is_one_line(tmp_path, capsys):
+    blocker = tmp_path / "file"
+    blocker.write_text("not a directory")
+    status = cli.main([*TINY, "--iterations", "2", "--run-dir", str(blocker / "run")])
+    err = capsys.readouterr().err
+    assert status == 2 and err.count("\n") == 1 and err.startswith("error: "), err
+    assert blocker.read_text() == "not a directory" and os.path.isfile(blocker)

@@ -129,13 +129,13 @@ def evaluate_run(
     return rollout(env, policy.policy, policy.params, policy.obs_stats, seed, episodes), policy
 
 
-def gymnasium_missing() -> str | None:
-    """``None`` when Gymnasium imports, else the one line saying how to install it."""
+def gymnasium_installed() -> bool:
+    """Gymnasium can be imported (``GYMNASIUM_INSTALL`` says how to install it otherwise)."""
     try:
         import gymnasium  # noqa: F401
     except ImportError:
-        return f"Gymnasium is not installed: {GYMNASIUM_INSTALL}"
-    return None
+        return False
+    return True
 
 
 def gymnasium_env(task: str, env_kwargs: dict[str, Any], render: bool = False) -> Any:
@@ -230,7 +230,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.video and Path(args.video).suffix.lower() not in (".mp4", ".gif"):
         print(f"error: --video must end in .mp4 or .gif, got {args.video!r}", file=sys.stderr)
         return 2
-    if args.gymnasium and gymnasium_missing():
+    if args.gymnasium and not gymnasium_installed():
         print(f"error: --gymnasium needs Gymnasium: {GYMNASIUM_INSTALL}", file=sys.stderr)
         return 2
     try:

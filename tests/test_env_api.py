@@ -189,6 +189,21 @@ def test_evaluate_gymnasium_without_gymnasium_in_a_subprocess(tmp_path):
     assert proc.stderr == "error: --gymnasium needs Gymnasium: pip install 'gymnasium[mujoco]'\n"
 
 
+def test_evaluate_video_checks_gl_only_for_mujoco_tasks(hopper, monkeypatch):
+    """``evaluate --video`` asks for an OpenGL backend before playing, and only for tasks drawn
+    by MuJoCo: CartPole (drawn with NumPy) needs none, in jaxpg's env or in Gymnasium."""
+    monkeypatch.setattr(video, "gl_problem", lambda: "no OpenGL here: apt-get install libosmesa6, MUJOCO_GL=osmesa")
+
+    def fake_run(task: str, env: envs.Env):
+        return type("Run", (), {"task": task, "make_env": lambda self: env})()
+
+    assert "apt-get install libosmesa6" in evaluate._video_problem(fake_run("hopper", hopper[1]), gymnasium=False)
+    assert "apt-get install libosmesa6" in evaluate._video_problem(fake_run("hopper", hopper[1]), gymnasium=True)
+    cartpole = envs.make("cartpole")
+    assert evaluate._video_problem(fake_run("cartpole", cartpole), gymnasium=False) is None
+    assert evaluate._video_problem(fake_run("cartpole", cartpole), gymnasium=True) is None
+
+
 def test_warp_without_warp_lang(monkeypatch):
     from jaxpg.envs import mjx_env
 

@@ -150,6 +150,16 @@ def test_pong_out_of_range_action_does_not_move_the_paddle():
     assert float(task.step(state, jnp.asarray(1)).metrics["invalid_action"]) == 0.0
 
 
+def test_continuous_nan_action_is_nonfinite():
+    """A NaN passes ``ClipAction`` as NaN (never clipped to a bound) and ends the episode as
+    ``nonfinite``; ``invalid_action`` stays for discrete tasks."""
+    env = envs.make("inverted_pendulum", impl="jax")
+    out = jax.jit(env.step)(env.reset(jax.random.key(0)), jnp.asarray([jnp.nan]))
+    assert float(out.metrics["nonfinite"]) == 1.0 and float(out.metrics["invalid_action"]) == 0.0
+    assert bool(out.terminated) and float(out.reward) == 0.0
+    np.testing.assert_array_equal(out.obs, 0.0)
+
+
 def test_every_task_reports_invalid_action_from_reset():
     """``invalid_action`` is one of the metrics of every task, from ``reset`` on (same keys always)."""
     for name in ("cartpole", "inverted_pendulum"):

@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+GYMNASIUM_INSTALL = "pip install 'gymnasium[mujoco]'"
 GYMNASIUM_IDS = {
     "hopper": "Hopper-v5",
     "inverted_pendulum": "InvertedPendulum-v5",
@@ -128,9 +129,22 @@ def evaluate_run(
     return rollout(env, policy.policy, policy.params, policy.obs_stats, seed, episodes), policy
 
 
+def gymnasium_installed() -> bool:
+    """Gymnasium can be imported (``GYMNASIUM_INSTALL`` says how to install it otherwise)."""
+    try:
+        import gymnasium  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
 def gymnasium_env(task: str, env_kwargs: dict[str, Any], render: bool = False) -> Any:
-    """The Gymnasium env matching a jaxpg task (same time limit)."""
-    import gymnasium as gym
+    """The Gymnasium env matching a jaxpg task (same time limit). Raises ``ImportError`` with the
+    install command when Gymnasium is missing."""
+    try:
+        import gymnasium as gym
+    except ImportError:
+        raise ImportError(f"Gymnasium is not installed: {GYMNASIUM_INSTALL}") from None
 
     if task not in GYMNASIUM_IDS:
         raise ValueError(f"task {task!r} has no Gymnasium counterpart; known: {', '.join(GYMNASIUM_IDS)}")
@@ -180,6 +194,19 @@ def _stats(x: np.ndarray) -> str:
     return f"{np.mean(x):.2f} ± {np.std(x):.2f}"
 
 
+def _video_problem(run: Any, gymnasium: bool) -> str | None:
+    """Why the video of ``run``'s task cannot be rendered here (one line), or ``None``. Only tasks
+    drawn by MuJoCo's OpenGL renderer can fail; CartPole and Pong are drawn with NumPy."""
+    from jaxpg import video as video_lib
+
+    if gymnasium:
+        needs_gl = run.task != "cartpole"
+    else:
+        task = run.make_env().unwrapped
+        needs_gl = hasattr(task, "mj_model") and not hasattr(task, "render_frame")
+    return video_lib.gl_problem() if needs_gl else None
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     from jaxpg import video as video_lib
 
@@ -203,6 +230,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.video and Path(args.video).suffix.lower() not in (".mp4", ".gif"):
         print(f"error: --video must end in .mp4 or .gif, got {args.video!r}", file=sys.stderr)
         return 2
+    if args.gymnasium and not gymnasium_installed():
+        print(f"error: --gymnasium needs Gymnasium: {GYMNASIUM_INSTALL}", file=sys.stderr)
+        return 2
     try:
         from jaxpg import policy_io
 
@@ -212,6 +242,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
     run = policy.run
     where = f"checkpoint step {policy.step} of {args.run_dir} (seed {policy.seed}), mean policy"
+    problem = _video_problem(run, args.gymnasium) if args.video else None
+    if problem is not None:
+        print(f"error: --video: {problem}", file=sys.stderr)
+        return 2
     if args.gymnasium:
         if run.task not in GYMNASIUM_IDS:
             print(f"error: task {run.task!r} has no Gymnasium counterpart", file=sys.stderr)

@@ -4,8 +4,12 @@ MJX states live on the accelerator; a frame is rendered by copying ``qpos``/``qv
 ``mujoco.MjData``, running ``mj_forward`` and ``mujoco.Renderer``. MuJoCo picks its OpenGL
 backend when it is first imported, from ``MUJOCO_GL``: ``configure_gl`` sets it, before that
 import, to ``egl`` on an NVIDIA GPU machine and to ``osmesa`` (software; Debian/Ubuntu package
-``libosmesa6``) otherwise. Pure-JAX tasks without MuJoCo (CartPole) are drawn with NumPy from the
-observation, or by the task's own ``render_frame(obs) -> [H, W, 3] uint8`` when it has one.
+``libosmesa6``) otherwise, but only to a backend whose shared libraries are installed: with
+``MUJOCO_GL=osmesa`` and no libOSMesa, ``import mujoco`` itself fails. Without any, it leaves
+``MUJOCO_GL`` unset, MuJoCo imports and simulates as usual, and rendering raises ``RenderError``
+with one line naming the package to install (``gl_problem``). Pure-JAX tasks without MuJoCo
+(CartPole) are drawn with NumPy from the observation, or by the task's own
+``render_frame(obs) -> [H, W, 3] uint8`` when it has one.
 
 Files are mp4 (H.264 through imageio-ffmpeg) or gif, chosen by the extension.
 """
@@ -17,7 +21,7 @@ import math
 import os
 import sys
 import warnings
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -31,31 +35,109 @@ class RenderError(RuntimeError):
     """Rendering is not possible here (no GL backend, or a task that cannot be drawn)."""
 
 
+# Shared libraries that PyOpenGL loads for each offscreen backend: one name of each group must load.
+GL_LIBRARIES: dict[str, tuple[tuple[str, ...], ...]] = {
+    "osmesa": (("OSMesa",),),
+    "egl": (("EGL",), ("OpenGL", "GL")),
+}
+RENDER_HINT = (
+    "install OSMesa (apt-get install libosmesa6) and set MUJOCO_GL=osmesa, "
+    "or set MUJOCO_GL=egl on an NVIDIA GPU machine (libEGL)"
+)
+
+LibraryFinder = Callable[[str], str | None]
+
+
+def _find_library(name: str) -> str | None:
+    """``ctypes.util.find_library``, looked up at call time (tests replace it)."""
+    return ctypes.util.find_library(name)
+
+
+def _loadable(path: str | None) -> bool:
+    """The shared library ``path`` (a name ``find_library`` returned) can be loaded."""
+    if not path:
+        return False
+    try:
+        ctypes.CDLL(path)
+    except OSError:
+        return False
+    return True
+
+
+def gl_library_found(backend: str, find: LibraryFinder = _find_library) -> bool:
+    """The libraries of the offscreen ``backend`` (``"osmesa"`` or ``"egl"``) can be found and
+    loaded; other backends (GLFW, GLX) are not checked and count as found."""
+    groups = GL_LIBRARIES.get(backend.lower())
+    if groups is None:
+        return True
+    return all(any(_loadable(find(name)) for name in group) for group in groups)
+
+
+def choose_gl_backend(nvidia: bool, find: LibraryFinder = _find_library) -> str | None:
+    """``"egl"`` on an NVIDIA machine with EGL installed, else ``"osmesa"`` where OSMesa is
+    installed, else ``None`` (leave ``MUJOCO_GL`` alone)."""
+    if nvidia and gl_library_found("egl", find):
+        return "egl"
+    if gl_library_found("osmesa", find):
+        return "osmesa"
+    return None
+
+
+def _has_nvidia() -> bool:
+    return os.path.exists("/proc/driver/nvidia") or os.path.exists("/dev/nvidia0")
+
+
 def configure_gl() -> str | None:
     """Choose MuJoCo's offscreen GL backend (``MUJOCO_GL``) unless it is set or too late.
 
-    Must run before ``mujoco`` is first imported. Returns the backend in effect (``None``: MuJoCo
-    will use GLFW, which needs a display).
+    Must run before ``mujoco`` is first imported. Sets only a backend whose libraries load
+    (``choose_gl_backend``); with none, ``MUJOCO_GL`` stays unset so that ``import mujoco`` works,
+    and rendering later raises ``RenderError`` saying what to install. Returns the backend in
+    effect (``None``: MuJoCo will use GLFW, which needs a display).
     """
     if "MUJOCO_GL" in os.environ or not sys.platform.startswith("linux"):
         return os.environ.get("MUJOCO_GL")
     if "mujoco" in sys.modules:
         return None
-    nvidia = os.path.exists("/proc/driver/nvidia") or os.path.exists("/dev/nvidia0")
-    if nvidia and ctypes.util.find_library("EGL"):
-        os.environ["MUJOCO_GL"] = "egl"
-    elif ctypes.util.find_library("OSMesa"):
-        os.environ["MUJOCO_GL"] = "osmesa"
-    elif os.environ.get("DISPLAY"):
+    backend = choose_gl_backend(_has_nvidia())
+    if backend is not None:
+        os.environ["MUJOCO_GL"] = backend
+    return backend
+
+
+def gl_problem(
+    backend: str | None = None, display: str | None = None, find: LibraryFinder = _find_library
+) -> str | None:
+    """One line saying why MuJoCo cannot render offscreen here, or ``None`` when it may.
+
+    ``backend`` and ``display`` default to ``MUJOCO_GL`` and ``DISPLAY`` from the environment.
+    Only Linux is checked: a missing library of ``MUJOCO_GL=osmesa``/``egl``, or GLFW (no
+    ``MUJOCO_GL``) without a display.
+    """
+    if not sys.platform.startswith("linux"):
         return None
-    return os.environ.get("MUJOCO_GL")
+    backend = (os.environ.get("MUJOCO_GL", "") if backend is None else backend).lower().strip()
+    display = os.environ.get("DISPLAY") if display is None else display
+    if backend in GL_LIBRARIES:
+        if gl_library_found(backend, find):
+            return None
+        return f"MUJOCO_GL={backend} but its OpenGL library is not installed: {RENDER_HINT}"
+    if backend in ("", "glfw", "glx", "enable", "enabled", "on", "true", "1") and not display:
+        return f"no OpenGL backend for offscreen rendering (MUJOCO_GL unset, no display): {RENDER_HINT}"
+    return None
 
 
 def _render_hint() -> str:
     backend = os.environ.get("MUJOCO_GL")
     if backend == "osmesa" or not backend:
-        return "install OSMesa (apt-get install libosmesa6) and set MUJOCO_GL=osmesa, or use MUJOCO_GL=egl on a GPU"
+        return RENDER_HINT
     return f"MUJOCO_GL={backend} did not work; try MUJOCO_GL=osmesa (apt-get install libosmesa6)"
+
+
+def _first_line(e: BaseException) -> str:
+    """``"Type: first line of the message"``."""
+    lines = str(e).strip().splitlines()
+    return f"{type(e).__name__}: {lines[0]}" if lines else type(e).__name__
 
 
 # --------------------------------------------------------------------------- frames
@@ -77,15 +159,23 @@ def _camera(model: Any) -> Any:
 def render_mujoco(
     mj_model: Any, qpos: np.ndarray, qvel: np.ndarray, width: int = WIDTH, height: int = HEIGHT
 ) -> list[np.ndarray]:
-    """Frames ``[H, W, 3] uint8`` of the states ``qpos [T, nq]``, ``qvel [T, nv]``."""
+    """Frames ``[H, W, 3] uint8`` of the states ``qpos [T, nq]``, ``qvel [T, nv]``.
+
+    Raises ``RenderError`` (a one-line message naming what to install) without an OpenGL backend.
+    """
     import mujoco
 
     width = min(width, int(mj_model.vis.global_.offwidth))
     height = min(height, int(mj_model.vis.global_.offheight))
+    problem = gl_problem()
+    if problem is not None:
+        raise RenderError(f"MuJoCo cannot render here: {problem}")
     try:
-        renderer = mujoco.Renderer(mj_model, height=height, width=width)
+        with warnings.catch_warnings():  # GLFW warns once per failed call; the error says it all
+            warnings.simplefilter("ignore")
+            renderer = mujoco.Renderer(mj_model, height=height, width=width)
     except Exception as e:  # noqa: BLE001 - every GL failure means the same to the user
-        raise RenderError(f"MuJoCo cannot render here ({type(e).__name__}: {e}); {_render_hint()}") from None
+        raise RenderError(f"MuJoCo cannot render here ({_first_line(e)}); {_render_hint()}") from None
     data = mujoco.MjData(mj_model)
     camera = _camera(mj_model)
     frames = []

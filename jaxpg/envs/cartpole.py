@@ -7,6 +7,12 @@ Actions are discrete: 0 pushes the cart left, 1 right, with a force of 10 N. Rew
 the terminating one included (v1's default). The episode terminates when ``|x| > 2.4`` or
 ``|theta| > 12`` degrees; 500-step limit. Reset: every state entry uniform in ``[-0.05, 0.05]``.
 The eval metric is the number of steps so far, which at the end of an episode is its return.
+
+An action is an integer scalar; a float or a non-scalar raises ``ValueError`` when ``step`` is
+traced. An integer outside ``{0, 1}`` (e.g. 7 or -1) is *not* a push in either direction: as in
+every discrete jaxpg task (``jaxpg.envs.base``), the step is not taken (the cart-pole keeps its
+state), the episode ends as ``terminated`` with reward 0 and a zeroed observation, and
+``metrics["invalid_action"]`` is 1. Integer actions cannot be NaN.
 """
 
 from __future__ import annotations
@@ -31,6 +37,7 @@ class CartPoleData:
 class CartPole(Env):
     """Pure-JAX CartPole; see the module docstring for the task definition."""
 
+    name = "cartpole"
     discrete = True
     action_size = 2
     observation_size = 4
@@ -53,8 +60,9 @@ class CartPole(Env):
         self.polemass_length = self.masspole * self.length
 
     def dynamics(self, state: jax.Array, action: jax.Array) -> jax.Array:
-        """One Euler step of ``state [4]`` under the discrete ``action`` (0 or 1); same operation
-        order as Gymnasium, so that float64 results agree to the last bit but for sin/cos."""
+        """One Euler step of ``state [4]`` under the discrete ``action`` (0 or 1; ``Env.step``
+        undoes steps with any other value); same operation order as Gymnasium, so that float64
+        results agree to the last bit but for sin/cos."""
         x, x_dot, theta, theta_dot = state[0], state[1], state[2], state[3]
         force = jnp.where(action == 1, self.force_mag, -self.force_mag).astype(state.dtype)
         costheta, sintheta = jnp.cos(theta), jnp.sin(theta)

@@ -32,7 +32,10 @@ axis-aligned rectangle whose image is the outer product of its per-row and per-c
 ``O(size^2)`` per object with no loop and no gather, and ``vmap``s over games. Physics is in court
 units, so ``size`` (e.g. 40 for quick tests) changes the picture's resolution but not the game.
 Actions: ``0`` up, ``1`` down (``action_size`` 2), or with ``stay_action=True`` ``0`` stay,
-``1`` up, ``2`` down (``action_size`` 3).
+``1`` up, ``2`` down (``action_size`` 3). An action is an integer scalar (a float or a non-scalar
+raises ``ValueError`` when ``step`` is traced); one outside ``[0, action_size)`` does not move the
+paddle either way: the step is not taken, the game ends as ``terminated`` with reward 0 and a zeroed
+frame, and ``metrics["invalid_action"]`` is 1 (see ``jaxpg.envs.base``).
 
 ``FrameDifference`` turns the frames into the difference of consecutive frames, the
 preprocessing of the seed: the policy then sees where things move.

@@ -13,7 +13,7 @@ from typing import Any
 import jax
 import jax.numpy as jnp
 
-from jaxpg.envs.base import Env, State
+from jaxpg.envs.base import Env, State, check_action
 
 
 class Wrapper(Env):
@@ -32,6 +32,7 @@ class Wrapper(Env):
     eval_metric_name = property(lambda self: self.env.eval_metric_name)
     action_low = property(lambda self: self.env.action_low)
     action_high = property(lambda self: self.env.action_high)
+    name = property(lambda self: self.env.name)
 
     def _reset(self, key: jax.Array) -> Any:  # pragma: no cover - wrappers override reset
         raise NotImplementedError
@@ -57,10 +58,13 @@ class ClipAction(Wrapper):
     """Clips a continuous action ``[action_size]`` to ``[action_low, action_high]`` before the task.
 
     The task's control cost is then charged on the clipped action, as in Stable-Baselines3 and
-    Brax. Discrete tasks pass through unchanged.
+    Brax. Discrete tasks pass through unchanged. The action's shape is checked first
+    (``check_action``), so that a scalar is never broadcast to every actuator by bounds given per
+    actuator; a NaN stays NaN and ends the episode as ``nonfinite``.
     """
 
     def step(self, state: State, action: jax.Array) -> State:
+        action = check_action(self.env, action)
         if not self.env.discrete:
             action = jnp.clip(action, self.env.action_low, self.env.action_high)
         return self.env.step(state, action)

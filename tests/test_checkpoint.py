@@ -135,7 +135,7 @@ def test_incompatible_target_gives_one_clear_error(tmp_path):
     assert listing(tmp_path) == before
 
 
-def test_corrupt_checkpoint_gives_one_clear_error_and_touches_nothing(tmp_path):
+def test_corrupt_checkpoint_gives_one_clear_error_and_touches_nothing(tmp_path, capsys):
     ckpt = Checkpointer(tmp_path, create=True)
     ckpt.save(1, make_state(1))
     ckpt.save(2, make_state(2))
@@ -143,12 +143,14 @@ def test_corrupt_checkpoint_gives_one_clear_error_and_touches_nothing(tmp_path):
         if path.is_file():
             path.write_bytes(b"\x00not a checkpoint" * 3)
     before = listing(tmp_path)
-    with pytest.raises(CheckpointError, match="step 2 .* unreadable") as e:
-        Checkpointer(tmp_path).restore(make_state(0))
+    # Asked for by number, a damaged step is an error, not replaced by another.
+    with pytest.raises(CheckpointError, match="step 2 .* damaged") as e:
+        Checkpointer(tmp_path).restore(make_state(0), 2)
     assert "\n" not in str(e.value)
     assert listing(tmp_path) == before
-    # The older checkpoint is still usable.
-    assert_same(Checkpointer(tmp_path).restore(make_state(0), 1), make_state(1))
+    # The latest usable checkpoint is the older one.
+    assert_same(Checkpointer(tmp_path).restore(make_state(0)), make_state(1))
+    assert capsys.readouterr().err.startswith("warning: checkpoint 2 is damaged (")
     shutil.rmtree(tmp_path / "1" / "meta")
     with pytest.raises(CheckpointError, match="step 1 .* unreadable"):
         Checkpointer(tmp_path).restore(make_state(0), 1)

@@ -382,3 +382,38 @@ def test_save_reads_the_policy_back_and_removes_a_step_that_does_not(ckpts, monk
         str(e.value),
     ), str(e.value)
     assert listing(ckpts) == before and writer.steps() == [2, 4]
+
+
+def test_disk_full_reported_as_text_by_tensorstore_is_recognised(ckpts, monkeypatch):
+    import orbax.checkpoint as ocp
+
+    spec = '{"driver": "zarr", "kvstore": {"driver": "ocdbt"}} ' * 40
+
+    def failing_save(manager, step, *args, **kwargs):
+        raise ValueError(f"RESOURCE_EXHAUSTED: Error writing local file: [OS error 28: No space left on device] {spec}")
+
+    monkeypatch.setattr(ocp.CheckpointManager, "save", failing_save)
+    with pytest.raises(CheckpointError, match=r"^cannot save checkpoint 6 in \S+: the disk is full; [^\n]*--resume$"):
+        Checkpointer(ckpts).save(6, make_state(6))
+
+
+def test_failed_reads_print_nothing_later(tmp_path, capfd, monkeypatch):
+    """TensorStore reads still in flight when an Orbax restore fails complete on a closed asyncio
+    loop; their tracebacks ("Event loop is closed") are not printed."""
+    import gc
+    import sys
+    import time
+
+    unraisable = []
+    monkeypatch.setattr(sys, "unraisablehook", unraisable.append)  # what would be printed
+
+    state = make_state(1).replace(env_state={f"a{i}": jnp.full((50, i + 1), float(i)) for i in range(60)})
+    Checkpointer(tmp_path, create=True).save(4, state)
+    for path in data_files(tmp_path / "4" / "state"):
+        path.write_bytes(path.read_bytes()[:20])
+    for _ in range(3):
+        with pytest.raises(CheckpointError, match="step 4 .* damaged"):
+            Checkpointer(tmp_path).restore(state, 4)
+    time.sleep(0.5)
+    gc.collect()
+    assert capfd.readouterr().err == "" and unraisable == []

@@ -37,14 +37,36 @@ def checkpoint_expectations(run: runlog.RunConfig) -> dict[str, Any]:
     return {"task": run.task, "algo": run.algo}
 
 
+def load_run_config(run_dir: str | os.PathLike) -> runlog.RunConfig:
+    """The ``RunConfig`` of ``run_dir``; ``RunDirError`` (one line) for a path that is a file,
+    missing or not a run directory."""
+    path = Path(run_dir)
+    if path.exists() and not path.is_dir():
+        raise runlog.RunDirError(f"{str(run_dir)!r} is a file, not a run directory (give the directory a run wrote)")
+    return runlog.RunConfig.load(run_dir)
+
+
 def restore_train_state(run_dir: str | os.PathLike, step: int | str | None = None) -> tuple[Any, int]:
     """The whole ``TrainState`` of a run's checkpoint and its step (``CheckpointError`` /
-    ``RunDirError``, one line, when it cannot be had)."""
-    run = runlog.RunConfig.load(run_dir)
+    ``RunDirError``, one line, when it cannot be had). ``"latest"``/``"best"`` skip damaged
+    checkpoints with a warning line."""
+    run = load_run_config(run_dir)
     target = abstract_train_state(run)
     checkpoints = ckpt_lib.Checkpointer(Path(run_dir) / runlog.CHECKPOINT_DIR, keep=None)
     step = checkpoints.resolve_step(step)
     return checkpoints.restore(target, step, expect=checkpoint_expectations(run)), step
+
+
+def check_finite(obs: np.ndarray) -> None:
+    """``ValueError`` (one line, naming the first bad entry) unless every entry of ``obs`` is finite."""
+    bad = ~np.isfinite(obs)
+    if bad.any():
+        index = tuple(int(i) for i in np.argwhere(bad)[0])
+        where = f"[{', '.join(map(str, index))}]"
+        raise ValueError(
+            f"observation contains NaN or inf (obs{where} = {obs[index]}); "
+            "the policy needs finite observations (check the env or the simulator state)"
+        )
 
 
 class LoadedPolicy:
@@ -94,12 +116,14 @@ class LoadedPolicy:
         return action
 
     def __call__(self, obs: Any) -> np.ndarray:
+        """The action(s) for ``obs``; ``ValueError`` for a wrong shape or a NaN/inf entry."""
         obs = np.asarray(obs, np.float32)
         if obs.shape[-1:] != (self.observation_size,) or obs.ndim not in (1, 2):
             raise ValueError(
                 f"expected an observation [{self.observation_size}] or a batch [B, {self.observation_size}], "
                 f"got shape {obs.shape}"
             )
+        check_finite(obs)
         key = self._key
         if not self.deterministic:
             self._key, key = jax.random.split(self._key)
@@ -132,12 +156,14 @@ def load_policy(
       deterministic: act with the mode of the policy (the "mean policy"); ``False`` samples.
       clip: clip continuous actions to the env's bounds, as the training env does.
       sample_seed: PRNG seed of the sampled actions when not deterministic.
+    Returns a ``LoadedPolicy``. ``"latest"`` and ``"best"`` take the newest (best) checkpoint that
+    reads back completely; a damaged one is skipped with one ``warning:`` line on stderr.
     Raises ``ValueError`` (``RunDirError``/``CheckpointError``) with one line when the run or
-    checkpoint is missing, foreign or does not fit.
+    checkpoint is missing, foreign, damaged or does not fit, or ``run_dir`` is a file.
     """
     from jaxpg.algos import common
 
-    run = runlog.RunConfig.load(run_dir)
+    run = load_run_config(run_dir)
     env = run.make_env()
     config = run.algo_config()
     policy, _ = common.make_networks(env, config)

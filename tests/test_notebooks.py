@@ -24,8 +24,7 @@ CELL_TIMEOUT_S = 600
 def kernel_env():
     """Quick mode and offscreen rendering for the kernel; the kernel runs this interpreter."""
     saved = {k: os.environ.get(k) for k in ("JAXPG_QUICK", "MUJOCO_GL", "PATH")}
-    os.environ["JAXPG_QUICK"] = "1"
-    os.environ.setdefault("MUJOCO_GL", "osmesa")
+    os.environ["JAXPG_QUICK"] = "1"  # MUJOCO_GL: what conftest's jaxpg.video.configure_gl chose, if any
     # The "python3" kernel spec starts `python`; put this interpreter's directory first.
     os.environ["PATH"] = str(Path(sys.executable).parent) + os.pathsep + os.environ.get("PATH", "")
     yield

@@ -72,10 +72,17 @@ def test_trpo_line_search_respects_max_kl(batch_and_direction):
     ts = ts.replace(config=trpo.Config(**SMALL, max_kl=0.01))
     new_params, info = jax.jit(trpo.line_search)(ts, batch, grad, cg.x)
     kl = float(npg.mean_kl(ts, ts.params, new_params, batch))
-    assert kl <= 0.01 + 1e-6
-    if float(info["line_search_accepted"]):
-        assert float(info["surrogate_improvement"]) > 0
-        np.testing.assert_allclose(kl, float(info["kl"]), rtol=1e-4)
+    # On this batch the search must take a step: a search that always rejects (KL 0) fails here.
+    assert float(info["line_search_accepted"]) == 1.0 and 0 < kl <= 0.01 + 1e-6
+    assert float(info["surrogate_improvement"]) > 0
+    np.testing.assert_allclose(kl, float(info["kl"]), rtol=1e-4)
+    # With a trust region so large that every candidate overshoots the quadratic model, it rejects
+    # and says so: the policy is unchanged.
+    huge = ts.replace(config=trpo.Config(**SMALL, max_kl=1e6))
+    same, info = jax.jit(trpo.line_search)(huge, batch, grad, cg.x)
+    assert float(info["line_search_accepted"]) == 0.0 and float(info["step_size"]) == 0.0
+    for a, b in zip(jax.tree.leaves(same), jax.tree.leaves(ts.params), strict=True):
+        np.testing.assert_array_equal(a, b)
 
 
 def test_nonfinite_update_is_rejected(small_state):

@@ -2,6 +2,7 @@
 with NaN/inf and a path that is a file. One cartpole NPG run directory is written once per module
 from the algorithm's ``init`` (checkpoints 2 and 4, nothing trained); tests damage copies of it."""
 
+import json
 import re
 import shutil
 from pathlib import Path
@@ -34,6 +35,9 @@ def pristine(tmp_path_factory):
     run_dir = tmp_path_factory.mktemp("runs") / "run"
     run_dir.mkdir()
     run.save(run_dir)
+    # A resume needs the metrics of the iterations its checkpoint holds.
+    rows = [{"iteration": i, "seed": 0, "env_steps": 32.0 * i, "wall_time_s": float(i)} for i in range(1, 5)]
+    (run_dir / runlog.METRICS_FILE).write_text("".join(json.dumps(r) + "\n" for r in rows))
     ts = module.init(jax.random.PRNGKey(0), run.make_env(), config)
     ckpt = Checkpointer(run_dir / runlog.CHECKPOINT_DIR, keep=None, create=True)
     for step in (2, 4):

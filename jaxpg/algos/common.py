@@ -416,6 +416,7 @@ def sampling_metrics(ts: TrainState, traj: rollout_lib.Trajectory) -> dict[str, 
         "eval_metric": summary["episode_eval_metric"],
         "episodes": summary["episodes"],
         "nonfinite": jnp.sum(traj.metrics["nonfinite"] * traj.valid),
+        "invalid_action": jnp.sum(traj.metrics.get("invalid_action", jnp.zeros_like(traj.rewards)) * traj.valid),
         "physics_overflow": jnp.sum(overflow * traj.valid),
         "mean_reward": weighted_mean(traj.rewards, traj.valid),
     }

@@ -69,9 +69,6 @@ class Config(common.BaseConfig):
 
     def validate(self, env: Env) -> None:
         super().validate(env)
-        for name in self.UNUSED_FIELDS:
-            if getattr(self, name) != getattr(common.BaseConfig, name):
-                raise ValueError(f"REINFORCE has no value function: {name} does not apply")
         if self.optimizer not in ("adam", "adamw"):
             raise ValueError(f"optimizer must be 'adam' or 'adamw', got {self.optimizer!r}")
         if not self.lr > 0:

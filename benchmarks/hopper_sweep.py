@@ -74,13 +74,11 @@ def run_setting(
 
     from jaxpg import envs, train
     from jaxpg.algos import common, npg
+    from jaxpg.envs.mjx_env import default_impl
 
     config = npg.Config(**{**BASE, **overrides})
     batch = max(config.num_envs, eval_envs) * len(seeds)
-    env_kwargs = {"impl": impl} if impl else {}
-    env = envs.make("hopper", **env_kwargs)
-    if env.impl == "warp":
-        env = envs.make("hopper", max_batch=batch, **env_kwargs)
+    env = envs.make("hopper", impl=impl, **({"max_batch": batch} if (impl or default_impl()) == "warp" else {}))
     eval_config = dataclasses.replace(config, eval_envs=eval_envs)
 
     @jax.jit

@@ -2,7 +2,7 @@
 
 Discrete actions: the policy is categorical. The defaults (NPG, 64 envs x 128 steps, 30
 iterations) reach the 500-step limit in about a minute on a laptop CPU. Kokoyi's policy gradient
-(SEEDS.md, seed 5) is ``--algo reinforce --preset kokoyi``; MinPy's A2C (seed 4) is
+(categorical MLP, normalised returns) is ``--algo reinforce --preset kokoyi``; MinPy's A2C is
 ``--algo a2c --preset minpy`` (``--preset cartpole`` for settings tuned to this task).
 
 Every flag: ``python experiments/cartpole.py --help``.

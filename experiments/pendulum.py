@@ -1,7 +1,7 @@
 """Inverted pendulum (``--task inverted_double_pendulum`` for the double one) with any jaxpg algorithm.
 
 The defaults (NPG, 64 envs x 128 steps per iteration, 40 iterations) balance the pendulum for the
-full 1000 steps in about a minute on a laptop CPU. The seeds of SEEDS.md on this task:
+full 1000 steps in about a minute on a laptop CPU. The reference systems on this task:
 
     python experiments/pendulum.py --algo vpg --preset lightning --iterations 100          # Lightning VPG
     python experiments/pendulum.py --algo reinforce --preset gymnasium_tutorial --seeds 1 2 3 5 8

@@ -1,4 +1,4 @@
-"""Pong from pixels (SEEDS.md, seed 4: MinPy): REINFORCE and A2C on jaxpg's pure-JAX Pong.
+"""Pong from pixels (MinPy's experiment): REINFORCE and A2C on jaxpg's pure-JAX Pong.
 
 The task is ``jaxpg.envs.pong.Pong``, a Pong written for jaxpg (not the Atari ROM), seen through
 ``FrameDifference``: the observation is the current 80x80 frame minus the previous one, flattened

@@ -20,16 +20,13 @@ from pathlib import Path
 import jax
 import numpy as np
 import pytest
+import test_cli
 
 from jaxpg import cli, envs, runlog
 from jaxpg.algos import npg, ppo
 
 ROOT = Path(__file__).resolve().parent.parent
-TINY = [
-    "--env", "inverted_pendulum", "--num-envs", "8", "--horizon", "32", "--eval-envs", "2",
-    "--eval-horizon", "32", "--max-episode-steps", "50", "--checkpoint-every", "2", "--log-every", "2",
-    "--no-progress",
-]  # fmt: skip
+TINY = test_cli.TINY  # the same tiny run as tests/test_cli.py: the two share its compiled programs
 
 
 def digest(path: Path) -> dict[str, str]:

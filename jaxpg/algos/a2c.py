@@ -65,7 +65,7 @@ class Config(common.BaseConfig):
 
 
 PRESETS: dict[str, dict[str, Any]] = {
-    # Seed 4 of SEEDS.md (MinPy): n actors in lock-step, t_max 5, RMSprop, entropy bonus.
+    # MinPy's parallel A2C: n actors in lock-step, t_max 5, RMSprop, entropy bonus.
     "minpy": dict(
         num_envs=16,
         horizon=5,

@@ -408,7 +408,6 @@ def sampling_metrics(ts: TrainState, traj: rollout_lib.Trajectory) -> dict[str, 
     limit (MuJoCo Warp reports these; always 0 with MJX's JAX implementation).
     """
     summary = rollout_lib.episode_summary(traj)
-    overflow = traj.metrics.get("physics_overflow", jnp.zeros_like(traj.rewards))
     return {
         "env_steps": (ts.iteration + 1).astype(jnp.float32) * ts.config.samples_per_iteration,
         "return_stochastic": summary["episode_return"],
@@ -416,8 +415,8 @@ def sampling_metrics(ts: TrainState, traj: rollout_lib.Trajectory) -> dict[str, 
         "eval_metric": summary["episode_eval_metric"],
         "episodes": summary["episodes"],
         "nonfinite": jnp.sum(traj.metrics["nonfinite"] * traj.valid),
-        "invalid_action": jnp.sum(traj.metrics.get("invalid_action", jnp.zeros_like(traj.rewards)) * traj.valid),
-        "physics_overflow": jnp.sum(overflow * traj.valid),
+        "invalid_action": jnp.sum(traj.metrics["invalid_action"] * traj.valid),
+        "physics_overflow": jnp.sum(traj.metrics["physics_overflow"] * traj.valid),
         "mean_reward": weighted_mean(traj.rewards, traj.valid),
     }
 

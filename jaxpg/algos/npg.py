@@ -125,7 +125,7 @@ PRESETS: dict[str, dict[str, Any]] = {
         eval_envs=32,
         eval_every=10,
     ),
-    # Seed 1 of SEEDS.md: LyceumAI NaturalPolicyGradient on Hopper.
+    # LyceumAI's NaturalPolicyGradient on HopperV2 (Summers et al., L4DC 2020).
     "lyceum": dict(
         sampling="episodic",
         num_envs=11,

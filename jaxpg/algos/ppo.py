@@ -109,7 +109,7 @@ def validate_returns(config: Any) -> None:
 
 
 PRESETS: dict[str, dict[str, Any]] = {
-    # Brax's PPO on MJX Hopper (the anchor in ANCHORS.md): 2048 envs, unrolls of 20 steps, 32
+    # Brax's PPO on MJX Hopper (the reference run in BENCHMARKS.md): 2048 envs, unrolls of 20 steps, 32
     # minibatches x 4 epochs, lr 3e-4, entropy 1e-3, gamma 0.99, reward scaling 10, observation
     # normalisation, no gradient clipping. Brax gathers 8 unrolls of 20 steps per update
     # (batch 512 x 32 minibatches = 16384 unrolls); horizon 160 holds the same samples per update

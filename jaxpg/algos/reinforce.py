@@ -87,7 +87,7 @@ class Config(common.BaseConfig):
 
 
 PRESETS: dict[str, dict[str, Any]] = {
-    # Seed 3 of SEEDS.md, on inverted_pendulum: the Gymnasium REINFORCE tutorial. Shared tanh
+    # On inverted_pendulum: the Gymnasium REINFORCE tutorial. Shared tanh
     # trunk 16 -> 32, linear mean and softplus-std heads, AdamW lr 1e-4, gamma 0.99, one update
     # per episode, raw (unnormalised) returns, PyTorch's default initialisation.
     "gymnasium_tutorial": dict(

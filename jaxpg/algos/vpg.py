@@ -64,7 +64,7 @@ class Config(reinforce.Config):
 
 
 PRESETS: dict[str, dict[str, Any]] = {
-    # Seed 2 of SEEDS.md, on inverted_pendulum: the PyTorch Lightning VPG. Policy 64 -> 64 tanh
+    # On inverted_pendulum: the PyTorch Lightning VPG. Policy 64 -> 64 tanh
     # with a global log-std, baseline of the same shape, Adam lr 3.9e-3, discount 0.9, 2500
     # samples per epoch (here 10 envs x 250 steps of continuing sampling, the data set carried
     # across episode ends), advantages = normalised returns - baseline, baseline fitted to the

@@ -21,7 +21,8 @@ Fidelity = Literal["fast", "gymnasium"]
 Impl = Literal["jax", "warp"]
 
 # Solver settings of the "fast" fidelity: the semi-implicit Euler integrator and a short Newton solve.
-# On one H100 these are worth 14x over Gymnasium's RK4 with the default solver (../shared/gpu/README.md).
+# On one H100 these are worth 14x over Gymnasium's RK4 with the default solver (raw MJX stepping of
+# Hopper at 16384 envs: 1.66 M against 117 k env steps/s).
 FAST_SOLVER_ITERATIONS = 4
 FAST_LS_ITERATIONS = 8
 

@@ -1,7 +1,7 @@
 """Pong from pixels: a two-paddle Pong written in pure JAX for jaxpg (it is *not* the Atari ROM).
 
 This is a small Pong of our own, made so that thousands of games run in one ``vmap`` and the
-MinPy / Karpathy "Pong from pixels" experiment (SEEDS.md, seed 4) can be reproduced without an
+MinPy / Karpathy "Pong from pixels" experiment (policy gradient, then parallel A2C) can be reproduced without an
 emulator. It plays like Atari Pong but is not pixel- or rule-identical to it, and scores on it are
 not comparable with Atari Pong scores.
 

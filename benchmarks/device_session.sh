@@ -5,6 +5,8 @@
 #
 #   bash benchmarks/device_session.sh card     # `python experiments/hopper.py --num-envs 256`, 3 seeds, cold and warm
 #   bash benchmarks/device_session.sh sweep    # NPG settings at 256 envs, 3 seeds vmapped, to 2 M env steps
+#   bash benchmarks/device_session.sh sweep8   # settings around the default, 8 seeds vmapped, to 1.97 M env steps
+#   bash benchmarks/device_session.sh ratio    # train(+eval)/raw of the card's defaults at 256-65536 envs
 #   bash benchmarks/device_session.sh ttr      # time to a Hopper return of 3000, NPG and PPO, 3 seeds each
 #   bash benchmarks/device_session.sh env      # raw env throughput table (issue 2), then Pong figures
 #   bash benchmarks/device_session.sh gym      # the README's GPU training commands, then Gymnasium evaluation
@@ -29,6 +31,16 @@ card)
 sweep)
   timeout 570 $py benchmarks/hopper_sweep.py --impl warp --settings base step07 step07vep10 s10vep10 \
     --seeds 0 1 2 --steps 2e6 --json "$OUT/sweep.json" 2>&1 | tee "$OUT/sweep.log" | grep -v "^WARN"
+  ;;
+sweep8)
+  timeout 575 $py benchmarks/hopper_sweep.py --impl warp \
+    --settings step07vep10 vnorm std0 vnorm_std0 lam95 vnorm_s10 vep20 vnorm_vep5 \
+    --seeds 0 1 2 3 4 5 6 7 --steps 1966080 --marks 1 1.5 1.966 --json "$OUT/sweep8.json" 2>&1 \
+    | tee "$OUT/sweep8.log" | grep -v "^WARN"
+  ;;
+ratio)
+  timeout 575 $py benchmarks/train_throughput.py --impl warp --preset hopper --horizon 64 --iterations 5 \
+    --batch-sizes 256 1024 4096 16384 65536 --json "$OUT/ratio.json" 2>&1 | tee "$OUT/ratio.log" | grep -v "^WARN\|^#"
   ;;
 ttr)
   common=(--block 10 --seeds 0 1 2 --warmup --max-seconds 150)

@@ -55,6 +55,14 @@ SETTINGS: dict[str, dict[str, Any]] = {
     "s07std1": dict(step_size=0.07, log_std_init=-1.0),
     "s10vep10": dict(step_size=0.1, value_epochs=10),
     "s07vep10lr3": dict(step_size=0.07, value_epochs=10, value_lr=3e-3),
+    # Around the command line's default (step 0.07, 10 value epochs):
+    "vnorm": dict(step_size=0.07, value_epochs=10, normalize_value_targets=True),
+    "std0": dict(step_size=0.07, value_epochs=10, log_std_init=0.0),
+    "vnorm_std0": dict(step_size=0.07, value_epochs=10, normalize_value_targets=True, log_std_init=0.0),
+    "lam95": dict(step_size=0.07, value_epochs=10, gae_lambda=0.95),
+    "vnorm_s10": dict(step_size=0.1, value_epochs=10, normalize_value_targets=True),
+    "vnorm_vep5": dict(step_size=0.07, value_epochs=5, normalize_value_targets=True),
+    "vep20": dict(step_size=0.07, value_epochs=20),
 }
 
 

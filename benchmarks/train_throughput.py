@@ -7,8 +7,15 @@ For each (impl, num_envs) this measures, in a fresh process (so that peak memory
          iterations per compiled call exactly as ``jaxpg.train`` runs them, and one per call;
 and reports their ratio, both compile times and the peak device memory per env.
 
+With ``--preset NAME`` the algorithm runs that preset (at each batch size) instead of a
+throughput-oriented config, mean-policy evaluation included: one evaluation
+(``jaxpg.train.evaluate_state``, as ``jaxpg.train`` runs it between compiled calls) is timed and
+charged once per ``eval_every`` iterations, as a run of the preset pays it ("train+eval").
+
     python benchmarks/train_throughput.py --task hopper --impl warp jax \
         --batch-sizes 256 1024 4096 16384 65536 --horizon 32 --algo npg
+    python benchmarks/train_throughput.py --impl warp --preset hopper --horizon 64 \
+        --batch-sizes 256 1024 4096 16384 65536
 """
 
 from __future__ import annotations
@@ -30,11 +37,14 @@ def warp_capacity(impl: str | None, num_envs: int) -> dict:
     return {"max_batch": num_envs} if (impl or default_impl()) == "warp" else {}
 
 
-def algo_config(algo: str, num_envs: int, horizon: int) -> object:
-    """A throughput-oriented config: no evaluation rollouts, large value minibatches."""
+def algo_config(algo: str, num_envs: int, horizon: int, preset: str | None = None) -> object:
+    """``preset`` at this batch, or a throughput-oriented config: no evaluation rollouts, large
+    value minibatches."""
     from jaxpg import algos
 
     module = algos.get(algo)
+    if preset:
+        return module.Config(**{**module.PRESETS[preset], "num_envs": num_envs, "horizon": horizon})
     samples = num_envs * horizon
     fields = module.Config.__dataclass_fields__
     overrides = dict(num_envs=num_envs, horizon=horizon, eval_envs=0, normalize_observations=True)
@@ -56,7 +66,9 @@ def time_call(fn, *args, repeats: int) -> tuple[float, float, object]:  # noqa: 
     return compile_s, (time.perf_counter() - start) / repeats, out
 
 
-def measure(task: str, impl: str, fidelity: str, num_envs: int, horizon: int, algo: str, iterations: int) -> dict:
+def measure(
+    task: str, impl: str, fidelity: str, num_envs: int, horizon: int, algo: str, iterations: int, preset: str | None
+) -> dict:
     """One row of the table (runs in its own process)."""
     from jaxpg import algos, envs
     from jaxpg import rollout as rollout_lib
@@ -81,7 +93,7 @@ def measure(task: str, impl: str, fidelity: str, num_envs: int, horizon: int, al
     raw_compile, raw_s, _ = time_call(raw, state, jax.random.PRNGKey(1), repeats=10)
 
     module = algos.get(algo)
-    config = algo_config(algo, num_envs, horizon)
+    config = algo_config(algo, num_envs, horizon, preset)
     # Commit every leaf to the device first. A state built eagerly mixes uncommitted leaves with
     # committed ones (MuJoCo Warp's buffers), while a jitted call's outputs are all committed, and
     # jit compiles a separate executable for each mix: without this the first timed call after
@@ -107,6 +119,11 @@ def measure(task: str, impl: str, fidelity: str, num_envs: int, horizon: int, al
     jax.block_until_ready(ts3)
     single_s = (time.perf_counter() - start) / iterations
     samples = num_envs * horizon
+    eval_s, eval_compile = 0.0, 0.0
+    if config.eval_envs > 0:
+        evaluate = train_lib.compiled_evaluate(train_lib.evaluate_state, False)
+        eval_compile, eval_s, _ = time_call(evaluate, ts3, repeats=3)
+    with_eval_s = train_s + eval_s / config.eval_every  # per iteration, evaluation amortised
     stats = jax.devices()[0].memory_stats() or {}
     peak = stats.get("peak_bytes_in_use", 0)
     return {
@@ -121,6 +138,12 @@ def measure(task: str, impl: str, fidelity: str, num_envs: int, horizon: int, al
         "ratio": raw_s / train_s,
         "train_single_steps_per_s": samples / single_s,
         "ratio_single": raw_s / single_s,
+        "preset": preset,
+        "eval_s": eval_s,
+        "eval_compile_s": eval_compile,
+        "eval_every": config.eval_every if config.eval_envs > 0 else 0,
+        "train_eval_steps_per_s": samples / with_eval_s,
+        "ratio_eval": raw_s / with_eval_s,
         "raw_compile_s": raw_compile,
         "train_compile_s": train_compile,
         "peak_bytes_per_env": peak / num_envs,
@@ -137,13 +160,16 @@ def main() -> None:
     parser.add_argument("--batch-sizes", nargs="+", type=int, default=[256, 1024])
     parser.add_argument("--horizon", type=int, default=32)
     parser.add_argument("--iterations", type=int, default=5, help="iterations per timed compiled call")
+    parser.add_argument("--preset", help="the algorithm's preset (with its evaluation) instead of a throughput config")
     parser.add_argument("--json", help="write all rows to this file")
     parser.add_argument("--single", help=argparse.SUPPRESS)
     args = parser.parse_args()
 
     if args.single:
         impl, num_envs = args.single.split(":")
-        row = measure(args.task, impl, args.fidelity, int(num_envs), args.horizon, args.algo, args.iterations)
+        row = measure(
+            args.task, impl, args.fidelity, int(num_envs), args.horizon, args.algo, args.iterations, args.preset
+        )
         print("ROW " + json.dumps(row), flush=True)
         return
 
@@ -153,6 +179,7 @@ def main() -> None:
             cmd = [sys.executable, __file__, "--single", f"{impl}:{num_envs}"]
             cmd += ["--task", args.task, "--algo", args.algo, "--fidelity", args.fidelity]
             cmd += ["--horizon", str(args.horizon), "--iterations", str(args.iterations)]
+            cmd += ["--preset", args.preset] if args.preset else []
             proc = subprocess.run(cmd, capture_output=True, text=True)
             found = [line for line in proc.stdout.splitlines() if line.startswith("ROW ")]
             if proc.returncode != 0 or not found:
@@ -165,7 +192,7 @@ def main() -> None:
         with open(args.json, "w") as f:
             json.dump(rows, f, indent=1)
     device = rows[0]["device"] if rows else ""
-    print(f"\n{args.task} {args.algo}, horizon {args.horizon}, fidelity {args.fidelity}, {device}")
+    print(f"\n{args.task} {args.algo} {args.preset or ''}, horizon {args.horizon}, fidelity {args.fidelity}, {device}")
     print("| impl | envs | raw env steps/s | train env steps/s | train/raw | compile raw s | compile train s", end="")
     print(" | peak MiB/env | 1 iter/call env steps/s | 1 iter/call train/raw |")
     print("|---|---|---|---|---|---|---|---|---|---|")
@@ -177,6 +204,15 @@ def main() -> None:
             f"{r['peak_bytes_per_env'] / 2**20:.3f} | {r['train_single_steps_per_s'] / 1e6:.3f} M "
             f"| {r['ratio_single']:.2f} |"
         )
+    if args.preset:
+        print("\nwith evaluation at the preset's cadence (one evaluation per eval_every iterations):")
+        print("| impl | envs | train+eval env steps/s | train+eval/raw | one evaluation s | eval every |")
+        print("|---|---|---|---|---|---|")
+        for r in rows:
+            print(
+                f"| {r['impl']} | {r['num_envs']} | {r['train_eval_steps_per_s'] / 1e6:.3f} M | {r['ratio_eval']:.2f} "
+                f"| {r['eval_s']:.2f} | {r['eval_every']} |"
+            )
 
 
 if __name__ == "__main__":

@@ -81,3 +81,18 @@ def fit_value(
 
     (params, opt_state), losses = jax.lax.scan(epoch, (params, opt_state), jax.random.split(key, epochs))
     return params, opt_state, jnp.mean(losses)
+
+
+def preserve_outputs(
+    params: Params, old_mean: jax.Array, old_std: jax.Array, new_mean: jax.Array, new_std: jax.Array
+) -> Params:
+    """Rescale the output layer of an MLP value network (``[{"w": [in, 1], "b": [1]}, ...]``) that
+    predicts standardised targets, so that its predictions in target units stay the same when the
+    standardisation moves from ``(old_mean, old_std)`` to ``(new_mean, new_std)`` (all ``[]`` or
+    ``[1]``): ``w' = w old_std / new_std``, ``b' = (old_std b + old_mean - new_mean) / new_std``.
+    This is PopArt's "preserve outputs" step (van Hasselt et al., 2016).
+    """
+    last = params[-1]
+    scale = old_std / new_std
+    rescaled = {**last, "w": last["w"] * scale, "b": (old_std * last["b"] + old_mean - new_mean) / new_std}
+    return [*params[:-1], rescaled]

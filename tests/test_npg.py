@@ -165,3 +165,65 @@ def test_npg_solves_inverted_pendulum(pendulum):
         if best[-1] >= 950:
             break
     assert best[-1] >= 950, f"mean-policy returns per block: {best}"
+
+
+def test_normalized_value_targets(small_state):
+    """With ``normalize_value_targets`` the target statistics absorb each batch, the network is
+    fitted to standardised targets, the output layer is rescaled so that its predictions in
+    return units survive a move of the statistics, and a rolled-back update restores the
+    statistics too."""
+    config = npg.Config(**SMALL, normalize_value_targets=True)
+    ts = small_state.replace(config=config)
+    ts, traj, key = jax.jit(npg.phase_sample)(ts)
+    batch = jax.jit(npg.phase_advantages)(ts, traj)
+    # Targets on the scale of a long task's returns (hundreds), far from standardised.
+    batch = batch.replace(value_targets=300.0 + 50.0 * batch.value_targets)
+    before = npg.value_predictions(ts, batch.obs)
+    np.testing.assert_allclose(before, ts.value_fn.apply(ts.value_params, batch.obs), rtol=1e-6)  # identity at start
+
+    moved = ts.value_stats.update(batch.value_targets[:, None], batch.weights)
+    preserved = ts.replace(
+        value_stats=moved,
+        value_params=npg.value_lib.preserve_outputs(
+            ts.value_params, ts.value_stats.mean[0], ts.value_stats.std[0], moved.mean[0], moved.std[0]
+        ),
+    )
+    np.testing.assert_allclose(npg.value_predictions(preserved, batch.obs), before, rtol=1e-4, atol=1e-3)
+
+    fitted, loss = jax.jit(npg.phase_value_fit)(ts, batch, key)
+    np.testing.assert_allclose(fitted.value_stats.mean, moved.mean, rtol=1e-6)
+    np.testing.assert_allclose(fitted.value_stats.var, moved.var, rtol=1e-6)
+    targets = batch.value_targets
+    raw_outputs = ts.value_fn.apply(fitted.value_params, batch.obs)
+    assert abs(float(jnp.mean(raw_outputs))) < 1.0  # the network itself predicts standardised targets
+    # A second batch on a higher level: the fit starts from the first fit's predictions, kept.
+    again = batch.replace(value_targets=batch.value_targets + 200.0)
+    kept = npg.value_predictions(fitted, again.obs)
+    stats2 = fitted.value_stats.update(again.value_targets[:, None], again.weights)
+    moved2 = fitted.replace(
+        value_stats=stats2,
+        value_params=npg.value_lib.preserve_outputs(
+            fitted.value_params, fitted.value_stats.mean[0], fitted.value_stats.std[0], stats2.mean[0], stats2.std[0]
+        ),
+    )
+    np.testing.assert_allclose(npg.value_predictions(moved2, again.obs), kept, rtol=1e-4, atol=1e-2)
+    assert np.isfinite(float(loss))
+    err_before = float(jnp.mean(jnp.square(before - targets)))
+    err_after = float(jnp.mean(jnp.square(npg.value_predictions(fitted, batch.obs) - targets)))
+    assert err_after < err_before
+
+    kept, rejected = npg.common.accept_if_finite(ts, fitted, jnp.array(jnp.nan))
+    assert float(rejected) == 1.0
+    np.testing.assert_array_equal(kept.value_stats.mean, ts.value_stats.mean)
+    np.testing.assert_array_equal(kept.value_stats.count, ts.value_stats.count)
+
+
+def test_value_minibatches_split_each_epoch(pendulum):
+    """``value_minibatches`` sets the minibatch size from the batch; out of range is refused."""
+    config = npg.Config(**{**SMALL, "value_minibatches": 4})
+    assert config.value_minibatch_size == 8 * 32 // 4
+    config.validate(pendulum)
+    assert npg.Config(**SMALL).value_minibatch_size == SMALL["value_batch_size"]
+    for bad in (-1, 8 * 32 + 1):
+        with pytest.raises(ValueError, match="value_minibatches"):
+            npg.Config(**{**SMALL, "value_minibatches": bad}).validate(pendulum)

@@ -91,7 +91,9 @@ def test_hopper_command_line_defaults_hold_from_64_to_65536_envs(num_envs, tmp_p
     plan = cli.plan(["--num-envs", str(num_envs), "--run-dir", str(tmp_path / "run")], experiment)
     config = plan.config
     assert (plan.run.algo, config.num_envs, plan.run.iterations) == ("npg", num_envs, 120)
-    assert config.value_batch_size <= config.samples_per_iteration
+    # The value fit takes the same number of minibatch steps at every batch size.
+    assert config.samples_per_iteration // config.value_minibatch_size == config.value_minibatches == 16
+    assert config.normalize_value_targets
     assert config.normalize_observations and config.step_size == npg.PRESETS["hopper"]["step_size"]
     # Evaluation costs little: a handful of evaluations, on block boundaries.
     assert plan.run.iterations // config.eval_every <= 2

@@ -10,7 +10,7 @@ import numpy as np
 import optax
 
 from jaxpg.policies import ValueFunction
-from jaxpg.value import fit_value, value_loss
+from jaxpg.value import fit_value, preserve_outputs, value_loss
 
 N, OBS = 200, 3
 
@@ -70,3 +70,18 @@ def test_masked_samples_are_ignored():
     assert np.all(np.isfinite(results[2]))
     for leaf in jax.tree.leaves(results):
         np.testing.assert_array_equal(leaf[0], leaf[1])
+
+
+def test_preserve_outputs_keeps_predictions_in_target_units():
+    """Moving the standardisation and rescaling the output layer leaves ``mean + std * V`` as it was."""
+    value_fn = ValueFunction(hidden=(16, 16), activation="tanh")
+    params = value_fn.init(jax.random.PRNGKey(0), 5)
+    obs = jax.random.normal(jax.random.PRNGKey(1), (32, 5))
+    old_mean, old_std, new_mean, new_std = 3.0, 2.0, -40.0, 17.0
+    before = old_mean + old_std * value_fn.apply(params, obs)
+    moved = preserve_outputs(params, jnp.float32(old_mean), jnp.float32(old_std), new_mean, new_std)
+    after = new_mean + new_std * value_fn.apply(moved, obs)
+    np.testing.assert_allclose(after, before, rtol=1e-5, atol=1e-4)
+    assert not np.allclose(value_fn.apply(moved, obs), value_fn.apply(params, obs))
+    for a, b in zip(jax.tree.leaves(moved[:-1]), jax.tree.leaves(params[:-1]), strict=True):
+        np.testing.assert_array_equal(a, b)

@@ -108,7 +108,8 @@ class BaseConfig:
 
 @struct.dataclass
 class RunningStats:
-    """Running mean and variance of observations (parallel Welford update), ``[obs_dim]``."""
+    """Running mean and variance of observations (parallel Welford update), ``[obs_dim]``; also
+    used for the ``[1]`` value targets."""
 
     mean: jax.Array
     var: jax.Array
@@ -133,6 +134,11 @@ class RunningStats:
         var = jnp.where(total > 0, m2 / jnp.maximum(total, 1.0), 1.0)
         return RunningStats(mean=mean, var=var, count=total)
 
+    @property
+    def std(self) -> jax.Array:
+        """``sqrt(var + 1e-8)``, ``[size]``."""
+        return jnp.sqrt(self.var + 1e-8)
+
     def normalize(self, obs: jax.Array) -> jax.Array:
         """``(obs - mean) / std`` clipped to [-10, 10]; identity before any update."""
         normed = (obs - self.mean) / jnp.sqrt(self.var + 1e-8)
@@ -150,6 +156,9 @@ class TrainState:
       value_opt_state: optimizer state of the value fit.
       env_state: ``[num_envs]`` env states (carried across iterations in continuing sampling).
       obs_stats: observation normalisation statistics (untouched when normalisation is off).
+      value_stats: ``[1]`` running statistics of the value targets, which the value network
+        predicts standardised when the algorithm normalises them (NPG's
+        ``normalize_value_targets``); untouched otherwise.
       key: PRNG key (raw ``uint32 [2]``, so that checkpoints hold plain arrays).
       iteration: ``[]`` int32, iterations completed.
       failures: ``[]`` int32, consecutive updates rejected as non-finite.
@@ -162,6 +171,7 @@ class TrainState:
     value_opt_state: Any
     env_state: State
     obs_stats: RunningStats
+    value_stats: RunningStats
     key: jax.Array
     iteration: jax.Array
     failures: jax.Array
@@ -229,6 +239,7 @@ def init_common(
         value_opt_state=value_opt_init(value_params) if value_opt_init else (),
         env_state=env_state,
         obs_stats=RunningStats.create(env.observation_size),
+        value_stats=RunningStats.create(1),
         key=key,
         iteration=jnp.zeros((), jnp.int32),
         failures=jnp.zeros((), jnp.int32),
@@ -460,11 +471,11 @@ def accept_if_finite(
 
     Returns the state to continue with and ``[]`` float32 1.0 where the update was rejected.
     """
-    learned = (new.params, new.value_params, new.opt_state, new.value_opt_state)
+    learned = (new.params, new.value_params, new.opt_state, new.value_opt_state, new.value_stats)
     finite = all_finite(learned) & jnp.isfinite(loss)
     ok = finite & jnp.asarray(within_trust_region)
-    old_learned = (old.params, old.value_params, old.opt_state, old.value_opt_state)
-    params, value_params, opt_state, value_opt_state = jax.tree.map(
+    old_learned = (old.params, old.value_params, old.opt_state, old.value_opt_state, old.value_stats)
+    params, value_params, opt_state, value_opt_state, value_stats = jax.tree.map(
         lambda n, o: jnp.where(ok, n, o), learned, old_learned
     )
     failures = jnp.where(finite, 0, new.failures + 1)
@@ -473,6 +484,7 @@ def accept_if_finite(
         value_params=value_params,
         opt_state=opt_state,
         value_opt_state=value_opt_state,
+        value_stats=value_stats,
         failures=failures,
     )
     return state, (~ok).astype(jnp.float32)

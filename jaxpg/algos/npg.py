@@ -40,9 +40,22 @@ class Config(common.BaseConfig):
     ``step_size`` is the normalised step delta; ``fvp`` selects the Fisher-vector product
     (``"gauss_newton"``: J'MJ with the distribution's analytic Fisher metric, or
     ``"kl_hessian"``: Hessian of the mean KL); ``value_target`` is ``"gae"`` (lambda-returns) or
-    ``"returns"`` (discounted returns, as LyceumAI fits). ``sample_budget`` > 0 caps the number of
+    ``"returns"`` (discounted returns, as LyceumAI fits). ``normalize_value_targets`` fits the value
+    network to targets standardised by their running statistics (``TrainState.value_stats``),
+    rescaling its output layer whenever they move so that its predictions are kept (PopArt's
+    "preserve outputs"); the ``value_loss`` metric is then in standardised units.
+    ``value_minibatches`` > 0 splits each value epoch into that many minibatches instead of
+    minibatches of ``value_batch_size`` samples, so that the value fit takes the same number of
+    steps whatever ``num_envs`` and ``horizon`` are. ``sample_budget`` > 0 caps the number of
     valid samples in episodic sampling, filling env by env as LyceumAI's sampler does.
     """
+
+    @property
+    def value_minibatch_size(self) -> int:
+        """Samples per value-fit minibatch (``value_minibatches`` wins over ``value_batch_size``)."""
+        if self.value_minibatches > 0:
+            return max(1, self.samples_per_iteration // self.value_minibatches)
+        return self.value_batch_size
 
     gamma: float = 0.995
     gae_lambda: float = 0.97
@@ -54,12 +67,19 @@ class Config(common.BaseConfig):
     value_lr: float = 1e-3
     value_epochs: int = 3
     value_batch_size: int = 64
+    value_minibatches: int = 0
     value_target: str = "gae"
+    normalize_value_targets: bool = False
     sample_budget: int = 0
 
     def validate(self, env: Env) -> None:
         super().validate(env)
-        if self.value_batch_size > self.samples_per_iteration:
+        if self.value_minibatches < 0 or self.value_minibatches > self.samples_per_iteration:
+            raise ValueError(
+                f"value_minibatches must be in [0, {self.samples_per_iteration}] (the samples of an iteration), "
+                f"got {self.value_minibatches}"
+            )
+        if self.value_minibatches == 0 and self.value_batch_size > self.samples_per_iteration:
             raise ValueError(
                 f"value_batch_size {self.value_batch_size} exceeds the {self.samples_per_iteration} samples "
                 f"of an iteration (num_envs {self.num_envs} x horizon {self.horizon})"
@@ -95,20 +115,24 @@ PRESETS: dict[str, dict[str, Any]] = {
     ),
     # Hopper from the command line (the defaults of experiments/hopper.py): 256 envs x 64 steps,
     # 120 iterations (1.97 M env steps). Chosen by benchmarks/hopper_sweep.py on one H100 over
-    # three seeds (BENCHMARKS.md): a normalised step of 0.07 and 10 value epochs per iteration
-    # took every seed's mean policy past 3000 by 1.97 M steps there; 0.05 with 3 epochs took
-    # 2.5-2.9 M. Not every run gets there: some stay in the "one dive forward" local optimum
-    # (return ~235). The mean policy is evaluated after the last iteration (and every 120):
-    # one evaluation (1000 sequential steps, ~1.8 s on an H100) is ~4% of a warm run.
+    # eight seeds (BENCHMARKS.md): a normalised step of 0.07, 10 value epochs per iteration on
+    # standardised value targets (16 minibatches an epoch: 1024 samples at 256 x 64, and the same
+    # number of steps at any --num-envs) and an initial log-std of 0 (std 1) took all eight seeds' mean
+    # policies past 3000 by 1.05 M steps and past 3290 by 1.97 M. Without the last two, three of
+    # eight seeds stayed in the "dive forward once" local optimum (return ~235) or near 1000.
+    # The mean policy is evaluated after the last iteration (and every 120): one evaluation
+    # (1000 sequential steps, ~1.3 s on an H100; 2 s with loading its program) is ~5.5% of a
+    # warm run.
     "hopper": dict(
         num_envs=256,
         horizon=64,
         step_size=0.07,
         normalize_observations=True,
-        log_std_init=-0.5,
+        log_std_init=0.0,
         value_hidden=(128, 128),
         value_epochs=10,
-        value_batch_size=1024,
+        value_minibatches=16,
+        normalize_value_targets=True,
         eval_envs=16,
         eval_every=120,
     ),
@@ -198,8 +222,8 @@ def phase_advantages(ts: TrainState, traj: Trajectory) -> Batch:
     config = ts.config
     obs = ts.obs_stats.normalize(traj.obs)
     next_obs = ts.obs_stats.normalize(traj.next_obs)
-    values = ts.value_fn.apply(ts.value_params, obs)
-    next_values = ts.value_fn.apply(ts.value_params, next_obs)
+    values = value_predictions(ts, obs)
+    next_values = value_predictions(ts, next_obs)
     advantages, targets = returns.gae(
         traj.rewards, values, next_values, traj.terminated, traj.truncated, config.gamma, config.gae_lambda
     )
@@ -283,22 +307,46 @@ def mean_kl(ts: TrainState, old_params: Any, new_params: Any, batch: Batch) -> j
     return common.weighted_mean(kl, batch.weights)
 
 
+def value_predictions(ts: TrainState, obs: jax.Array) -> jax.Array:
+    """``V(obs)`` in return units, ``[...]`` for normalised ``obs [..., obs_dim]``: the network's
+    output, de-standardised by ``ts.value_stats`` when ``normalize_value_targets`` is set."""
+    out = ts.value_fn.apply(ts.value_params, obs)
+    if ts.config.normalize_value_targets:
+        out = ts.value_stats.mean[0] + ts.value_stats.std[0] * out
+    return out
+
+
 def phase_value_fit(ts: TrainState, batch: Batch, key: jax.Array) -> tuple[TrainState, jax.Array]:
-    """Minibatch Adam on the value targets; returns the state with new value params and the loss."""
+    """Minibatch Adam on the value targets; returns the state with new value params and the loss.
+
+    With ``normalize_value_targets`` the target statistics first absorb this batch, the output
+    layer is rescaled to keep its predictions (``value.preserve_outputs``; not on the first batch,
+    when there is nothing to keep), and the network is fitted to the standardised targets.
+    """
     config = ts.config
+    value_params, value_stats, targets = ts.value_params, ts.value_stats, batch.value_targets
+    if config.normalize_value_targets:
+        value_stats = ts.value_stats.update(targets[:, None], batch.weights)
+        preserved = value_lib.preserve_outputs(
+            value_params, ts.value_stats.mean[0], ts.value_stats.std[0], value_stats.mean[0], value_stats.std[0]
+        )
+        # The untrained network's outputs before the first batch carry nothing worth keeping.
+        seen = ts.value_stats.count > 0
+        value_params = jax.tree.map(lambda p, q: jnp.where(seen, p, q), preserved, value_params)
+        targets = (targets - value_stats.mean[0]) / value_stats.std[0]
     value_params, value_opt_state, loss = value_lib.fit_value(
         ts.value_fn,
-        ts.value_params,
+        value_params,
         ts.value_opt_state,
         value_optimizer(config),
         batch.obs,
-        batch.value_targets,
+        targets,
         key,
         epochs=config.value_epochs,
-        batch_size=config.value_batch_size,
+        batch_size=config.value_minibatch_size,
         weights=batch.weights,
     )
-    return ts.replace(value_params=value_params, value_opt_state=value_opt_state), loss
+    return ts.replace(value_params=value_params, value_opt_state=value_opt_state, value_stats=value_stats), loss
 
 
 def finish_iteration(

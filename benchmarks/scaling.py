@@ -71,7 +71,8 @@ def measure(task: str, impl: str | None, devices: int, envs_per_device: int, hor
     from jaxpg import distributed, envs, train
     from jaxpg import rollout as rollout_lib
     from jaxpg.algos import common, npg
-    from jaxpg.cli import shard_state, warp_capacity
+    from jaxpg.cli import shard_state
+    from jaxpg.envs import warp_capacity
 
     if jax.device_count() < devices:
         raise SystemExit(f"only {jax.device_count()} devices are visible, {devices} asked for")

@@ -34,7 +34,6 @@ import contextlib
 import dataclasses
 import datetime
 import functools
-import importlib
 import json
 import os
 import shutil
@@ -347,18 +346,6 @@ def _check_task(task: str, experiment: Experiment) -> None:
         raise UsageError(f"unknown task {task!r}; known tasks: {', '.join(allowed)}")
 
 
-def warp_capacity(task: str, env_kwargs: dict[str, Any], batch: int) -> dict[str, Any]:
-    """``{"max_batch": batch}`` for an MJX task on MuJoCo Warp, whose contact buffer is sized for
-    the whole vmapped batch (``MjxEnv``); ``{}`` otherwise."""
-    from jaxpg import envs
-    from jaxpg.envs.mjx_env import MjxEnv, default_impl
-
-    module_name, class_name = envs.REGISTRY[task].split(":")
-    cls = getattr(importlib.import_module(module_name), class_name)
-    warp = (env_kwargs.get("impl") or default_impl()) == "warp"
-    return {"max_batch": max(batch, 8192)} if issubclass(cls, MjxEnv) and warp else {}
-
-
 def _make_env(task: str, env_kwargs: dict[str, Any]) -> Any:
     try:
         return runlog.make_env(task, **env_kwargs)
@@ -442,6 +429,8 @@ def plan_fresh(args: argparse.Namespace, experiment: Experiment, module: Any, al
     # With the batch split, each device steps (and MuJoCo Warp buffers contacts for) its own share.
     shares = _device_count() if shard else 1
     per_device = max(-(-config.num_envs // shares), -(-config.eval_envs // shares))
+    from jaxpg.envs import warp_capacity
+
     env_kwargs.update(warp_capacity(task, env_kwargs, per_device * num_seeds))
     env = _make_env(task, env_kwargs)
     config.validate(env)

@@ -40,6 +40,40 @@ def make_task(name: str, **kwargs: Any) -> Env:
     return cls(**kwargs)
 
 
+def warp_capacity(name: str, env_kwargs: dict[str, Any], batch: int) -> dict[str, Any]:
+    """``{"max_batch": batch}`` (at least MJX's default 8192) for an MJX task on MuJoCo Warp, whose
+    contact buffer is sized for the whole vmapped batch (``MjxEnv``); ``{}`` otherwise. Pass it to
+    ``make`` with the task's other ``env_kwargs`` when ``batch`` envs will step together."""
+    from jaxpg.envs.mjx_env import MjxEnv, default_impl
+
+    module_name, class_name = REGISTRY[name].split(":")
+    cls = getattr(importlib.import_module(module_name), class_name)
+    warp = (env_kwargs.get("impl") or default_impl()) == "warp"
+    return {"max_batch": max(batch, 8192)} if issubclass(cls, MjxEnv) and warp else {}
+
+
+def gymnasium_env(name: str, **make_kwargs: Any) -> Any:
+    """Task ``name`` as a single ``gymnasium.Env`` (``gymnasium.make("jaxpg/Hopper-v5")``); see
+    ``jaxpg.envs.gymnasium_api``. Needs Gymnasium (``pip install gymnasium``)."""
+    return _gymnasium_api().gymnasium_env(name, **make_kwargs)
+
+
+def gymnasium_vector_env(name: str, num_envs: int, device: Any = None, **make_kwargs: Any) -> Any:
+    """``num_envs`` envs of task ``name`` as one ``gymnasium.vector.VectorEnv`` stepped in a jitted
+    call; see ``jaxpg.envs.gymnasium_api``. Needs Gymnasium (``pip install gymnasium``)."""
+    return _gymnasium_api().gymnasium_vector_env(name, num_envs, device=device, **make_kwargs)
+
+
+def _gymnasium_api() -> Any:
+    try:
+        import gymnasium  # noqa: F401
+    except ImportError:
+        raise ImportError("jaxpg's Gymnasium API needs Gymnasium: pip install 'gymnasium>=1.1'") from None
+    from jaxpg.envs import gymnasium_api
+
+    return gymnasium_api
+
+
 def make(name: str, **kwargs: Any) -> Env:
     """Task ``name`` with action clipping and episode statistics.
 
@@ -49,4 +83,17 @@ def make(name: str, **kwargs: Any) -> Env:
     return EpisodeStats(ClipAction(make_task(name, **kwargs)))
 
 
-__all__ = ["AutoReset", "ClipAction", "Env", "EpisodeStats", "State", "Wrapper", "make", "make_task", "names"]
+__all__ = [
+    "AutoReset",
+    "ClipAction",
+    "Env",
+    "EpisodeStats",
+    "State",
+    "Wrapper",
+    "gymnasium_env",
+    "gymnasium_vector_env",
+    "make",
+    "make_task",
+    "names",
+    "warp_capacity",
+]

@@ -30,6 +30,10 @@ ActFn = Callable[[Any, jax.Array, jax.Array], tuple[jax.Array, jax.Array]]
 class Trajectory:
     """A batch of transitions, time-major: every field is ``[T, B, ...]``.
 
+    ``flatten_samples`` turns a field (or anything else laid out ``[T, B, ...]``, e.g. advantages)
+    into the flat ``[B * T, ...]`` rows of the algorithms' training batches; use it, and not a
+    reshape, so that the rows of every flattened array line up.
+
     Attributes:
       obs: ``[T, B, obs_dim]`` observation the action was taken in.
       actions: ``[T, B, act_dim]`` (continuous) or ``[T, B]`` int32 (discrete).
@@ -126,6 +130,22 @@ def rollout_episodes_from(
     alive = jnp.ones(state.obs.shape[:1], bool)
     _, records = jax.lax.scan(body, (state, alive), jax.random.split(key, horizon))
     return Trajectory(**records)
+
+
+def flatten_samples(x: jax.Array) -> jax.Array:
+    """``[T, B, ...] -> [B * T, ...]``, env-major: row ``b * T + t`` is env ``b``'s step ``t``.
+
+    The one way jaxpg flattens a time-major batch (a ``Trajectory`` field, advantages, value
+    targets ...) into training rows: every algorithm's ``Batch`` is built with it, so an array
+    flattened any other way (``x.reshape((-1,) + x.shape[2:])`` is time-major) has the same shape
+    but puts its values next to the wrong observations and actions, with no error.
+
+    Env-major, because each device's envs then stay one contiguous block of rows: a batch whose
+    env axis is sharded over devices stays sharded after flattening, and the learning side
+    (gradients, Fisher-vector products, value fit) runs on each device's own samples. Time-major
+    rows would interleave the devices' envs and make XLA gather the whole batch everywhere.
+    """
+    return jnp.swapaxes(x, 0, 1).reshape((-1,) + x.shape[2:])
 
 
 def episode_summary(traj: Trajectory) -> dict[str, jax.Array]:

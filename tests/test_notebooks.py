@@ -1,7 +1,10 @@
 """Every notebook under ``notebooks/`` runs top to bottom in quick mode (``JAXPG_QUICK=1``).
 
 Each notebook is executed with nbclient on the ``python3`` kernel of the running interpreter, with
-tiny settings; any error in any cell fails the test. Takes a few minutes on two CPU cores.
+tiny settings; any error in any cell fails the test. Every notebook ends with a cell that asserts
+its headline results (the pendulum or cart-pole learns, the loss decreases, the reloaded policy
+acts as the trained one ...), so a tutorial whose results broke fails here too, not only one that
+raises. Takes a few minutes on two CPU cores.
 """
 
 from __future__ import annotations
@@ -51,3 +54,12 @@ def test_notebook_runs_in_quick_mode(path, kernel_env, tmp_path):
 
 def test_notebooks_exist():
     assert len(NOTEBOOKS) >= 4, [p.name for p in NOTEBOOKS]
+
+
+@pytest.mark.parametrize("path", NOTEBOOKS, ids=[p.stem for p in NOTEBOOKS])
+def test_notebook_ends_with_its_checks(path):
+    """The last code cell asserts the headline results; outputs stay stripped in the repository."""
+    nb = nbformat.read(path, as_version=4)
+    code = [c for c in nb.cells if c.cell_type == "code"]
+    assert "assert " in code[-1].source, f"{path.name}: the last code cell asserts nothing"
+    assert not any(c.get("outputs") for c in code), f"{path.name}: committed with outputs"

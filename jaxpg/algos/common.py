@@ -432,15 +432,8 @@ def sampling_metrics(ts: TrainState, traj: rollout_lib.Trajectory) -> dict[str, 
     }
 
 
-def flatten_samples(x: jax.Array) -> jax.Array:
-    """``[T, B, ...] -> [B * T, ...]``, env-major: row ``b * T + t`` is env ``b``'s step ``t``.
-
-    Env-major, because each device's envs then stay one contiguous block of rows: a batch whose
-    env axis is sharded over devices stays sharded after flattening, and the learning side
-    (gradients, Fisher-vector products, value fit) runs on each device's own samples. Time-major
-    rows would interleave the devices' envs and make XLA gather the whole batch everywhere.
-    """
-    return jnp.swapaxes(x, 0, 1).reshape((-1,) + x.shape[2:])
+# ``[T, B, ...] -> [B * T, ...]`` (env-major); defined in ``jaxpg.rollout`` beside ``Trajectory``.
+flatten_samples = rollout_lib.flatten_samples
 
 
 def weighted_mean(x: jax.Array, weights: jax.Array) -> jax.Array:

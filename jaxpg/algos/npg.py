@@ -11,12 +11,15 @@ One iteration:
 
 Each phase is a named function of its own, so that ``update`` reads as the list above, TRPO
 reuses the phases, and ``profile_phases`` can time them as separate jitted calls.
+``make_update(advantage_fn)`` is ``update`` with another advantage estimator in step 2.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import functools
 import time
+from collections.abc import Callable
 from typing import Any
 
 import jax
@@ -30,7 +33,7 @@ from jaxpg import value as value_lib
 from jaxpg.algos import common
 from jaxpg.algos.common import TrainState
 from jaxpg.envs import Env
-from jaxpg.rollout import Trajectory
+from jaxpg.rollout import Trajectory, flatten_samples
 
 
 @dataclasses.dataclass(frozen=True)
@@ -217,13 +220,20 @@ def phase_sample(ts: TrainState) -> tuple[TrainState, Trajectory, jax.Array]:
     return ts.replace(key=key, env_state=env_state), traj, rest_key
 
 
-def phase_advantages(ts: TrainState, traj: Trajectory) -> Batch:
-    """GAE advantages and value targets from the current value function; flatten to a ``Batch``."""
+AdvantageFn = Callable[[TrainState, Trajectory, jax.Array, jax.Array], tuple[jax.Array, jax.Array]]
+"""``(ts, traj, values, next_values) -> (advantages, value_targets)``, every array ``[T, B]``."""
+
+
+def gae_advantages(
+    ts: TrainState, traj: Trajectory, values: jax.Array, next_values: jax.Array
+) -> tuple[jax.Array, jax.Array]:
+    """NPG's advantage estimator (an ``AdvantageFn``): GAE(gamma, gae_lambda) advantages and the
+    value targets ``config.value_target`` selects, all ``[T, B]``.
+
+    ``values`` and ``next_values`` are ``V(obs)`` and ``V(next_obs)`` of ``traj`` in return units
+    (``value_predictions``), computed once by ``phase_advantages``.
+    """
     config = ts.config
-    obs = ts.obs_stats.normalize(traj.obs)
-    next_obs = ts.obs_stats.normalize(traj.next_obs)
-    values = value_predictions(ts, obs)
-    next_values = value_predictions(ts, next_obs)
     advantages, targets = returns.gae(
         traj.rewards, values, next_values, traj.terminated, traj.truncated, config.gamma, config.gae_lambda
     )
@@ -231,10 +241,23 @@ def phase_advantages(ts: TrainState, traj: Trajectory) -> Batch:
         targets = returns.discounted_returns(
             traj.rewards, traj.terminated, traj.truncated, config.gamma, next_values=next_values
         )
+    return advantages, targets
+
+
+def phase_advantages(ts: TrainState, traj: Trajectory, advantage_fn: AdvantageFn = gae_advantages) -> Batch:
+    """Advantages and value targets from the current value function (GAE unless ``advantage_fn``
+    says otherwise), normalised advantages when ``config.normalize_advantages``, all flattened to a
+    ``Batch`` by ``flatten_samples`` (env-major rows, as every algorithm lays out its batch)."""
+    config = ts.config
+    obs = ts.obs_stats.normalize(traj.obs)
+    next_obs = ts.obs_stats.normalize(traj.next_obs)
+    values = value_predictions(ts, obs)
+    next_values = value_predictions(ts, next_obs)
+    advantages, targets = advantage_fn(ts, traj, values, next_values)
     if config.normalize_advantages:
         advantages = returns.normalize(advantages, mask=traj.valid)
 
-    flat = common.flatten_samples
+    flat = flatten_samples
     return Batch(
         obs=flat(obs),
         actions=flat(traj.actions),
@@ -380,10 +403,16 @@ def finish_iteration(
 
 def update(ts: TrainState) -> tuple[TrainState, dict[str, jax.Array]]:
     """One NPG iteration (module docstring); pure, jittable, vmappable over seeds."""
+    return update_using(ts, gae_advantages)
+
+
+def update_using(ts: TrainState, advantage_fn: AdvantageFn) -> tuple[TrainState, dict[str, jax.Array]]:
+    """One NPG iteration whose advantages and value targets come from ``advantage_fn``
+    (``update`` is ``update_using(ts, gae_advantages)``; ``make_update`` binds another estimator)."""
     old = ts
     ts, traj, key = phase_sample(ts)
     value_key, _ = jax.random.split(key)
-    batch = phase_advantages(ts, traj)
+    batch = phase_advantages(ts, traj, advantage_fn)
     grad = phase_gradient(ts, batch)
     cg = phase_natural_gradient(ts, batch, grad)
     step = normalized_step(grad, cg.x, ts.config.step_size)
@@ -401,6 +430,29 @@ def update(ts: TrainState) -> tuple[TrainState, dict[str, jax.Array]]:
         "value_loss": value_loss,
     }
     return finish_iteration(old, ts, traj, value_loss + kl, metrics)
+
+
+@functools.cache
+def make_update(advantage_fn: AdvantageFn = gae_advantages) -> Callable[[TrainState], tuple[TrainState, dict]]:
+    """NPG's ``update`` with the advantage estimator ``advantage_fn`` in place of GAE: a research
+    hook that keeps everything else of the iteration (sampling, advantage normalisation, the
+    env-major ``Batch``, natural gradient, KL-bounded step, value fit, guards and metrics).
+
+    ``advantage_fn(ts, traj, values, next_values) -> (advantages, value_targets)`` works on
+    ``[T, B]`` arrays (see ``gae_advantages``); ``phase_advantages`` flattens what it returns, so a
+    custom estimator never flattens by hand. ``make_update(gae_advantages)`` is ``update``; the
+    same ``advantage_fn`` gives the same function (and so the same compiled program in ``train``).
+    """
+    if advantage_fn is gae_advantages:
+        return update
+
+    def update_with(ts: TrainState) -> tuple[TrainState, dict[str, jax.Array]]:
+        return update_using(ts, advantage_fn)
+
+    name = getattr(advantage_fn, "__name__", type(advantage_fn).__name__)
+    update_with.__name__ = update_with.__qualname__ = f"update[{name}]"
+    update_with.__doc__ = f"One NPG iteration with advantages from ``{name}`` (``npg.make_update``)."
+    return update_with
 
 
 def profile_phases(ts: TrainState) -> tuple[TrainState, dict[str, float]]:

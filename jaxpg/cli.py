@@ -146,7 +146,10 @@ CONFIG_PREFIX = "config."
 def add_config_flags(parser: argparse.ArgumentParser, config_cls: type, defaults: dict[str, Any], title: str) -> None:
     """One flag per field of ``config_cls`` (dest ``config.<field>``, default ``None`` = not
     given): ints, floats, strings, ``T | None`` (``none``), tuples (``nargs='*'``) and booleans
-    (``--x/--no-x``). Help shows the effective default."""
+    (``--x/--no-x``). Help shows what the field means (``algos.field_help``), the values a string
+    field accepts and the effective default."""
+    from jaxpg.algos.field_help import field_choices, field_help
+
     group = parser.add_argument_group(title)
     unused = getattr(config_cls, "UNUSED_FIELDS", ())
     for name, tp in runlog.field_types(config_cls).items():
@@ -155,7 +158,7 @@ def add_config_flags(parser: argparse.ArgumentParser, config_cls: type, defaults
         if name in RUN_FLAGS:
             raise TypeError(f"{config_cls.__module__}.Config.{name} clashes with a command-line flag")
         base, optional = runlog.strip_optional(tp)
-        help_text = f"(default: {_show(defaults.get(name))})"
+        help_text = f"{field_help(name)} (default: {_show(defaults.get(name))})".lstrip()
         kwargs: dict[str, Any] = {"dest": CONFIG_PREFIX + name, "default": None, "help": help_text}
         origin = typing.get_origin(base)
         if base is bool:
@@ -168,6 +171,10 @@ def add_config_flags(parser: argparse.ArgumentParser, config_cls: type, defaults
             continue
         if origin is typing.Literal:
             group.add_argument(_flag(name), choices=typing.get_args(base), **kwargs)
+            continue
+        choices = field_choices(config_cls, name) if base is str else None
+        if choices and not optional:
+            group.add_argument(_flag(name), choices=choices, **kwargs)
             continue
         parse = base if base in (int, float, str) else str
         if optional:

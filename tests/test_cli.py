@@ -367,3 +367,22 @@ def test_every_algorithm_config_round_trips_through_json():
             assert runlog.config_from_dict(module.Config, data) == config
         with pytest.raises(runlog.RunDirError, match="does not know: bogus"):
             runlog.config_from_dict(module.Config, {"bogus": 1})
+
+
+def test_every_hyperparameter_flag_says_what_it_is():
+    """Each Config field of each algorithm has a one-line meaning, and fixed string fields list
+    their values in ``--help``."""
+    import dataclasses
+
+    from jaxpg import algos
+    from jaxpg.algos.field_help import FIELD_HELP, field_choices
+
+    for name in algos.ALGORITHMS:
+        config_cls = algos.get(name).Config
+        missing = [f.name for f in dataclasses.fields(config_cls) if f.name not in FIELD_HELP]
+        assert not missing, (name, missing)
+    assert field_choices(algos.get("a2c").Config, "optimizer") == ("rmsprop", "adam")
+    assert field_choices(algos.get("vpg").Config, "optimizer") == ("adam", "adamw")
+    parser = cli.build_parser(cli.Experiment(task="inverted_pendulum"), "npg", algos.get("npg").Config, {})
+    text = parser.format_help()
+    assert "Fisher-vector product" in text and "{gauss_newton,kl_hessian}" in text

@@ -44,10 +44,10 @@ def existing(tmp_path_factory) -> Path:
 
 
 BAD_VALUES = [
-    (["--policy", "bogus"], "unknown policy 'bogus'"),
-    (["--policy-activation", "nope"], "unknown policy_activation"),
-    (["--value-activation", "nope"], "unknown value_activation"),
-    (["--policy-init", "nope"], "unknown policy_init"),
+    (["--policy", "bogus"], "argument --policy: invalid choice: 'bogus' (choose from"),
+    (["--policy-activation", "nope"], "argument --policy-activation: invalid choice"),
+    (["--value-activation", "nope"], "argument --value-activation: invalid choice"),
+    (["--policy-init", "nope"], "argument --policy-init: invalid choice"),
     (["--policy-hidden", "0"], "policy_hidden must be positive"),
     (["--value-hidden", "16", "-3"], "value_hidden must be positive"),
     (["--gamma", "1.5"], "gamma must be in [0, 1]"),
@@ -65,7 +65,9 @@ BAD_VALUES = [
     (["--eval-horizon", "-1"], "eval_horizon must be >= 0"),
     (["--max-update-kl", "-1"], "max_update_kl must be >= 0"),
     (["--log-std-init", "inf"], "log_std_init must be finite"),
-    (["--sampling", "sideways"], "sampling must be"),
+    (["--sampling", "sideways"], "argument --sampling: invalid choice"),
+    (["--fvp", "exact"], "argument --fvp: invalid choice"),
+    (["--algo", "a2c", "--optimizer", "adamw"], "invalid choice: 'adamw' (choose from 'rmsprop', 'adam')"),
     (["--algo", "trpo", "--step-size", "0.1"], "unrecognized arguments: --step-size"),
     (["--algo", "reinforce", "--value-hidden", "8"], "unrecognized arguments: --value-hidden"),
     (["--algo", "ppo", "--lr", "0"], "lr must be > 0"),

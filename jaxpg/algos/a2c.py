@@ -18,7 +18,7 @@ It works with every policy ``common.make_networks`` builds: categorical on a dis
 from __future__ import annotations
 
 import dataclasses
-from typing import Any
+from typing import Any, ClassVar
 
 import jax
 import optax
@@ -37,6 +37,8 @@ class Config(common.BaseConfig):
     setting) or ``"adam"`` (epsilon ``eps``); ``max_grad_norm`` 0 turns clipping off. The
     remaining fields are those of ``ppo.Config``.
     """
+
+    FIELD_CHOICES: ClassVar[dict[str, tuple[str, ...]]] = {"optimizer": ("rmsprop", "adam")}
 
     num_envs: int = 64
     horizon: int = 16

@@ -66,6 +66,7 @@ class Config(common.BaseConfig):
 
     # REINFORCE has no value function (command lines offer no flag for these).
     UNUSED_FIELDS: ClassVar[tuple[str, ...]] = ("value_hidden", "value_activation")
+    FIELD_CHOICES: ClassVar[dict[str, tuple[str, ...]]] = {"optimizer": ("adam", "adamw")}
 
     def validate(self, env: Env) -> None:
         super().validate(env)

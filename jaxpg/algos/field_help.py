@@ -1,0 +1,95 @@
+"""What each ``Config`` field of the algorithms means, in one line, and the values a string field
+accepts: the command line's ``--help`` shows both, and a test checks that every field of every
+algorithm has its line.
+
+A field means the same in every algorithm that has it; where the accepted values differ between
+algorithms (``optimizer``), the algorithm's ``Config.FIELD_CHOICES`` says which.
+"""
+
+from __future__ import annotations
+
+from jaxpg.networks import ACTIVATIONS, KERNEL_INITS
+
+FIELD_HELP: dict[str, str] = {
+    # sampling and evaluation (every algorithm)
+    "num_envs": "parallel envs; an iteration has num_envs x horizon samples",
+    "horizon": "env steps per env per iteration",
+    "sampling": "continuing: env states carry over with automatic resets; episodic: every env restarts each "
+    "iteration and steps after an episode's end are masked",
+    "sample_budget": "episodic sampling: keep at most this many valid samples, env by env (0: all)",
+    "gamma": "discount factor",
+    "normalize_observations": "standardise observations by running statistics",
+    "eval_envs": "mean-policy evaluation episodes, run between compiled calls (0: no evaluation)",
+    "eval_every": "iterations between mean-policy evaluations (one always runs after the last iteration)",
+    "eval_horizon": "steps of an evaluation episode (0: the task's time limit)",
+    "max_update_kl": "roll back an update whose mean KL(old || new) exceeds this (0: never)",
+    # networks
+    "policy": "policy distribution (categorical is implied by a discrete task)",
+    "policy_hidden": "hidden layer sizes of the policy network",
+    "policy_activation": "activation of the hidden layers of the policy network",
+    "policy_init": "initialisation of the weights and biases of both networks",
+    "log_std_init": "initial log standard deviation of a Gaussian policy",
+    "value_hidden": "hidden layer sizes of the value network",
+    "value_activation": "activation of the hidden layers of the value network",
+    # advantages and value fit
+    "gae_lambda": "GAE lambda (1: Monte-Carlo advantages, 0: one-step TD errors)",
+    "normalize_advantages": "standardise the advantages of each batch",
+    "value_target": "what the value network fits: gae (lambda-returns) or returns (discounted returns)",
+    "normalize_value_targets": "fit the value network to standardised targets (running statistics, outputs "
+    "preserved when they move)",
+    "value_lr": "learning rate of the value fit (Adam)",
+    "value_epochs": "passes over the batch of the value fit per iteration",
+    "value_batch_size": "samples per minibatch of the value fit (0 where allowed: the whole batch)",
+    "value_minibatches": "minibatches per value-fit epoch, whatever the batch size (0: use value_batch_size)",
+    "reward_scaling": "multiply rewards by this before advantages and value targets",
+    # natural gradient and trust region
+    "step_size": "NPG's normalised step: the KL the step aims at in the Fisher metric (delta); also its KL bound",
+    "cg_iters": "conjugate-gradient iterations for the natural direction F^-1 g",
+    "cg_damping": "damping added to the Fisher matrix (F + damping I)",
+    "fvp": "Fisher-vector product: gauss_newton (J'MJ with the analytic Fisher of the distribution) or "
+    "kl_hessian (Hessian of the mean KL)",
+    "max_kl": "TRPO's bound on the mean KL of an update",
+    "backtracks": "TRPO's line-search steps (each shrinks the step by backtrack_ratio)",
+    "backtrack_ratio": "TRPO's step shrink factor per line-search step",
+    "accept_ratio": "TRPO accepts a step whose improvement is at least this share of the expected one",
+    # first-order optimisation
+    "optimizer": "optimizer of the policy (and, for actor-critics, the value) parameters",
+    "lr": "learning rate",
+    "weight_decay": "decoupled weight decay (adamw)",
+    "rmsprop_decay": "RMSprop's decay of the squared-gradient average",
+    "eps": "optimizer epsilon",
+    "adam_eps": "Adam's epsilon",
+    "max_grad_norm": "clip the global gradient norm to this (0: no clipping)",
+    "anneal_lr_iterations": "anneal the learning rate linearly to 0 over this many iterations (0: constant)",
+    "return_normalization": "how returns are standardised before the gradient: per episode, per batch or not",
+    "entropy_coef": "weight of the entropy bonus",
+    "value_coef": "weight of the value loss in the joint actor-critic loss",
+    # PPO
+    "num_epochs": "PPO epochs over each batch",
+    "num_minibatches": "PPO minibatches per epoch",
+    "clip_eps": "PPO's clipping of the probability ratio",
+    "value_clip_eps": "clip value predictions to this distance from the old ones (0: no clipping)",
+}
+
+# Values a string field accepts, where they are the same for every algorithm.
+FIELD_CHOICES: dict[str, tuple[str, ...]] = {
+    "sampling": ("continuing", "episodic"),
+    "policy": ("gaussian", "state_std_gaussian"),
+    "policy_activation": tuple(ACTIVATIONS),
+    "value_activation": tuple(ACTIVATIONS),
+    "policy_init": KERNEL_INITS,
+    "fvp": ("gauss_newton", "kl_hessian"),
+    "value_target": ("gae", "returns"),
+    "return_normalization": ("episode", "batch", "none"),
+}
+
+
+def field_help(name: str) -> str:
+    """The one-line meaning of Config field ``name`` (``""`` if it has none)."""
+    return FIELD_HELP.get(name, "")
+
+
+def field_choices(config_cls: type, name: str) -> tuple[str, ...] | None:
+    """The values ``config_cls``'s string field ``name`` accepts, or ``None`` when free."""
+    own = getattr(config_cls, "FIELD_CHOICES", {})
+    return own.get(name) or FIELD_CHOICES.get(name)

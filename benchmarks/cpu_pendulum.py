@@ -9,8 +9,8 @@ compilation and every evaluation:
   jaxpg NPG, warm   the same with the cache on, after a warm-up run has filled it (the second
                     run of a program on a machine);
   SB3 PPO           Stable-Baselines3's PPO with its defaults on Gymnasium's InvertedPendulum-v5,
-                    evaluated every 8192 steps over 10 deterministic episodes (the setting of
-                    ``../shared/ANCHORS.md``), torch on ``--threads`` threads.
+                    evaluated every 8192 steps over 10 deterministic episodes (the usual way
+                    SB3's figures for this task are taken), torch on ``--threads`` threads.
 
 jaxpg's runs evaluate 10 episodes every 5 iterations (20480 samples). Both need nothing else
 running on the machine. SB3 is optional (``pip install stable-baselines3 torch``); without it,

@@ -1,16 +1,16 @@
 #!/usr/bin/env bash
 # The GPU measurements of BENCHMARKS.md, in stages that each fit one call of the device tool
-# (10 minutes). Run from the repository root on the GPU machine, after the wheels are installed
-# (../shared/gpu/README.md) and PYTHONPATH points at them and at the checkout:
+# (10 minutes). Run from the repository root on the GPU machine, with jaxpg, JAX for CUDA and
+# MuJoCo Warp installed (README.md, "GPU and several GPUs") or on PYTHONPATH with the checkout:
 #
 #   bash benchmarks/device_session.sh card     # `python experiments/hopper.py --num-envs 256`, 3 seeds, cold and warm
 #   bash benchmarks/device_session.sh sweep    # NPG settings at 256 envs, 3 seeds vmapped, to 2 M env steps
 #   bash benchmarks/device_session.sh sweep8   # settings around the default, 8 seeds vmapped, to 1.97 M env steps
 #   bash benchmarks/device_session.sh ratio    # train(+eval)/raw of the card's defaults at 256-65536 envs
 #   bash benchmarks/device_session.sh ttr      # time to a Hopper return of 3000, NPG and PPO, 3 seeds each
-#   bash benchmarks/device_session.sh env      # raw env throughput table (issue 2), then Pong figures
+#   bash benchmarks/device_session.sh env      # raw env throughput table, then Pong figures
 #   bash benchmarks/device_session.sh gym      # the README's GPU training commands, then Gymnasium evaluation
-#   bash benchmarks/device_session.sh scaling  # NPG over 1, 2, ... GPUs at a fixed batch per GPU (issue 7)
+#   bash benchmarks/device_session.sh scaling  # NPG over 1, 2, ... GPUs at a fixed batch per GPU
 #   bash benchmarks/device_session.sh extra S  # 2 GPUs: Pong A2C for S seconds on GPU 1 while GPU 0 tests
 #                                              # whether XLA command buffers slow the fused scan of iterations
 #

@@ -64,7 +64,9 @@ def main() -> None:
     parser.add_argument("--cell-timeout", type=int, default=3600, help="seconds a cell may take")
     args = parser.parse_args()
     os.environ.pop("JAXPG_QUICK", None)
-    os.environ.setdefault("MUJOCO_GL", "osmesa")
+    from jaxpg import video
+
+    video.configure_gl()  # the kernels inherit MUJOCO_GL: a backend whose library loads, or none
     # The "python3" kernel spec starts `python`; put this interpreter's directory first.
     os.environ["PATH"] = str(Path(sys.executable).parent) + os.pathsep + os.environ.get("PATH", "")
     paths = sorted(NOTEBOOKS.glob("*.ipynb"))

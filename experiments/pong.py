@@ -23,8 +23,9 @@ reward against wall-clock time into ``pong_envs.png`` in the run directory: MinP
 more environments learn faster in wall-clock time (on one H200 it held from 1 to 1024 envs:
 BENCHMARKS.md, section J). The run directory (``--run-dir``, which must not exist) gets
 ``config.json``, ``metrics.jsonl`` (one line per block of about 0.5 s of training), the plot, and
-a GIF of each trained agent playing (``--video-steps``). Bad arguments exit with status 2 and one
-``error:`` line, before anything is written.
+a GIF of each trained agent playing (``--video-steps``). ``--iterations N`` replaces the
+wall-clock budget by exactly ``N`` iterations per run, the same on every machine (tests use it).
+Bad arguments exit with status 2 and one ``error:`` line, before anything is written.
 
     python experiments/pong.py --algo a2c --num-envs 16 --minutes 10
     python experiments/pong.py --algo a2c --num-envs 1024 --lr 2e-3 --minutes 3        # one GPU
@@ -220,8 +221,10 @@ def train_for(
     block_seconds: float = 0.5,
     log: Callable[[str], None] = print,
     log_every_s: float = 15.0,
+    iterations: int | None = None,
 ) -> tuple[TrainState, RunningReward, float]:
-    """Train ``algo`` for ``seconds`` of wall-clock time, compilation excluded.
+    """Train ``algo`` for ``seconds`` of wall-clock time, compilation excluded, or, when
+    ``iterations`` is given, for exactly that many iterations (``seconds`` is then ignored).
 
     Each compiled call runs ``per_call = clip(round(call_steps / samples_per_iteration), 1, 256)``
     iterations in a ``lax.scan`` (one iteration per call at GPU-sized batches, many at small
@@ -240,11 +243,16 @@ def train_for(
     compile_s = time.perf_counter() - t0
     record = RunningReward(config.samples_per_iteration)
     last_log = record.start
-    calls = 1
-    while time.perf_counter() - record.start < seconds:
+    calls, done = 1, 0
+
+    def more() -> bool:
+        return done < iterations if iterations is not None else time.perf_counter() - record.start < seconds
+
+    while more():
         started = time.perf_counter()
-        n = calls * per_call
+        n = calls * per_call if iterations is None else min(calls * per_call, iterations - done)
         ts = train_lib.train(update, ts, n, block_size=n, callbacks=[record], iterations_per_call=per_call)
+        done += n
         took = time.perf_counter() - started
         calls = int(np.clip(calls * block_seconds / max(took, 1e-6), 1, 2 * calls))
         now = time.perf_counter()
@@ -297,6 +305,11 @@ def build_parser() -> argparse.ArgumentParser:
         "--compare-envs", type=int, nargs="+", help="A2C with each number of envs; plot into pong_envs.png"
     )
     parser.add_argument("--minutes", type=float, default=5.0, help="wall-clock budget of each run")
+    parser.add_argument(
+        "--iterations",
+        type=int,
+        help="instead of --minutes: exactly this many iterations per run (machine-independent)",
+    )
     parser.add_argument("--size", type=int, default=80, help="frames are size x size pixels (>= 8)")
     parser.add_argument("--stay-action", action="store_true", help="actions {stay, up, down}")
     parser.add_argument("--horizon", type=int, help="steps per env per update (A2C's t_max)")
@@ -322,6 +335,8 @@ def check_args(args: argparse.Namespace) -> None:
         raise UsageError(f"numbers of envs must be >= 1, got {' '.join(map(str, counts))}")
     if not args.minutes > 0:
         raise UsageError(f"--minutes must be > 0, got {args.minutes:g}")
+    if args.iterations is not None and args.iterations < 1:
+        raise UsageError(f"--iterations must be >= 1, got {args.iterations}")
     if args.size < 8:
         raise UsageError(f"--size must be >= 8, got {args.size}")
     if args.horizon is not None and args.horizon < 1:
@@ -405,14 +420,21 @@ def main(argv: Sequence[str] | None = None) -> int:
         "configs": {n: dataclasses.asdict(c) for n, c in configs.items()},
     }
     (run_dir / "config.json").write_text(json.dumps(info, indent=2, default=str))
-    print(f"run directory {run_dir}; {algo} on {env!r}, {args.minutes:g} min per run on {device.device_kind}")
+    budget = f"{args.minutes:g} min" if args.iterations is None else f"{args.iterations} iterations"
+    print(f"run directory {run_dir}; {algo} on {env!r}, {budget} per run on {device.device_kind}")
 
     curves: dict[str, list[dict[str, float]]] = {}
     with open(run_dir / "metrics.jsonl", "w") as out:
         for n, config in configs.items():
             print(f"{algo} with {n} envs (horizon {config.horizon}, {config.samples_per_iteration} samples/iteration)")
             ts, record, compile_s = train_for(
-                algo, env, config, 60.0 * args.minutes, seed=args.seed, call_steps=args.call_steps
+                algo,
+                env,
+                config,
+                60.0 * args.minutes,
+                seed=args.seed,
+                call_steps=args.call_steps,
+                iterations=args.iterations,
             )
             for row in record.rows:
                 row = {k: None if isinstance(v, float) and math.isnan(v) else v for k, v in row.items()}

@@ -210,7 +210,6 @@ def _video_problem(run: Any, gymnasium: bool) -> str | None:
 def main(argv: Sequence[str] | None = None) -> int:
     from jaxpg import video as video_lib
 
-    video_lib.configure_gl()
     parser = argparse.ArgumentParser(
         prog="python -m jaxpg.evaluate",
         description=__doc__.split("\n\n")[0].split(": ", 1)[-1] if __doc__ else None,
@@ -224,6 +223,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--seed", type=int, default=0, help="seed of the evaluation episodes (default: 0)")
     parser.add_argument("--train-seed", type=int, help="which of the run's training seeds (default: the first)")
     args = parser.parse_args(argv)
+    if args.video:  # MuJoCo is not imported yet: choose a GL backend that loads, only for a video
+        video_lib.configure_gl()
     if args.episodes < 1:
         print("error: --episodes must be >= 1", file=sys.stderr)
         return 2

@@ -5,7 +5,6 @@ test reuses its run directory and, in-process, its compiled programs (the CLI ca
 so a resume or a second run hits jit's cache). Bad-input tests fail before anything compiles.
 """
 
-import ctypes.util
 import dataclasses
 import json
 import os
@@ -14,10 +13,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-# Rendering needs an offscreen GL backend chosen before mujoco is imported.
-if "MUJOCO_GL" not in os.environ and ctypes.util.find_library("OSMesa"):
-    os.environ["MUJOCO_GL"] = "osmesa"
-
+import imageio.v2 as imageio
 import numpy as np
 import pytest
 
@@ -57,14 +53,16 @@ def listing(path: Path) -> dict:
     return {str(p.relative_to(path)): (p.stat().st_size, p.stat().st_mtime_ns) for p in sorted(path.rglob("*"))}
 
 
-def can_render() -> bool:
-    try:
-        import mujoco
+@pytest.fixture
+def gl() -> None:
+    """Skip, naming what is missing, where MuJoCo has no OpenGL backend (conftest lets
+    ``jaxpg.video.configure_gl`` choose one whose library loads). Where one is found the video tests
+    run, so that a broken renderer fails them instead of going unnoticed."""
+    from jaxpg import video
 
-        mujoco.Renderer(mujoco.MjModel.from_xml_string("<mujoco/>"), 16, 16).close()
-        return True
-    except Exception:
-        return False
+    problem = video.gl_problem()
+    if problem is not None:
+        pytest.skip(f"no video: {problem}")
 
 
 @pytest.fixture(scope="module")
@@ -106,8 +104,11 @@ def test_run_directory_holds_everything_to_rerun(trained):
     assert events and events[0].stat().st_size > 0
     assert (trained / "curves.png").stat().st_size > 0
     assert sorted(p.name for p in (trained / "checkpoints").iterdir()) == ["2", "4"]
-    if can_render():
-        assert (trained / "videos" / "iter_000004.mp4").stat().st_size > 0
+
+
+def test_training_writes_the_requested_video(gl, trained):
+    assert sorted(p.name for p in (trained / "videos").iterdir()) == ["iter_000004.mp4"]
+    assert (trained / "videos" / "iter_000004.mp4").stat().st_size > 0
 
 
 def test_existing_run_directory_is_never_overwritten(trained, capsys):
@@ -306,15 +307,36 @@ def test_evaluate_in_jaxpg_and_gymnasium(trained, tmp_path, capsys):
     assert evaluate.main([str(trained), "--episodes", "1"]) == 0
     out = capsys.readouterr().out
     assert "jaxpg inverted_pendulum" in out and "return:" in out and "length:" in out
-    video = tmp_path / "gym.gif" if can_render() else None
-    argv = [str(trained), "--episodes", "2", "--gymnasium"] + (["--video", str(video)] if video else [])
-    assert evaluate.main(argv) == 0
+    assert evaluate.main([str(trained), "--episodes", "2", "--gymnasium"]) == 0
     out = capsys.readouterr().out
     assert "Gymnasium InvertedPendulum-v5" in out and "return:" in out
-    if video:
-        assert video.stat().st_size > 0
     assert evaluate.main([str(tmp_path / "missing"), "--episodes", "1"]) == 2
     assert capsys.readouterr().err.startswith("error: run directory")
+
+
+@pytest.mark.parametrize("gymnasium", [False, True], ids=["jaxpg", "gymnasium"])
+def test_evaluate_writes_a_video(gl, trained, tmp_path, capsys, gymnasium):
+    video = tmp_path / "episode.gif"
+    argv = [str(trained), "--episodes", "1", "--video", str(video)] + (["--gymnasium"] if gymnasium else [])
+    assert evaluate.main(argv) == 0, capsys.readouterr().err
+    assert f"video of episode 1: {video}" in capsys.readouterr().out
+    frames = imageio.mimread(video)
+    assert len(frames) > 1 and max(int(f.max()) for f in frames) > 0
+
+
+def test_evaluate_chooses_a_gl_backend_only_for_a_video(monkeypatch, tmp_path, capsys):
+    """``jaxpg.evaluate`` leaves ``MUJOCO_GL`` to ``jaxpg.video.configure_gl`` (a backend whose
+    library loads) and asks for one only when ``--video`` is given."""
+    from jaxpg import video
+
+    calls = []
+    monkeypatch.setattr(video, "configure_gl", lambda: calls.append("configure_gl"))
+    missing = str(tmp_path / "missing")
+    assert evaluate.main([missing, "--episodes", "1"]) == 2
+    assert calls == []
+    assert evaluate.main([missing, "--episodes", "1", "--video", str(tmp_path / "v.gif")]) == 2
+    assert calls == ["configure_gl"]
+    capsys.readouterr()
 
 
 def test_video_of_cartpole_is_drawn_without_mujoco(tmp_path):

@@ -341,15 +341,17 @@ def test_experiment_compare_mode(tmp_path):
     """``experiments/pong.py --compare-envs``: one curve per number of envs in ``metrics.jsonl``
     (env steps in whole iterations, the running reward a finite score difference once games
     ended), the comparison plot, a GIF of each trained agent, and its config with the defaults
-    it ran."""
+    it ran. ``--iterations`` fixes the work (games end by iteration 256 with 1 env, 192 with 4), so
+    the result does not depend on the machine's speed."""
     exp = load_experiment()
     run_dir = tmp_path / "compare"
-    argv = ["--compare-envs", "1", "4", "--minutes", "0.05", "--size", str(SMALL), "--video-steps", "30"]
+    argv = ["--compare-envs", "1", "4", "--iterations", "512", "--size", str(SMALL), "--video-steps", "30"]
     assert exp.main([*argv, "--run-dir", str(run_dir)]) == 0
     rows = [json.loads(line) for line in (run_dir / "metrics.jsonl").read_text().splitlines()]
     for n in (1, 4):
         curve = [r for r in rows if r["num_envs"] == n]
         assert curve and all(r["algo"] == "a2c" for r in curve)
+        assert curve[-1]["iteration"] == 512
         assert [r["env_steps"] for r in curve] == sorted(r["env_steps"] for r in curve)
         assert all(r["env_steps"] == r["iteration"] * n * exp.A2C_DEFAULTS["horizon"] for r in curve)
         finished = [r for r in curve if r["games"] > 0]
@@ -368,6 +370,7 @@ def test_experiment_compare_mode(tmp_path):
     [
         (["--num-envs", "0"], "numbers of envs must be >= 1"),
         (["--minutes", "0"], "--minutes must be > 0"),
+        (["--iterations", "0"], "--iterations must be >= 1"),
         (["--size", "4"], "--size must be >= 8"),
         (["--lr", "-1"], "--lr must be > 0"),
         (["--algo", "ppo"], "invalid choice"),

@@ -119,7 +119,7 @@ def command(*args: str) -> list[str]:
     return [sys.executable, "-m", "jaxpg.cli", *TINY, *args]
 
 
-def wait_for(path: Path, timeout: float = 240) -> None:
+def wait_for(path: Path, timeout: float = 900) -> None:
     """Until ``path`` exists (a guard against hangs, not a speed requirement)."""
     deadline = time.monotonic() + timeout
     while not path.exists():
@@ -137,7 +137,7 @@ def test_interrupt_finishes_the_call_writes_a_checkpoint_and_resume_continues(si
     while not runlog.read_metrics(run_dir):
         time.sleep(0.2)
     proc.send_signal(signum)
-    _, err = proc.communicate(timeout=240)
+    _, err = proc.communicate(timeout=900)
     lines = [line for line in err.splitlines() if line.strip() and not line.startswith("WARNING")]
     assert proc.returncode == status, err[-2000:]
     assert len(lines) == 1 and f"{signal.Signals(signum).name}: stopped after iteration" in lines[0], lines
@@ -148,7 +148,7 @@ def test_interrupt_finishes_the_call_writes_a_checkpoint_and_resume_continues(si
         [sys.executable, "-m", "jaxpg.cli", "--resume", str(run_dir), "--iterations", str(stopped + 2)],
         capture_output=True,
         text=True,
-        timeout=600,
+        timeout=900,
     )
     assert resumed.returncode == 0, resumed.stderr[-2000:]
     assert f"resuming at iteration {stopped}" in resumed.stdout
@@ -162,12 +162,12 @@ def test_interrupt_before_the_first_iteration_leaves_nothing(tmp_path):
     proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     wait_for(run_dir / runlog.CONFIG_FILE)  # the directory exists, the first block is compiling
     proc.send_signal(signal.SIGINT)
-    out, err = proc.communicate(timeout=240)
+    out, err = proc.communicate(timeout=900)
     lines = [line for line in err.splitlines() if line.strip() and not line.startswith("WARNING")]
     assert proc.returncode == 130, err[-2000:]
     assert len(lines) == 1 and "SIGINT: stopped at once" in lines[0] and "was removed" in lines[0], lines
     assert not run_dir.exists()
-    rerun = subprocess.run(argv, capture_output=True, timeout=600)
+    rerun = subprocess.run(argv, capture_output=True, timeout=900)
     assert rerun.returncode == 0
 
 

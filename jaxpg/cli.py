@@ -1130,15 +1130,34 @@ def _report_end(plan_: Plan, callbacks: _Callbacks) -> None:
     )
 
 
+def videos_requested(argv: Sequence[str], experiment: Experiment) -> bool:
+    """Whether this command may draw videos (``--video-every`` > 0 given or by default, or a
+    ``--resume``, whose run may have asked for them): only then does ``main`` choose MuJoCo's
+    offscreen GL backend (``video.configure_gl``), which must happen before MuJoCo is imported."""
+    if any(arg == "--resume" or arg.startswith("--resume=") for arg in argv):
+        return True
+    every: str | int = experiment.video_every
+    for i, arg in enumerate(argv):
+        if arg == "--video-every" and i + 1 < len(argv):
+            every = argv[i + 1]
+        elif arg.startswith("--video-every="):
+            every = arg.split("=", 1)[1]
+    try:
+        return int(every) > 0
+    except ValueError:
+        return False  # argparse reports the bad value
+
+
 def main(argv: Sequence[str] | None = None, experiment: Experiment | None = None) -> int:
     """Entry point of ``python -m jaxpg.cli`` and the experiment scripts; returns the exit status."""
     from jaxpg import compile_cache
     from jaxpg import video as video_lib
 
-    video_lib.configure_gl()
-    compile_cache.enable()  # a second run of the same program loads it instead of compiling
     experiment = experiment or Experiment(prog="python -m jaxpg.cli", epilog=DEFAULT_EPILOG)
     argv = list(sys.argv[1:] if argv is None else argv)
+    if videos_requested(argv, experiment):
+        video_lib.configure_gl()  # before MuJoCo is imported, and only when a video may be drawn
+    compile_cache.enable()  # a second run of the same program loads it instead of compiling
     try:
         start_processes(argv)
         plan_ = plan(argv, experiment)

@@ -408,3 +408,15 @@ def test_every_hyperparameter_flag_says_what_it_is():
     parser = cli.build_parser(cli.Experiment(task="inverted_pendulum"), "npg", algos.get("npg").Config, {})
     text = parser.format_help()
     assert "Fisher-vector product" in text and "{gauss_newton,kl_hessian}" in text
+
+
+def test_gl_backend_is_chosen_only_when_videos_may_be_drawn():
+    """``main`` leaves ``MUJOCO_GL`` alone unless the command may draw a video."""
+    experiment = cli.Experiment(task="inverted_pendulum")
+    assert not cli.videos_requested(["--iterations", "3"], experiment)
+    assert not cli.videos_requested(["--video-every", "0"], experiment)
+    assert cli.videos_requested(["--video-every", "2"], experiment)
+    assert cli.videos_requested(["--video-every=5"], experiment)
+    assert cli.videos_requested(["--resume", "runs/x"], experiment)
+    assert cli.videos_requested([], cli.Experiment(task="inverted_pendulum", video_every=10))
+    assert not cli.videos_requested(["--video-every", "many"], experiment)

@@ -72,14 +72,13 @@ def measure(task: str, impl: str | None, devices: int, envs_per_device: int, hor
     from jaxpg import rollout as rollout_lib
     from jaxpg.algos import common, npg
     from jaxpg.cli import shard_state
-    from jaxpg.envs import warp_capacity
 
     if jax.device_count() < devices:
         raise SystemExit(f"only {jax.device_count()} devices are visible, {devices} asked for")
     mesh = distributed.env_mesh(jax.devices()[:devices])
     num_envs = devices * envs_per_device
     env_kwargs = {"impl": impl} if impl else {}
-    env = envs.make(task, **env_kwargs, **warp_capacity(task, env_kwargs, envs_per_device))
+    env = envs.make(task, batch=envs_per_device, **env_kwargs)
     config = npg_config(num_envs, horizon)
     ts = shard_state(npg.init(jax.random.PRNGKey(0), env, config), vmap_seeds=False, mesh=mesh)
     samples = num_envs * horizon

@@ -357,7 +357,7 @@ def _make_env(task: str, env_kwargs: dict[str, Any]) -> Any:
     try:
         return runlog.make_env(task, **env_kwargs)
     except TypeError as e:
-        given = ", ".join(_flag(k) for k in env_kwargs)
+        given = ", ".join(_flag(k) for k in env_kwargs if k != "batch")
         raise UsageError(f"task {task!r} does not accept {given or 'these settings'} ({e})") from None
 
 
@@ -433,12 +433,10 @@ def plan_fresh(args: argparse.Namespace, experiment: Experiment, module: Any, al
         raise UsageError(f"--max-episode-steps must be >= 1, got {args.max_episode_steps}")
     num_seeds = len(args.seeds) if args.seeds else 1
     shard = _check_sharding(config, args.shard)
-    # With the batch split, each device steps (and MuJoCo Warp buffers contacts for) its own share.
+    # With the batch split, each device steps (and the physics sizes its buffers for) its own share.
     shares = _device_count() if shard else 1
     per_device = max(-(-config.num_envs // shares), -(-config.eval_envs // shares))
-    from jaxpg.envs import warp_capacity
-
-    env_kwargs.update(warp_capacity(task, env_kwargs, per_device * num_seeds))
+    env_kwargs["batch"] = per_device * num_seeds
     env = _make_env(task, env_kwargs)
     config.validate(env)
     seeds = list(args.seeds) if args.seeds else [experiment.seed if args.seed is None else args.seed]

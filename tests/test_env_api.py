@@ -326,3 +326,15 @@ def test_notebook_rendering_cell_degrades_to_one_line(capsys):
 def _re(shape: tuple[int, ...]) -> str:
     """A shape as a regular expression: ``(2,)`` -> ``\\(2,\\)``."""
     return str(tuple(shape)).replace("(", r"\(").replace(")", r"\)")
+
+
+def test_make_sizes_the_physics_for_the_batch():
+    """``envs.make(name, batch=N)`` is all a caller says about batch size: MuJoCo Warp's shared
+    contact buffer is sized for it (at least the default 8192), other backends ignore it."""
+    assert envs.warp_capacity("hopper", {"impl": "warp"}, 20000) == {"max_batch": 20000}
+    assert envs.warp_capacity("hopper", {"impl": "warp"}, 64) == {"max_batch": 8192}
+    assert envs.warp_capacity("hopper", {"impl": "jax"}, 20000) == {}
+    assert envs.warp_capacity("cartpole", {}, 20000) == {}
+    assert envs.make("cartpole", batch=5).unwrapped.name == "cartpole"
+    with pytest.raises(ValueError, match="batch must be a positive integer"):
+        envs.make("cartpole", batch=0)

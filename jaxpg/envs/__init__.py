@@ -74,12 +74,20 @@ def _gymnasium_api() -> Any:
     return gymnasium_api
 
 
-def make(name: str, **kwargs: Any) -> Env:
+def make(name: str, batch: int | None = None, **kwargs: Any) -> Env:
     """Task ``name`` with action clipping and episode statistics.
 
+    ``batch``: the most envs that will step together in one vmapped call (all nested vmaps, e.g.
+    envs x seeds); the physics backend sizes its buffers for it (MuJoCo Warp's contact buffer is
+    shared by the whole batch; see ``warp_capacity``). Omit it for batches up to 8192.
     ``kwargs`` go to the task, e.g. ``fidelity="gymnasium"``, ``impl="jax"``,
     ``max_episode_steps=500``. Raises ``ValueError`` listing the known names for an unknown one.
     """
+    if batch is not None:
+        if not isinstance(batch, int) or batch < 1:
+            raise ValueError(f"batch must be a positive integer, got {batch!r}")
+        if name in REGISTRY:
+            kwargs = {**warp_capacity(name, kwargs, batch), **kwargs}
     return EpisodeStats(ClipAction(make_task(name, **kwargs)))
 
 

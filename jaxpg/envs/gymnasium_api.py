@@ -105,7 +105,7 @@ def _single_env(task: str, make_items: tuple) -> tuple[envs_lib.Env, Callable, C
 def _vector_env(task: str, make_items: tuple, num_envs: int) -> tuple[envs_lib.Env, Callable, Callable]:
     """The env and the jitted batched ``reset``/``step`` of ``JaxpgVectorEnv``, shared likewise."""
     make_kwargs = dict(make_items)
-    env = envs_lib.make(task, **make_kwargs, **envs_lib.warp_capacity(task, make_kwargs, num_envs))
+    env = envs_lib.make(task, batch=num_envs, **make_kwargs)
     sampler = envs_lib.AutoReset(env)
     step = jax.jit(lambda state, actions: _vector_step(sampler, env.max_episode_steps, state, actions))
     return env, jax.jit(jax.vmap(sampler.reset)), step

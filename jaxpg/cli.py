@@ -50,8 +50,6 @@ import numpy as np
 from jaxpg import runlog
 from jaxpg.runlog import RunConfig
 
-ALGORITHM_NAMES = ("npg", "trpo", "reinforce", "vpg", "a2c", "ppo")
-
 
 class UsageError(ValueError):
     """Bad command-line input; reported as one ``error:`` line with exit status 2."""
@@ -192,7 +190,7 @@ def _positive(text: str) -> int:
 
 def build_parser(experiment: Experiment, algo: str, config_cls: type | None, config_defaults: dict[str, Any]) -> Parser:
     """The full parser: run flags plus the ``Config`` flags of ``algo``."""
-    from jaxpg import envs
+    from jaxpg import algos, envs
 
     tasks = experiment.tasks or tuple(envs.names())
     parser = Parser(
@@ -209,7 +207,7 @@ def build_parser(experiment: Experiment, algo: str, config_cls: type | None, con
         metavar="TASK",
         help=f"task: {', '.join(tasks)} (default: {experiment.task})",
     )
-    run.add_argument("--algo", help=f"algorithm: {', '.join(ALGORITHM_NAMES)} (default: {experiment.algo})")
+    run.add_argument("--algo", help=f"algorithm: {', '.join(algos.ALGORITHMS)} (default: {experiment.algo})")
     seeds = run.add_mutually_exclusive_group()
     seeds.add_argument("--seed", type=int, help=f"training seed (default: {experiment.seed})")
     seeds.add_argument(

@@ -31,7 +31,7 @@ from jax.sharding import PartitionSpec
 from jaxpg import distributed
 from jaxpg import rollout as rollout_lib
 from jaxpg.envs import AutoReset, Env, State
-from jaxpg.policies import CategoricalPolicy, GaussianPolicy, StateStdGaussianPolicy, ValueFunction
+from jaxpg.policies import ValueFunction, make_policy
 
 POLICY_NAMES = ("gaussian", "state_std_gaussian")  # categorical is implied by a discrete env
 
@@ -183,33 +183,16 @@ class TrainState:
 
 def make_networks(env: Env, config: BaseConfig) -> tuple[Any, ValueFunction]:
     """The policy named by ``config`` (categorical for a discrete env) and the value function."""
-    if env.discrete:
-        policy: Any = CategoricalPolicy(
-            num_actions=env.action_size,
-            hidden=tuple(config.policy_hidden),
-            activation=config.policy_activation,
-            kernel_init=config.policy_init,
-            bias_init=config.policy_init,
-        )
-    elif config.policy == "gaussian":
-        policy = GaussianPolicy(
-            action_size=env.action_size,
-            hidden=tuple(config.policy_hidden),
-            activation=config.policy_activation,
-            kernel_init=config.policy_init,
-            bias_init=config.policy_init,
-            log_std_init=config.log_std_init,
-        )
-    elif config.policy == "state_std_gaussian":
-        policy = StateStdGaussianPolicy(
-            action_size=env.action_size,
-            hidden=tuple(config.policy_hidden),
-            activation=config.policy_activation,
-            kernel_init=config.policy_init,
-            bias_init=config.policy_init,
-        )
-    else:
-        raise ValueError(f"unknown policy {config.policy!r}: expected 'gaussian' or 'state_std_gaussian'")
+    name = "categorical" if env.discrete else config.policy
+    layers = dict(
+        hidden=tuple(config.policy_hidden),
+        activation=config.policy_activation,
+        kernel_init=config.policy_init,
+        bias_init=config.policy_init,
+    )
+    if name == "gaussian":
+        layers["log_std_init"] = config.log_std_init
+    policy = make_policy(name, env.action_size, env.discrete, **layers)
     value_fn = ValueFunction(
         hidden=tuple(config.value_hidden),
         activation=config.value_activation,

@@ -206,11 +206,6 @@ clip_gradients = common.clip_gradients
 weighted_mean = common.weighted_mean
 
 
-def global_norm(tree: Any) -> jax.Array:
-    """``[]`` Euclidean norm of all leaves of ``tree`` together."""
-    return jnp.sqrt(sum(jnp.sum(jnp.square(x)) for x in jax.tree.leaves(tree)))
-
-
 def loss(
     ts: TrainState,
     joint: dict[str, Any],
@@ -280,7 +275,7 @@ def gradient_step(
     (total, diagnostics), grads = grad_fn(ts, joint, batch, old_values, clip_eps, value_clip_eps)
     updates, opt_state = optimizer.update(grads, opt_state, joint)
     joint = optax.apply_updates(joint, updates)
-    return joint, opt_state, {**diagnostics, "loss": total, "grad_norm": global_norm(grads)}
+    return joint, opt_state, {**diagnostics, "loss": total, "grad_norm": optax.global_norm(grads)}
 
 
 # ---------------------------------------------------------------------------------------------

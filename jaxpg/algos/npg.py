@@ -309,9 +309,12 @@ def mean_kl(ts: TrainState, old_params: Any, new_params: Any, batch: Batch) -> j
 
 def value_predictions(ts: TrainState, obs: jax.Array) -> jax.Array:
     """``V(obs)`` in return units, ``[...]`` for normalised ``obs [..., obs_dim]``: the network's
-    output, de-standardised by ``ts.value_stats`` when ``normalize_value_targets`` is set."""
+    output, de-standardised by ``ts.value_stats`` when ``normalize_value_targets`` is set.
+
+    PPO and A2C call this through ``phase_advantages`` with Configs that have no such field
+    (their value networks always predict returns as they are), hence the ``getattr``."""
     out = ts.value_fn.apply(ts.value_params, obs)
-    if ts.config.normalize_value_targets:
+    if getattr(ts.config, "normalize_value_targets", False):
         out = ts.value_stats.mean[0] + ts.value_stats.std[0] * out
     return out
 

@@ -1,8 +1,6 @@
-"""NPG and TRPO: the step obeys its trust region, updates are guarded, and NPG learns.
-
-Learning budget (stated, checked): NPG must bring the mean (deterministic) policy of
-``inverted_pendulum`` to a return >= 950 of 1000 within 120 iterations of 32 envs x 128 steps
-(491 k env steps); on 2 CPU cores this takes about a minute including compilation.
+"""NPG and TRPO: the step obeys its trust region, updates are guarded, value targets are
+standardised on request. Their learning tests (NPG's ``pendulum_cpu`` preset and TRPO's defaults on
+``inverted_pendulum``, two seeds each) are in ``tests/test_learning.py``.
 """
 
 from __future__ import annotations
@@ -149,22 +147,6 @@ def test_same_seed_same_numbers_and_seed_vmap_matches(pendulum):
             if not np.allclose(together[key][1, i], alone[i][key][1], rtol=2e-2):
                 mismatches.append((i, 1, key, float(together[key][1, i]), float(alone[i][key][1])))
     assert not mismatches, mismatches
-
-
-@pytest.mark.slow
-def test_npg_solves_inverted_pendulum(pendulum):
-    config = npg.Config(**npg.PRESETS["pendulum_cpu"], eval_envs=8, eval_every=10)
-    ts = npg.init(jax.random.PRNGKey(0), pendulum, config)
-    best = []
-
-    def record(ts, metrics, first):
-        best.append(float(np.nanmax(metrics["return_mean_policy"])))
-
-    for _ in range(12):
-        ts = train_lib.train(npg.update, ts, 10, block_size=10, callbacks=[record])
-        if best[-1] >= 950:
-            break
-    assert best[-1] >= 950, f"mean-policy returns per block: {best}"
 
 
 def test_normalized_value_targets(small_state):

@@ -1,11 +1,10 @@
 """REINFORCE and VPG: the gradient against a hand-written NumPy gradient, the baseline's
-advantages, config validation, multi-seed training against single seeds, and learning on
-``cartpole`` (REINFORCE) and ``inverted_pendulum`` (VPG) within a CPU budget."""
+advantages, config validation, multi-seed training against single seeds. Their learning tests
+(REINFORCE's defaults on ``cartpole``, VPG's on ``inverted_pendulum``, two seeds each) are in
+``tests/test_learning.py``."""
 
 from __future__ import annotations
 
-import dataclasses
-import time
 import types
 
 import jax
@@ -255,73 +254,3 @@ def test_multi_seed_training_matches_single_seeds(cartpole, module):
         for name, value in alone.items():
             if name != "eval_seconds":  # host wall time
                 np.testing.assert_allclose(together[name][:, i], value, rtol=1e-4, atol=1e-5, err_msg=name)
-
-
-def train_until(module, ts, max_iterations, block_size, solved):
-    """Train block by block until ``solved(metrics of the block)``; returns the iterations run,
-    the per-iteration metrics and the wall time."""
-    start = time.perf_counter()
-    history = []
-    done = 0
-    while done < max_iterations:
-        ts = train_lib.train(module.update, ts, block_size, block_size, callbacks=[lambda s, m, i: history.append(m)])
-        done += block_size
-        if solved(history[-1]):
-            break
-    metrics = {k: np.concatenate([m[k] for m in history]) for k in history[0]}
-    return done, metrics, time.perf_counter() - start
-
-
-# Episodic REINFORCE on cartpole: 32 episodes of up to 500 steps per update, one Adam step on the
-# per-episode normalised returns (Kokoyi's loss, batched). Seeds 0-5 solve it in 15-60 iterations.
-CARTPOLE = reinforce.Config(
-    num_envs=32,
-    horizon=500,
-    policy_hidden=(64,),
-    policy_activation="relu",
-    lr=1e-2,
-    return_normalization="episode",
-    eval_envs=8,
-    eval_every=1,
-)
-
-
-@pytest.mark.slow
-def test_reinforce_solves_cartpole(cartpole):
-    ts = reinforce.init(jax.random.PRNGKey(0), cartpole, CARTPOLE)
-    iterations, metrics, wall = train_until(reinforce, ts, 100, 5, lambda m: np.nanmax(m["return_mean_policy"]) >= 475)
-    best = np.nanmax(metrics["return_mean_policy"])
-    print(f"REINFORCE cartpole: mean-policy return {best:.0f} after {iterations} iterations, {wall:.1f} s")
-    assert best >= 475, metrics["return_mean_policy"]
-
-
-# The Lightning VPG on inverted_pendulum (preset "lightning": 64x64 tanh policy and baseline,
-# normalised returns minus the baseline, baseline fitted to normalised returns), on a CPU budget:
-# 32 envs x 64 steps of continuing sampling per iteration, and since 64-step segments cut
-# gamma = 0.9's returns little but learn slowly, gamma 0.95 and Adam 1e-2 (the seed: 0.9, 3.9e-3).
-PENDULUM = dataclasses.replace(
-    vpg.Config(**vpg.PRESETS["lightning"]),
-    num_envs=32,
-    horizon=64,
-    gamma=0.95,
-    lr=1e-2,
-    value_lr=1e-2,
-    eval_envs=4,
-    eval_every=5,
-)
-
-
-@pytest.mark.slow
-def test_vpg_improves_inverted_pendulum():
-    """VPG is unstable once the pole stays up for whole batches (no episode ends in a batch, so the
-    normalised returns are mostly noise): the test asks for the best evaluation to pass half of the
-    maximum 1000 and stops at the first perfect one."""
-    env = envs.make("inverted_pendulum")
-    ts = vpg.init(jax.random.PRNGKey(0), env, PENDULUM)
-    initial = float(jax.jit(train_lib.evaluate_state)(ts)["return_mean_policy"])
-    iterations, metrics, wall = train_until(vpg, ts, 80, 5, lambda m: np.nanmax(m["return_mean_policy"]) >= 1000)
-    best = np.nanmax(metrics["return_mean_policy"])
-    print(
-        f"VPG inverted_pendulum: mean-policy return {initial:.0f} -> {best:.0f}, {iterations} iterations, {wall:.0f} s"
-    )
-    assert best >= max(10 * initial, 500), metrics["return_mean_policy"]

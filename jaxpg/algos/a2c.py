@@ -81,12 +81,19 @@ PRESETS: dict[str, dict[str, Any]] = {
         value_coef=0.5,
         max_grad_norm=0.5,
     ),
-    # Solves cartpole in about a minute on two CPU cores (tests/test_ppo_a2c.py).
+    # Solves cartpole on two CPU cores and stays solved (tests/test_learning.py: the mean policy of
+    # seeds 0-3 returned 500 at every evaluation from iteration 400 to 2000). Rewards are scaled
+    # by 0.1: cartpole's returns reach ~100 at gamma 0.99, so unscaled the value loss dominates
+    # the joint gradient clipped to norm 0.5 and the policy's share of each step is noise; with
+    # the former lr 3e-3 and no scaling the seeds touched 500 within 60-300 iterations but kept
+    # collapsing (means of the last 3 evaluations at the end: 329 and 470 after 600 iterations;
+    # at lr 1e-3 363-500 after 1000, at 3e-4 below 500 for all four seeds after 2500).
     "cartpole": dict(
         num_envs=64,
         horizon=16,
         optimizer="adam",
-        lr=3e-3,
+        lr=1e-3,
+        reward_scaling=0.1,
         gamma=0.99,
         gae_lambda=1.0,
         entropy_coef=0.01,

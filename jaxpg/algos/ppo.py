@@ -157,7 +157,8 @@ PRESETS: dict[str, dict[str, Any]] = {
         eval_envs=128,
         eval_every=50,
     ),
-    # Solves inverted_pendulum on the CPU in about 30 iterations (31 k env steps; tests/test_ppo_a2c.py).
+    # Solves inverted_pendulum on the CPU: seeds 0 and 1 evaluated at 1000 from iteration 35 to 80
+    # (first after 20 iterations, 20 k env steps; tests/test_learning.py).
     "pendulum": dict(
         num_envs=32,
         horizon=32,

@@ -17,6 +17,8 @@ import os
 import subprocess
 import sys
 import tempfile
+import time
+from collections.abc import Callable
 
 import gymnasium as gym
 import jax
@@ -39,6 +41,7 @@ GYM_IDS = {
 }
 PARITY_SEEDS = 4
 PARITY_STEPS = 60  # per seed; stepping goes on after termination, as Gymnasium's MuJoCo envs allow
+FULL_EPISODE_NOISE = 0.2  # of the action range, added to the stabilising controller in the full episodes
 
 
 # --------------------------------------------------------------------------------------------
@@ -105,6 +108,44 @@ def test_reset_distributions():
     np.testing.assert_allclose(np.asarray(data.qvel).std(axis=0), 0.1, rtol=0.06)
     assert np.max(np.abs(np.asarray(data.qvel))) > 0.25  # normal tails, not uniform
     check_uniform(jax.vmap(envs.make_task("cartpole").reset)(keys).obs, 0.05)
+
+
+def test_hopper_reset_distribution_matches_gymnasium():
+    """Hopper's reset noise against Gymnasium's ``Hopper-v5``: the same initial pose and
+    ``reset_noise_scale`` s, and 2000 resets of each (jaxpg's keys, Gymnasium's seeded resets) give
+    every coordinate of ``(qpos - init_qpos, qvel)`` the moments and shape of uniform(-s, s).
+
+    Tolerances from the sample size n, each at 5 standard errors (or a false-alarm rate of ~1e-5):
+    mean within 5 s / sqrt(3 n), std within 5 / sqrt(5 n) relative (the sample std of a uniform
+    has relative standard error 1 / sqrt(5 n)), Kolmogorov-Smirnov distance to the uniform CDF
+    below 2.47 / sqrt(n); the samples stay within s (plus float32 rounding of qpos ~1.25) and
+    reach past 0.99 s on both sides (missed with probability 0.99^n ~ 2e-9). A normal
+    distribution of the same std breaks the bound, a wrong scale the std, noise on qpos or on
+    qvel only the std of the other."""
+    n = 2000
+    gym_env = gym.make("Hopper-v5").unwrapped
+    scale = gym_env._reset_noise_scale
+    env = envs.make_task("hopper", impl="jax")
+    assert env.reset_noise_scale == scale == 5e-3
+    np.testing.assert_array_equal(np.asarray(env.init_qpos), gym_env.init_qpos.astype(np.float32))
+    np.testing.assert_array_equal(np.asarray(env.init_qvel), gym_env.init_qvel)
+
+    data = jax.jit(jax.vmap(env.reset))(jax.random.split(jax.random.key(0), n)).data
+    init = np.asarray(env.init_qpos, np.float64)
+    mine = np.concatenate([np.asarray(data.qpos, np.float64) - init, np.asarray(data.qvel, np.float64)], axis=1)
+    theirs = []
+    for seed in range(n):
+        gym_env.reset(seed=seed)
+        theirs.append(np.concatenate([gym_env.data.qpos - gym_env.init_qpos, gym_env.data.qvel]))
+    uniform_cdf = (np.arange(1, n + 1) - 0.5) / n  # at the sorted samples, against (x + s) / 2s
+    for name, noise in (("jaxpg", mine), ("gymnasium", np.stack(theirs))):
+        assert noise.shape == (n, env.nq + env.nv), name
+        assert np.all(np.abs(noise) <= scale + 1e-6), (name, np.abs(noise).max(axis=0))
+        assert np.all(noise.max(axis=0) > 0.99 * scale) and np.all(noise.min(axis=0) < -0.99 * scale), name
+        assert np.all(np.abs(noise.mean(axis=0)) < 5 * scale / np.sqrt(3 * n)), (name, noise.mean(axis=0))
+        np.testing.assert_allclose(noise.std(axis=0), scale / np.sqrt(3), rtol=5 / np.sqrt(5 * n), err_msg=name)
+        ks = np.abs((np.sort(noise, axis=0) + scale) / (2 * scale) - uniform_cdf[:, None]).max(axis=0) + 0.5 / n
+        assert np.all(ks < 2.47 / np.sqrt(n)), (name, ks)
 
 
 # --------------------------------------------------------------------------------------------
@@ -418,16 +459,21 @@ def test_importing_without_warp_prints_nothing():
 # Parity with Gymnasium in the "gymnasium" fidelity (float64 worker process)
 
 
-def gymnasium_parity(task: str, seeds: int = PARITY_SEEDS, steps: int = PARITY_STEPS) -> dict:
-    """Steps jaxpg's ``task`` (fidelity "gymnasium", MJX's jax impl) and Gymnasium's v5 env side by
-    side from jaxpg's reset states with the same uniform random in-range actions, ``steps`` steps
-    from each of ``seeds`` resets. Returns the largest differences in qpos, qvel, obs and reward
-    within the episodes (up to and including the first termination) and after them (Gymnasium's
-    MuJoCo envs keep stepping), with the ``terminated`` mismatches and the episode lengths.
-    Meant for a process with ``JAX_ENABLE_X64=1``."""
-    env = envs.make_task(task, fidelity="gymnasium", impl="jax")
+def _parity_env(task: str) -> tuple[envs.Env, Callable, Callable]:
+    """The env a user gets from ``envs.make`` (``EpisodeStats(ClipAction(task))``) in fidelity
+    "gymnasium" with MJX's jax impl, and its jitted ``reset`` and ``step``, shared by the parity runs."""
+    env = envs.make(task, fidelity="gymnasium", impl="jax")
+    return env, jax.jit(env.reset), jax.jit(env.step)
+
+
+def gymnasium_parity(task: str, env, reset, step, seeds: int = PARITY_SEEDS, steps: int = PARITY_STEPS) -> dict:
+    """Steps jaxpg's ``task`` (``env`` with its jitted ``reset`` and ``step``, see ``_parity_env``)
+    and Gymnasium's v5 env side by side from jaxpg's reset states with the same uniform random
+    in-range actions, ``steps`` steps from each of ``seeds`` resets. Returns the largest differences
+    in qpos, qvel, obs and reward within the episodes (up to and including the first termination)
+    and after them (Gymnasium's MuJoCo envs keep stepping), with the ``terminated`` mismatches and
+    the episode lengths. Meant for a process with ``JAX_ENABLE_X64=1``."""
     gym_env = gym.make(GYM_IDS[task]).unwrapped  # no TimeLimit
-    reset, step = jax.jit(env.reset), jax.jit(env.step)
     quantities = ("qpos", "qvel", "obs", "reward")
     result = {"reset_obs": 0.0, "episode_lengths": [], "episode_mismatches": 0, "after_mismatches": 0}
     result |= {f"{part}_{q}": 0.0 for part in ("episode", "after") for q in quantities}
@@ -460,6 +506,145 @@ def gymnasium_parity(task: str, seeds: int = PARITY_SEEDS, steps: int = PARITY_S
     return result
 
 
+def _lqr_gain(model: mujoco.MjModel, frame_skip: int) -> np.ndarray:
+    """``K [nu, 2 nv]``: the discrete LQR gain (unit state and control costs) of one env step
+    (``frame_skip`` MuJoCo steps) of ``model`` linearised about ``qpos = qvel = 0`` (the upright
+    pole(s), a slide and hinges only, so that ``nq == nv``) by central differences."""
+    data = mujoco.MjData(model)
+    nq, n = model.nq, model.nq + model.nv
+
+    def env_step(x: np.ndarray, u: np.ndarray) -> np.ndarray:
+        mujoco.mj_resetData(model, data)
+        data.qpos[:], data.qvel[:], data.ctrl[:] = x[:nq], x[nq:], u
+        mujoco.mj_step(model, data, frame_skip)
+        return np.concatenate([data.qpos, data.qvel])
+
+    def jacobian(f: Callable[[np.ndarray], np.ndarray], size: int, eps: float = 1e-6) -> np.ndarray:
+        return np.stack([(f(eps * e) - f(-eps * e)) / (2 * eps) for e in np.eye(size)], axis=1)
+
+    a = jacobian(lambda dx: env_step(dx, np.zeros(model.nu)), n)
+    b = jacobian(lambda du: env_step(np.zeros(n), du), model.nu)
+    p = np.eye(n)
+    for _ in range(1000):  # Riccati iteration to the fixed point
+        gain = np.linalg.solve(np.eye(model.nu) + b.T @ p @ b, b.T @ p @ a)
+        p = np.eye(n) + a.T @ p @ (a - b @ gain)
+    return gain
+
+
+def stabilising_policy(
+    task: str, model: mujoco.MjModel, frame_skip: int
+) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:
+    """``(qpos, qvel) -> action`` (unclipped) that keeps ``task`` alive for its whole 1000-step
+    episode, with room to spare under the ``FULL_EPISODE_NOISE`` added in ``time_limit_parity``.
+
+    The pendulums: LQR on the state. Hopper: a PD controller holding the initial standing pose
+    (gains 20 and 1 on the actuated joints' angles and velocities): the hopper stands on its foot,
+    within its health bounds, up to the limit (with zero torques it falls in ~130 steps).
+    Feedback on the float64 state rather than the float32 observation: with the same actions (the
+    observations of both envs round to the same float32) their difference grows under the
+    unstable open loop until the float32 rounding of the observations starts to differ, to ~1e-8
+    in qpos; with feedback on the state it evolves under the stable closed loop and stays at
+    float64 rounding."""
+    if task == "hopper":
+        return lambda qpos, qvel: -20.0 * qpos[3:] - 1.0 * qvel[3:]
+    gain = _lqr_gain(model, frame_skip)
+    return lambda qpos, qvel: -gain @ np.concatenate([qpos, qvel])
+
+
+def time_limit_parity(task: str, env, reset, step, seed: int = 0) -> dict:
+    """One full episode of jaxpg's ``task`` (``env`` from ``envs.make``, see ``_parity_env``) and of
+    ``gymnasium.make(ID)`` with its TimeLimit, side by side from jaxpg's reset state under
+    ``stabilising_policy`` plus uniform noise of ``FULL_EPISODE_NOISE`` times the action range
+    (the same draws for both). Each env's action is computed from its own state, so that their
+    difference evolves under the stable closed loop: it stays at rounding instead of growing as
+    it would with one env's actions fed to the unstable open loop of the other.
+
+    Returns the largest differences (qpos, qvel, obs, reward, action) over the episode, the
+    ``(terminated, truncated)`` pairs of both at every step where either is set, the mismatches
+    of jaxpg's flags against Gymnasium's under jaxpg's rule (see ``test_gymnasium_parity_to_time_limit``),
+    the episode's length, Gymnasium's return and ``EpisodeStats``' metrics at jaxpg's last step.
+    Meant for a process with ``JAX_ENABLE_X64=1``."""
+    gym_env = gym.make(GYM_IDS[task])  # with its TimeLimit(1000)
+    base = gym_env.unwrapped
+    policy = stabilising_policy(task, base.model, base.frame_skip)
+    low, high = env.action_low, env.action_high
+    state = reset(jax.random.key(seed))
+    gym_env.reset(seed=seed)
+    base.set_state(np.asarray(state.data.qpos, np.float64), np.asarray(state.data.qvel, np.float64))
+    rng = np.random.default_rng(seed)
+    result = {k: 0.0 for k in ("qpos", "qvel", "obs", "reward", "action")}
+    result |= {"flags": [], "flag_mismatches": 0, "gym_return": 0.0}
+
+    def note(name: str, a: np.ndarray, b: np.ndarray) -> None:
+        result[name] = max(result[name], float(np.max(np.abs(np.asarray(a, np.float64) - b))))
+
+    for t in range(1, 2 * env.max_episode_steps):
+        noise = FULL_EPISODE_NOISE * rng.uniform(low, high, env.action_size)
+        action = np.clip(policy(np.asarray(state.data.qpos), np.asarray(state.data.qvel)) + noise, low, high)
+        gym_action = np.clip(policy(base.data.qpos, base.data.qvel) + noise, low, high)
+        note("action", action, gym_action)
+        state = step(state, jnp.asarray(action))
+        gym_obs, reward, terminated, truncated, _ = gym_env.step(gym_action)
+        result["gym_return"] += float(reward)
+        for name, mine, theirs in (
+            ("qpos", state.data.qpos, base.data.qpos),
+            ("qvel", state.data.qvel, base.data.qvel),
+            ("obs", state.obs, gym_obs),
+            ("reward", state.reward, np.float64(reward)),
+        ):
+            note(name, mine, theirs)
+        mine = (bool(state.terminated), bool(state.truncated))
+        expected = (terminated, truncated and not terminated)  # jaxpg's rule: terminated wins
+        result["flag_mismatches"] += int(mine != expected)
+        if any(mine) or terminated or truncated:
+            result["flags"].append([t, *mine, terminated, truncated])
+        if bool(state.done) or terminated or truncated:
+            break
+    result["length"] = t
+    result["metrics"] = {k: float(state.metrics[k]) for k in ("episode_return", "episode_length", "episode_done")}
+    return result
+
+
+def coincidence_parity(task: str, env, reset, step, length: int, seed: int = 0) -> dict:
+    """The episode of ``seed`` under ``gymnasium_parity``'s random actions, which terminates at step
+    ``length``, with the time limit at that same step: Gymnasium as ``gymnasium.make(ID,
+    max_episode_steps=length)``, jaxpg with its step counter ``info["step"]`` started at
+    ``max_episode_steps - length`` (where it stands ``length`` steps before the limit; the same
+    as a time limit of ``length``, without compiling another step). Returns both envs' flags
+    ``[t, terminated, truncated, gym terminated, gym truncated]`` at every step."""
+    gym_env = gym.make(GYM_IDS[task], max_episode_steps=length)
+    state = reset(jax.random.key(seed))
+    state = state.replace(info={**state.info, "step": jnp.asarray(env.max_episode_steps - length, jnp.int32)})
+    gym_env.reset(seed=seed)
+    gym_env.unwrapped.set_state(np.asarray(state.data.qpos, np.float64), np.asarray(state.data.qvel, np.float64))
+    rng = np.random.default_rng(seed)
+    flags = []
+    for t in range(1, length + 1):
+        action = rng.uniform(env.action_low, env.action_high, env.action_size)
+        state = step(state, jnp.asarray(action))
+        _, _, terminated, truncated, _ = gym_env.step(action)
+        flags.append([t, bool(state.terminated), bool(state.truncated), terminated, truncated])
+    return {"flags": flags}
+
+
+def parity_worker_main(tasks: list[str]) -> dict:
+    """The float64 worker's findings for each of ``tasks``: ``gymnasium_parity`` ("random"),
+    ``time_limit_parity`` ("time_limit") and ``coincidence_parity`` ("coincidence"), all on one
+    compiled ``reset`` and ``step`` per task, with the CPU seconds of the first two ("cpu_seconds",
+    the first with the compilation)."""
+    results = {}
+    for task in tasks:
+        started = time.process_time()
+        env, reset, step = _parity_env(task)
+        random = gymnasium_parity(task, env, reset, step)
+        seconds = {"random": time.process_time() - started}
+        full = time_limit_parity(task, env, reset, step)
+        seconds["time_limit"] = time.process_time() - started - seconds["random"]
+        coincidence = coincidence_parity(task, env, reset, step, random["episode_lengths"][0])
+        results[task] = {"random": random, "time_limit": full, "coincidence": coincidence, "cpu_seconds": seconds}
+    return results
+
+
 @pytest.fixture(scope="module", autouse=True)
 def parity_worker(request: pytest.FixtureRequest):
     """Starts the float64 parity worker at the beginning of the module when a parity test is
@@ -476,9 +661,12 @@ def parity_worker(request: pytest.FixtureRequest):
         return
     out = tempfile.TemporaryFile("w+")
     err = tempfile.TemporaryFile("w+")
+    # The worker imports the jaxpg under test (this process's), not one installed elsewhere.
+    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(envs.__file__))))
+    path = os.pathsep.join(p for p in (root, os.environ.get("PYTHONPATH")) if p)
     proc = subprocess.Popen(
         [sys.executable, __file__, *tasks],
-        env={**os.environ, "JAX_ENABLE_X64": "1"},
+        env={**os.environ, "JAX_ENABLE_X64": "1", "PYTHONPATH": path},
         stdout=out,
         stderr=err,
         text=True,
@@ -509,21 +697,83 @@ def test_gymnasium_parity(task, parity_results):
     against MuJoCo's float64 stays close (Hopper's obs within 5e-5 over 150 random steps) but only
     loose tolerances would hold. In float64 MJX repeats MuJoCo's RK4 and forward pass to rounding:
     over 4 resets x 60 random in-range actions, qpos and qvel agree to ~1e-14 for every step of
-    every episode (up to its termination: Hopper 14-26 steps, the pendulums 3-7; tolerance 1e-9),
+    every episode (up to its termination: Hopper 14-26 steps, the pendulums 3-7; tolerance 1e-9;
+    more seeds find longer Hopper episodes, whose foot contact lets the solvers part: 9e-9 in 16),
     and obs and reward to their float32 rounding (1e-5 absolute, obs up to 10 in magnitude).
     Past the termination the falling hopper lies in contact with the floor and the poles hit their
     joint or rail limits: there MuJoCo's and MJX's iterative constraint solvers stop at different
     iterations within their tolerance (1e-8), which shows as a one-step jump to 1e-10..1e-8,
-    then the chaotic fallen hopper amplifies it (up to 2e-5 in qpos after 100 steps); that part
-    is held to 1e-3, enough to catch any difference in the model or the step semantics.
+    then the chaotic fallen hopper amplifies it (up to 5e-5 in qpos and 3e-5 in reward after 100
+    steps over 16 seeds; here, 4 seeds x 60 steps, the largest are 7e-9 in qpos, the pendulum on its
+    rail limit, and 7e-7 in reward, the double pendulum's float32 rounding); qpos, qvel and obs are
+    held to 1e-3..1e-2 there, enough to catch any difference in the model or the step semantics,
+    and the reward to 1e-4: above what the amplification reached, below the smallest reward term
+    that a wrong reward function would change (Hopper's control cost, ~1e-3).
     """
-    r = parity_results[task]
+    r = parity_results[task]["random"]
     assert len(r["episode_lengths"]) == PARITY_SEEDS, r  # every episode ended within the horizon
     assert r["episode_mismatches"] == 0 and r["after_mismatches"] == 0, r
     assert r["episode_qpos"] < 1e-9 and r["episode_qvel"] < 1e-9, r
     assert r["reset_obs"] < 1e-6 and r["episode_obs"] < 1e-5 and r["episode_reward"] < 1e-5, r
     assert r["after_qpos"] < 1e-3 and r["after_qvel"] < 1e-2 and r["after_obs"] < 1e-2, r
+    assert r["after_reward"] < 1e-4, r
+
+
+# Bounds on the largest differences over the full episode of seed 0 under the stabilising controller
+# (measured maxima over seeds 0-3 in test_gymnasium_parity_to_time_limit's docstring): qpos, qvel
+# and action in float64; obs and reward after jaxpg's float32 cast.
+TIME_LIMIT_TOLERANCES = {
+    "inverted_pendulum": {"qpos": 1e-12, "qvel": 1e-12, "action": 1e-12, "obs": 1e-6, "reward": 1e-6},
+    "inverted_double_pendulum": {"qpos": 1e-12, "qvel": 1e-12, "action": 1e-12, "obs": 1e-6, "reward": 1e-5},
+    "hopper": {"qpos": 1e-7, "qvel": 5e-6, "action": 5e-6, "obs": 5e-6, "reward": 5e-6},
+}
+
+
+@pytest.mark.parametrize("task", list(GYM_IDS))
+def test_gymnasium_parity_to_time_limit(task, parity_results):
+    """A full 1000-step episode of the env a user gets (``envs.make(task, fidelity="gymnasium")``:
+    ``EpisodeStats(ClipAction(task))``) against ``gymnasium.make(ID)`` with its TimeLimit, side by
+    side from jaxpg's reset state, each under the same stabilising controller on its own state
+    plus the same uniform noise of 20% of the action range (``time_limit_parity``).
+
+    Both survive to the limit, with ``terminated`` and ``truncated`` False at steps 1-999 and,
+    at step 1000, ``truncated`` True and ``terminated`` False in both; ``EpisodeStats`` reports the
+    episode there (length 1000, return equal to the sum of Gymnasium's rewards up to float32
+    accumulation: 1000 roundings of a running sum up to ~9400; measured up to 6e-7 relative,
+    rtol 2e-5). Largest differences over the episode (measured on seeds 0-3; the test runs seed 0):
+    the pendulums' qpos, qvel and actions stay at float64 rounding, <= 1.1e-14 (tolerance 1e-12):
+    without contacts MJX repeats MuJoCo's steps to rounding and the closed loop damps the
+    differences. The standing hopper's foot is in contact with the floor at every step, where the
+    two constraint solvers stop at different iterations within their tolerance (1e-8, see
+    ``test_gymnasium_parity``): seed 0 reaches 1.1e-9 in qpos, 6.0e-8 in qvel and 6.4e-8 in the
+    actions (seeds 1-3: <= 2e-11 and 1.6e-9; tolerances 1e-7, 5e-6 and 5e-6). obs and reward agree
+    to their float32 rounding (obs <= 1.2e-7, reward <= 4.8e-7; ``TIME_LIMIT_TOLERANCES``: 1e-6 to
+    1e-5 by magnitude).
+
+    Where termination and the time limit coincide the two differ, by design: Gymnasium's
+    TimeLimit sets ``truncated`` whatever ``terminated`` says, jaxpg's flags are exclusive
+    (``Env.step``: a step that both ends the task and reaches the limit is ``terminated`` only,
+    the value of its next state being zero). ``done`` is the same and a learner that bootstraps
+    exactly where jaxpg says ``truncated`` treats the step as Gymnasium's ``terminated`` says it
+    should. ``coincidence_parity`` checks that rule on the random episode of seed 0 with the time
+    limit at its termination step: Gymnasium (True, True), jaxpg (True, False).
+    """
+    r = parity_results[task]["time_limit"]
+    assert r["length"] == 1000, r
+    # [step, terminated, truncated, Gymnasium's terminated, Gymnasium's truncated] wherever one is set
+    assert r["flags"] == [[1000, False, True, False, True]], r
+    assert r["flag_mismatches"] == 0, r
+    for name, tolerance in TIME_LIMIT_TOLERANCES[task].items():
+        assert r[name] < tolerance, (name, r)
+    metrics = r["metrics"]
+    assert metrics["episode_done"] == 1.0 and metrics["episode_length"] == 1000.0, r
+    assert metrics["episode_return"] == pytest.approx(r["gym_return"], rel=2e-5), r
+
+    length = parity_results[task]["random"]["episode_lengths"][0]
+    flags = parity_results[task]["coincidence"]["flags"]
+    assert flags[:-1] == [[t, False, False, False, False] for t in range(1, length)], flags
+    assert flags[-1] == [length, True, False, True, True], flags
 
 
 if __name__ == "__main__":
-    print(json.dumps({task: gymnasium_parity(task) for task in sys.argv[1:]}))
+    print(json.dumps(parity_worker_main(sys.argv[1:])))

@@ -1,14 +1,14 @@
 """jaxpg's tasks through the Gymnasium API: Stable-Baselines3 trains on them, and how fast they step.
 
-  sb3         Stable-Baselines3 PPO (its defaults) on ``jaxpg/InvertedPendulum-v5`` through
-              ``jaxpg.envs.gymnasium_env``, then its deterministic policy on 10 episodes of
-              jaxpg's env and of Gymnasium's own ``InvertedPendulum-v5``.
-  throughput  env steps/s under random actions, NumPy in and out: ``gymnasium_vector_env`` at
-              each ``--num-envs``, against Gymnasium's own MuJoCo vector env
-              (``gymnasium.make_vec(..., vectorization_mode="sync"|"async")``) on the CPU.
+sb3         Stable-Baselines3 PPO (its defaults) on ``jaxpg/InvertedPendulum-v5`` through
+            ``jaxpg.envs.gymnasium_env``, then its deterministic policy on 10 episodes of
+            jaxpg's env and of Gymnasium's own ``InvertedPendulum-v5``.
+throughput  env steps/s under random actions, NumPy in and out: ``gymnasium_vector_env`` at
+            each ``--num-envs``, against Gymnasium's own MuJoCo vector env
+            (``gymnasium.make_vec(..., vectorization_mode="sync"|"async")``) on the CPU.
 
-    python benchmarks/gymnasium_api.py sb3 --steps 100000
-    python benchmarks/gymnasium_api.py throughput --task hopper --num-envs 1024 4096 16384 --gym-envs 16
+  python benchmarks/gymnasium_api.py sb3 --steps 100000
+  python benchmarks/gymnasium_api.py throughput --task hopper --num-envs 1024 4096 16384 --gym-envs 16
 """
 
 from __future__ import annotations

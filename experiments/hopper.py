@@ -5,8 +5,8 @@ normalisation, initial log-std 0, a 128x128 value function fitted for 10 epochs 
 standardised targets, 120 iterations = 1.97 M env steps) train a hopping Hopper on one GPU in
 about a minute: see BENCHMARKS.md for what each seed reached, in MJX and in Gymnasium's CPU
 Hopper-v5. On a CPU the same command runs to its end too, about 30 times slower (7-13 minutes
-on 2 cores; seed 0 scored 3476 in Gymnasium). ``--preset lyceum`` reproduces LyceumAI's NPG (policy 32x32, 10240 samples per iteration
-from episodes of up to 1000 steps).
+on 2 cores; seed 0 scored 3476 in Gymnasium). ``--preset lyceum`` reproduces LyceumAI's NPG
+(policy 32x32, 10240 samples per iteration from episodes of up to 1000 steps).
 
 Every flag: ``python experiments/hopper.py --help`` (``--algo ppo --help`` for PPO's).
 """

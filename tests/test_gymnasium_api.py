@@ -184,3 +184,21 @@ def test_vector_jax_arrays_stay_on_device():
     assert isinstance(obs, jax.Array)
     obs, reward, terminated, truncated, _ = vec.step(jax.numpy.zeros(NUM_ENVS, jax.numpy.int32))
     assert isinstance(obs, jax.Array) and isinstance(reward, jax.Array) and hasattr(obs, "__dlpack__")
+
+
+def test_render_draws_env_zero(pendulum_vec):
+    """``render_mode="rgb_array"`` draws a frame (of env 0 for the vector env); skipped, naming what
+    is missing, where MuJoCo has no OpenGL backend."""
+    from jaxpg import video
+
+    problem = video.gl_problem()
+    if problem is not None:
+        pytest.skip(f"no rendering: {problem}")
+    env = envs.gymnasium_env("inverted_pendulum", render_mode="rgb_array")
+    env.reset(seed=0)
+    frame = env.render()
+    assert frame.dtype == np.uint8 and frame.ndim == 3 and frame.shape[2] == 3 and frame.std() > 0
+    vec = envs.gymnasium_vector_env("inverted_pendulum", NUM_ENVS, max_episode_steps=12, render_mode="rgb_array")
+    vec.reset(seed=0)
+    assert vec.render().shape == frame.shape
+    assert pendulum_vec.render() is None  # no render_mode: nothing drawn

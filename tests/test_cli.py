@@ -84,7 +84,8 @@ def trained(runs):
 def test_run_directory_holds_everything_to_rerun(trained):
     config = json.loads((trained / "config.json").read_text())
     assert config["task"] == "inverted_pendulum" and config["algo"] == "npg"
-    assert config["env_kwargs"] == {"max_episode_steps": 50}
+    # batch: the most envs stepped together (8 envs x 1 seed), for which the physics is sized
+    assert config["env_kwargs"] == {"max_episode_steps": 50, "batch": 8}
     assert config["seeds"] == [0] and config["iterations"] == 4
     from jaxpg.algos import npg
 

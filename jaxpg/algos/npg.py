@@ -11,7 +11,9 @@ One iteration:
 
 Each phase is a named function of its own, so that ``update`` reads as the list above, TRPO
 reuses the phases, and ``profile_phases`` can time them as separate jitted calls.
-``make_update(advantage_fn)`` is ``update`` with another advantage estimator in step 2.
+``make_update(advantage_fn)`` is ``update`` with another advantage estimator in step 2, and
+``update_with_step_size(ts, step_size)`` is ``update`` with a (possibly traced) step size, so that
+one program can ``vmap`` over step sizes.
 """
 
 from __future__ import annotations
@@ -303,17 +305,23 @@ def normalized_step(grad: jax.Array, direction: jax.Array, delta: float) -> jax.
 BACKTRACKS = 6  # halvings of the natural step tried when it overshoots its KL bound
 
 
-def kl_bound(config: Config) -> float:
+def kl_bound(config: Config, step_size: jax.Array | float | None = None) -> jax.Array | float:
     """The mean KL an NPG step may reach: twice the ``step_size / 2`` that the normalised step
-    aims at in the Fisher metric, and never more than ``max_update_kl`` (when that is set)."""
-    return min(config.step_size, config.max_update_kl) if config.max_update_kl > 0 else config.step_size
+    aims at in the Fisher metric, and never more than ``max_update_kl`` (when that is set).
+
+    ``step_size`` (e.g. a traced array, see ``update_with_step_size``) stands in for
+    ``config.step_size``; the bound is then an array."""
+    if step_size is None:
+        return min(config.step_size, config.max_update_kl) if config.max_update_kl > 0 else config.step_size
+    return jnp.minimum(step_size, config.max_update_kl) if config.max_update_kl > 0 else jnp.asarray(step_size)
 
 
 def step_within_kl(
-    ts: TrainState, batch: Batch, direction: jax.Array, step: jax.Array
+    ts: TrainState, batch: Batch, direction: jax.Array, step: jax.Array, bound: jax.Array | float | None = None
 ) -> tuple[Any, jax.Array, jax.Array]:
     """The longest of ``step, step/2, ... step/2^(BACKTRACKS-1)`` along ``direction`` (flat
-    ``[num_params]``) whose mean KL stays within ``kl_bound``; all candidates are evaluated at once.
+    ``[num_params]``) whose mean KL stays within ``bound`` (default ``kl_bound(ts.config)``); all
+    candidates are evaluated at once.
 
     Returns ``(new_params, kl [], fraction [])``: ``fraction`` is the share of ``step`` taken, 0
     (parameters unchanged, KL 0) when even the smallest candidate overshoots. The quadratic model
@@ -322,7 +330,7 @@ def step_within_kl(
     flat_params, unravel = ravel_pytree(ts.params)
     fractions = 0.5 ** jnp.arange(BACKTRACKS, dtype=jnp.float32)
     kls = jax.vmap(lambda f: mean_kl(ts, ts.params, unravel(flat_params + f * step * direction), batch))(fractions)
-    fits = kls <= kl_bound(ts.config)
+    fits = kls <= (kl_bound(ts.config) if bound is None else bound)
     first = jnp.argmax(fits)
     fraction = jnp.where(jnp.any(fits), fractions[first], 0.0)
     return unravel(flat_params + fraction * step * direction), jnp.where(jnp.any(fits), kls[first], 0.0), fraction
@@ -410,17 +418,37 @@ def update(ts: TrainState) -> tuple[TrainState, dict[str, jax.Array]]:
     return update_using(ts, gae_advantages)
 
 
-def update_using(ts: TrainState, advantage_fn: AdvantageFn) -> tuple[TrainState, dict[str, jax.Array]]:
+def update_with_step_size(ts: TrainState, step_size: jax.Array | float) -> tuple[TrainState, dict[str, jax.Array]]:
+    """``update`` with the normalised step ``step_size`` (delta) in place of ``config.step_size``.
+
+    ``Config`` is static in ``TrainState``, so a sweep over ``config.step_size`` compiles one
+    program per value; ``step_size`` here may be traced, so that one program ``vmap``s over step
+    sizes (and seeds), e.g. ``jax.vmap(npg.update_with_step_size)(states, jnp.array([0.01, 0.1]))``.
+    The KL bound of the backtracking follows it (``kl_bound(config, step_size)``); everything else
+    is ``update``'s, and ``update_with_step_size(ts, ts.config.step_size)`` gives ``update(ts)``.
+    """
+    return update_using(ts, gae_advantages, step_size)
+
+
+def update_using(
+    ts: TrainState, advantage_fn: AdvantageFn, step_size: jax.Array | float | None = None
+) -> tuple[TrainState, dict[str, jax.Array]]:
     """One NPG iteration whose advantages and value targets come from ``advantage_fn``
-    (``update`` is ``update_using(ts, gae_advantages)``; ``make_update`` binds another estimator)."""
+    (``update`` is ``update_using(ts, gae_advantages)``; ``make_update`` binds another estimator),
+    with the normalised step ``step_size`` when given (``update_with_step_size``), else
+    ``config.step_size``."""
     old = ts
     ts, traj, key = phase_sample(ts)
     value_key, _ = jax.random.split(key)
     batch = phase_advantages(ts, traj, advantage_fn)
     grad = phase_gradient(ts, batch)
     cg = phase_natural_gradient(ts, batch, grad)
-    step = normalized_step(grad, cg.x, ts.config.step_size)
-    new_params, kl, fraction = step_within_kl(ts, batch, cg.x, step)
+    if step_size is None:
+        step = normalized_step(grad, cg.x, ts.config.step_size)
+        new_params, kl, fraction = step_within_kl(ts, batch, cg.x, step)
+    else:
+        step = normalized_step(grad, cg.x, step_size)
+        new_params, kl, fraction = step_within_kl(ts, batch, cg.x, step, kl_bound(ts.config, step_size))
     entropy = common.weighted_mean(ts.policy.entropy(ts.params, batch.obs), batch.weights)
     ts = ts.replace(params=new_params)
     ts, value_loss = phase_value_fit(ts, batch, value_key)

@@ -123,7 +123,8 @@ def gl_problem(
             return None
         return f"MUJOCO_GL={backend} but its OpenGL library is not installed: {RENDER_HINT}"
     if backend in ("", "glfw", "glx", "enable", "enabled", "on", "true", "1") and not display:
-        return f"no OpenGL backend for offscreen rendering (MUJOCO_GL unset, no display): {RENDER_HINT}"
+        setting = f"MUJOCO_GL={backend}" if backend else "MUJOCO_GL unset"
+        return f"no OpenGL backend for offscreen rendering ({setting}, no display): {RENDER_HINT}"
     return None
 
 

@@ -338,3 +338,9 @@ def test_make_sizes_the_physics_for_the_batch():
     assert envs.make("cartpole", batch=5).unwrapped.name == "cartpole"
     with pytest.raises(ValueError, match="batch must be a positive integer"):
         envs.make("cartpole", batch=0)
+
+
+def test_gl_problem_names_the_backend_in_effect():
+    none_found = lambda name: None  # noqa: E731
+    assert "MUJOCO_GL unset" in video.gl_problem("", "", find=none_found)
+    assert "MUJOCO_GL=glfw" in video.gl_problem("glfw", "", find=none_found)

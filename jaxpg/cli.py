@@ -969,6 +969,14 @@ def execute(plan_: Plan) -> int:
             return 2
         try:
             return _train(plan_, ts, wall_offset, interrupts)
+        except KeyboardInterrupt:
+            # Between writing the run directory and the training loop's own handler (imports,
+            # profiling, device placement): the same clean-up as an interrupt in the first block.
+            note = finish_run_dir(plan_, checkpointed=plan_.start > 0) if primary else ""
+            resume = f"; continue with: python -m jaxpg.cli --resume {run_dir}" if plan_.start > 0 else ""
+            signum = interrupts.requested or signal.SIGINT
+            print(f"\n{signal.Signals(signum).name}: stopped at once{resume}{note}", file=sys.stderr)
+            return _exit_status(signum)
         finally:
             lock.release()
 

@@ -229,3 +229,24 @@ def test_unwritable_run_directory_is_one_line(tmp_path, capsys):
     err = capsys.readouterr().err
     assert status == 2 and err.count("\n") == 1 and err.startswith("error: "), err
     assert blocker.read_text() == "not a directory" and os.path.isfile(blocker)
+
+
+def test_interrupt_between_writing_the_run_directory_and_the_training_loop(tmp_path, monkeypatch, capsys):
+    """An interrupt after the run directory is written but before the training loop's own handler
+    is armed (imports, profiling, device placement) is cleaned up the same way: exit status 130,
+    one line, and the new run directory removed. (Under load the window lasts seconds.)"""
+
+    def interrupted(plan_, ts, wall_offset, interrupts):
+        assert (plan_.run_dir / runlog.CONFIG_FILE).exists()
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(cli, "_train", interrupted)
+    run_dir = tmp_path / "run"
+    try:
+        status = cli.main([*TINY, "--iterations", "4", "--run-dir", str(run_dir)])
+    except KeyboardInterrupt:
+        pytest.fail("the interrupt escaped cli.main (the run directory is left behind)")
+    assert status == 130
+    lines = [line for line in capsys.readouterr().err.splitlines() if line.strip()]
+    assert len(lines) == 1 and "SIGINT: stopped at once" in lines[0] and "was removed" in lines[0], lines
+    assert not run_dir.exists()

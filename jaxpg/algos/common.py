@@ -437,6 +437,11 @@ def all_finite(tree: Any) -> jax.Array:
     return jnp.all(jnp.stack(leaves)) if leaves else jnp.array(True)
 
 
+# Euclidean norm of all leaves of a pytree together: optax's (tree_norm from optax 0.2.5, where
+# global_norm became deprecated; global_norm before).
+tree_norm = getattr(optax.tree_utils, "tree_norm", None) or optax.global_norm
+
+
 def accept_if_finite(
     old: TrainState, new: TrainState, loss: jax.Array, within_trust_region: jax.Array | bool = True
 ) -> tuple[TrainState, jax.Array]:

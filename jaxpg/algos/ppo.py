@@ -276,7 +276,7 @@ def gradient_step(
     (total, diagnostics), grads = grad_fn(ts, joint, batch, old_values, clip_eps, value_clip_eps)
     updates, opt_state = optimizer.update(grads, opt_state, joint)
     joint = optax.apply_updates(joint, updates)
-    return joint, opt_state, {**diagnostics, "loss": total, "grad_norm": optax.global_norm(grads)}
+    return joint, opt_state, {**diagnostics, "loss": total, "grad_norm": common.tree_norm(grads)}
 
 
 # ---------------------------------------------------------------------------------------------

@@ -127,8 +127,9 @@ PRESETS: dict[str, dict[str, Any]] = {
     # eight seeds (BENCHMARKS.md): a normalised step of 0.07, 10 value epochs per iteration on
     # standardised value targets (16 minibatches an epoch: 1024 samples at 256 x 64, and the same
     # number of steps at any --num-envs) and an initial log-std of 0 (std 1) took all eight seeds' mean
-    # policies past 3000 by 1.05 M steps and past 3290 by 1.97 M. Without the last two, three of
-    # eight seeds stayed in the "dive forward once" local optimum (return ~235) or near 1000.
+    # policies past 3000 by 1.05 M steps and past 3290 by 1.97 M. Without the last two, four of
+    # eight seeds ended below 3000 (238-1713): in the "dive forward once" local optimum (return
+    # ~235), standing (~1000), or still on the way.
     # The mean policy is evaluated after the last iteration (and every 120): one evaluation
     # (1000 sequential steps, ~1.3 s on an H100; 2 s with loading its program) is ~5.5% of a
     # warm run.

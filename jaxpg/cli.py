@@ -1137,19 +1137,16 @@ def _report_end(plan_: Plan, callbacks: _Callbacks) -> None:
 def videos_requested(argv: Sequence[str], experiment: Experiment) -> bool:
     """Whether this command may draw videos (``--video-every`` > 0 given or by default, or a
     ``--resume``, whose run may have asked for them): only then does ``main`` choose MuJoCo's
-    offscreen GL backend (``video.configure_gl``), which must happen before MuJoCo is imported."""
-    if any(arg == "--resume" or arg.startswith("--resume=") for arg in argv):
-        return True
-    every: str | int = experiment.video_every
-    for i, arg in enumerate(argv):
-        if arg == "--video-every" and i + 1 < len(argv):
-            every = argv[i + 1]
-        elif arg.startswith("--video-every="):
-            every = arg.split("=", 1)[1]
+    offscreen GL backend (``video.configure_gl``), which must happen before MuJoCo is imported.
+    Read with argparse, so that abbreviations (``--video 5``) count as they do in the full parser."""
+    peek = argparse.ArgumentParser(add_help=False, exit_on_error=False)
+    peek.add_argument("--video-every", default=experiment.video_every)
+    peek.add_argument("--resume")
     try:
-        return int(every) > 0
-    except ValueError:
-        return False  # argparse reports the bad value
+        args, _ = peek.parse_known_args(list(argv))
+        return args.resume is not None or int(args.video_every) > 0
+    except (argparse.ArgumentError, ValueError):
+        return False  # the full parser reports the bad value
 
 
 def main(argv: Sequence[str] | None = None, experiment: Experiment | None = None) -> int:

@@ -421,3 +421,5 @@ def test_gl_backend_is_chosen_only_when_videos_may_be_drawn():
     assert cli.videos_requested(["--resume", "runs/x"], experiment)
     assert cli.videos_requested([], cli.Experiment(task="inverted_pendulum", video_every=10))
     assert not cli.videos_requested(["--video-every", "many"], experiment)
+    assert cli.videos_requested(["--video", "5"], experiment)  # an abbreviation argparse accepts
+    assert not cli.videos_requested(["--video-every"], experiment)

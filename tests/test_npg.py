@@ -163,13 +163,17 @@ def test_normalized_value_targets(small_state):
     before = npg.value_predictions(ts, batch.obs)
     np.testing.assert_allclose(before, ts.value_fn.apply(ts.value_params, batch.obs), rtol=1e-6)  # identity at start
 
-    moved = ts.value_stats.update(batch.value_targets[:, None], batch.weights)
-    preserved = ts.replace(
-        value_stats=moved,
-        value_params=npg.value_lib.preserve_outputs(
-            ts.value_params, ts.value_stats.mean[0], ts.value_stats.std[0], moved.mean[0], moved.std[0]
-        ),
-    )
+    def absorb(state, b):
+        """``state`` with its target statistics moved by batch ``b`` and its outputs preserved."""
+        stats = state.value_stats.update(b.value_targets[:, None], b.weights)
+        old = state.value_stats
+        params = npg.value_lib.preserve_outputs(
+            state.value_params, old.mean[0], old.std[0], stats.mean[0], stats.std[0]
+        )
+        return state.replace(value_stats=stats, value_params=params)
+
+    preserved = absorb(ts, batch)
+    moved = preserved.value_stats
     np.testing.assert_allclose(npg.value_predictions(preserved, batch.obs), before, rtol=1e-4, atol=1e-3)
 
     fitted, loss = jax.jit(npg.phase_value_fit)(ts, batch, key)
@@ -181,14 +185,7 @@ def test_normalized_value_targets(small_state):
     # A second batch on a higher level: the fit starts from the first fit's predictions, kept.
     again = batch.replace(value_targets=batch.value_targets + 200.0)
     kept = npg.value_predictions(fitted, again.obs)
-    stats2 = fitted.value_stats.update(again.value_targets[:, None], again.weights)
-    moved2 = fitted.replace(
-        value_stats=stats2,
-        value_params=npg.value_lib.preserve_outputs(
-            fitted.value_params, fitted.value_stats.mean[0], fitted.value_stats.std[0], stats2.mean[0], stats2.std[0]
-        ),
-    )
-    np.testing.assert_allclose(npg.value_predictions(moved2, again.obs), kept, rtol=1e-4, atol=1e-2)
+    np.testing.assert_allclose(npg.value_predictions(absorb(fitted, again), again.obs), kept, rtol=1e-4, atol=1e-2)
     assert np.isfinite(float(loss))
     err_before = float(jnp.mean(jnp.square(before - targets)))
     err_after = float(jnp.mean(jnp.square(npg.value_predictions(fitted, batch.obs) - targets)))

@@ -141,7 +141,7 @@ class RunningStats:
 
     def normalize(self, obs: jax.Array) -> jax.Array:
         """``(obs - mean) / std`` clipped to [-10, 10]; identity before any update."""
-        normed = (obs - self.mean) / jnp.sqrt(self.var + 1e-8)
+        normed = (obs - self.mean) / self.std
         return jnp.where(self.count > 0, jnp.clip(normed, -10.0, 10.0), obs)
 
 

@@ -33,11 +33,15 @@ def names() -> list[str]:
 
 def make_task(name: str, **kwargs: Any) -> Env:
     """The bare task ``name`` with no wrappers. Raises ``ValueError`` for an unknown name."""
+    return task_class(name)(**kwargs)
+
+
+def task_class(name: str) -> type:
+    """The class registered as ``name`` (imported on first use). ``ValueError`` for an unknown name."""
     if name not in REGISTRY:
         raise ValueError(f"unknown environment {name!r}; known environments: {', '.join(names())}")
     module_name, class_name = REGISTRY[name].split(":")
-    cls = getattr(importlib.import_module(module_name), class_name)
-    return cls(**kwargs)
+    return getattr(importlib.import_module(module_name), class_name)
 
 
 def warp_capacity(name: str, env_kwargs: dict[str, Any], batch: int) -> dict[str, Any]:
@@ -46,10 +50,8 @@ def warp_capacity(name: str, env_kwargs: dict[str, Any], batch: int) -> dict[str
     ``make`` with the task's other ``env_kwargs`` when ``batch`` envs will step together."""
     from jaxpg.envs.mjx_env import MjxEnv, default_impl
 
-    module_name, class_name = REGISTRY[name].split(":")
-    cls = getattr(importlib.import_module(module_name), class_name)
     warp = (env_kwargs.get("impl") or default_impl()) == "warp"
-    return {"max_batch": max(batch, 8192)} if issubclass(cls, MjxEnv) and warp else {}
+    return {"max_batch": max(batch, 8192)} if issubclass(task_class(name), MjxEnv) and warp else {}
 
 
 def gymnasium_env(name: str, **make_kwargs: Any) -> Any:
@@ -86,8 +88,7 @@ def make(name: str, batch: int | None = None, **kwargs: Any) -> Env:
     if batch is not None:
         if not isinstance(batch, int) or batch < 1:
             raise ValueError(f"batch must be a positive integer, got {batch!r}")
-        if name in REGISTRY:
-            kwargs = {**warp_capacity(name, kwargs, batch), **kwargs}
+        kwargs = {**warp_capacity(name, kwargs, batch), **kwargs}
     return EpisodeStats(ClipAction(make_task(name, **kwargs)))
 
 

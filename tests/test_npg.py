@@ -206,3 +206,16 @@ def test_value_minibatches_split_each_epoch(pendulum):
     for bad in (-1, 8 * 32 + 1):
         with pytest.raises(ValueError, match="value_minibatches"):
             npg.Config(**{**SMALL, "value_minibatches": bad}).validate(pendulum)
+
+
+def test_value_epoch_samples_caps_the_minibatches(pendulum):
+    """``value_epoch_samples`` below the batch sets the minibatch size from the cap; above it, it
+    changes nothing; fewer samples than minibatches, or a negative cap, is refused."""
+    capped = npg.Config(**{**SMALL, "value_minibatches": 4, "value_epoch_samples": 64})
+    assert (capped.value_samples_per_epoch, capped.value_minibatch_size) == (64, 16)
+    capped.validate(pendulum)
+    loose = npg.Config(**{**SMALL, "value_minibatches": 4, "value_epoch_samples": 10_000})
+    assert loose.value_minibatch_size == 8 * 32 // 4
+    for bad in (-1, 3):
+        with pytest.raises(ValueError, match="value_epoch_samples"):
+            npg.Config(**{**SMALL, "value_minibatches": 4, "value_epoch_samples": bad}).validate(pendulum)

@@ -219,3 +219,25 @@ def test_value_epoch_samples_caps_the_minibatches(pendulum):
     for bad in (-1, 3):
         with pytest.raises(ValueError, match="value_epoch_samples"):
             npg.Config(**{**SMALL, "value_minibatches": 4, "value_epoch_samples": bad}).validate(pendulum)
+
+
+def test_fisher_samples_draws_a_subset_for_the_solve(pendulum):
+    """``fisher_samples`` below the batch builds the Fisher-vector products from that many rows
+    of the batch (a fresh draw each iteration); at or above it, from all of them, so that the
+    update is unchanged; a negative count is refused."""
+    ts = npg.init(jax.random.PRNGKey(0), pendulum, npg.Config(**SMALL))
+    ts, traj, _ = npg.phase_sample(ts)
+    batch = npg.phase_advantages(ts, traj)
+    obs, weights = npg.fisher_subsample(ts, batch)
+    assert obs is batch.obs and weights is batch.weights
+    sub = ts.replace(config=npg.Config(**{**SMALL, "fisher_samples": 32}))
+    obs, weights = npg.fisher_subsample(sub, batch)
+    assert obs.shape == (32, batch.obs.shape[1]) and weights.shape == (32,)
+    rows = [int(np.flatnonzero(np.all(np.asarray(batch.obs) == row, axis=1))[0]) for row in np.asarray(obs)]
+    np.testing.assert_array_equal(np.asarray(weights), np.asarray(batch.weights)[rows])
+    again, _ = npg.fisher_subsample(sub.replace(key=jax.random.PRNGKey(1)), batch)
+    assert not np.array_equal(np.asarray(again), np.asarray(obs))
+    full = ts.replace(config=npg.Config(**{**SMALL, "fisher_samples": 8 * 32}))
+    assert npg.fisher_subsample(full, batch)[0] is batch.obs
+    with pytest.raises(ValueError, match="fisher_samples"):
+        npg.Config(**{**SMALL, "fisher_samples": -1}).validate(pendulum)

@@ -113,6 +113,8 @@ def test_hopper_command_line_defaults_hold_from_64_to_65536_envs(num_envs, tmp_p
     # that stop growing above the card's 256 x 64 samples.
     assert config.value_samples_per_epoch // config.value_minibatch_size == config.value_minibatches == 16
     assert config.value_minibatch_size == min(num_envs * config.horizon, 16384) // 16
+    # The natural gradient's Fisher-vector products likewise stop growing with the batch.
+    assert config.fisher_samples == 16384
     assert config.normalize_value_targets
     assert config.normalize_observations and config.step_size == npg.PRESETS["hopper"]["step_size"]
     # Evaluation costs little: a handful of evaluations, on block boundaries.

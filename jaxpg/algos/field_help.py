@@ -41,6 +41,7 @@ FIELD_HELP: dict[str, str] = {
     "value_epochs": "passes over the batch of the value fit per iteration",
     "value_batch_size": "samples per minibatch of the value fit (0 where allowed: the whole batch)",
     "value_minibatches": "minibatches per value-fit epoch, whatever the batch size (0: use value_batch_size)",
+    "fisher_samples": "samples of the batch drawn for the Fisher-vector products of the solve (0: all)",
     "value_epoch_samples": "at most this many samples per value-fit epoch, drawn from larger batches (0: all)",
     "reward_scaling": "multiply rewards by this before advantages and value targets",
     # natural gradient and trust region

@@ -30,13 +30,6 @@ import jax
 import jax.numpy as jnp
 
 
-def warp_capacity(impl: str | None, num_envs: int) -> dict:
-    """MuJoCo Warp sizes its contact buffer for a whole batch: tell the env how many run at once."""
-    from jaxpg.envs.mjx_env import default_impl
-
-    return {"max_batch": num_envs} if (impl or default_impl()) == "warp" else {}
-
-
 def algo_config(
     algo: str, num_envs: int, horizon: int, preset: str | None = None, overrides: dict | None = None
 ) -> object:
@@ -86,7 +79,7 @@ def measure(
     from jaxpg import rollout as rollout_lib
     from jaxpg import train as train_lib
 
-    env = envs.make(task, impl=impl, fidelity=fidelity, **warp_capacity(impl, num_envs))
+    env = envs.make(task, batch=num_envs, impl=impl, fidelity=fidelity)
     sampler = envs.AutoReset(env)
     state = rollout_lib.reset_batch(sampler, jax.random.PRNGKey(0), num_envs)
 

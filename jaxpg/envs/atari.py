@@ -103,6 +103,38 @@ def make_ale_env(sticky: bool = True, frameskip: int = FRAMESKIP, render_mode: s
     )
 
 
+def play_ale(
+    act: Callable[[np.ndarray], np.ndarray],
+    episodes: int,
+    action_set: str = "updown",
+    sticky: bool = True,
+    seed: int = 0,
+) -> tuple[np.ndarray, np.ndarray]:
+    """``(scores [N], lengths [N])`` of ``episodes`` games of Gymnasium's ``ALE/Pong-v5`` played by
+    ``act`` (observations ``[B, 6400]`` -> action indices ``[B]`` of ``action_set``), the games in
+    lock-step. Game ``i`` is reset with seed ``seed + i``; observations are the frame differences
+    of ``preprocess``, zeros first, as ``AtariPong`` gives them. A score is points won minus points
+    lost (-21 to 21); a length counts agent steps (four frames each)."""
+    games = [make_ale_env(sticky=sticky) for _ in range(episodes)]
+    to_ale = np.asarray(ACTION_SETS[action_set])
+    prev = np.stack([preprocess(g.reset(seed=seed + i)[0]) for i, g in enumerate(games)])
+    obs = np.zeros_like(prev)
+    scores, lengths = np.zeros(episodes), np.zeros(episodes, np.int64)
+    alive = np.ones(episodes, bool)
+    while alive.any():
+        actions = np.asarray(act(obs))
+        for i in np.flatnonzero(alive):
+            frame, reward, terminated, truncated, _ = games[i].step(int(to_ale[actions[i]]))
+            scores[i] += reward
+            lengths[i] += 1
+            current = preprocess(frame)
+            obs[i], prev[i] = current - prev[i], current
+            alive[i] = not (terminated or truncated)
+    for g in games:
+        g.close()
+    return scores, lengths
+
+
 class AlePool:
     """``num_envs`` Pong games in ALE's vector env, with the previous preprocessed frame of each.
 
@@ -112,9 +144,7 @@ class AlePool:
     ``obs`` the difference of the preprocessed frames after and before the step.
     """
 
-    def __init__(
-        self, num_envs: int, sticky: bool, frameskip: int, max_frames: int, seed: int, num_threads: int = 0
-    ):
+    def __init__(self, num_envs: int, sticky: bool, frameskip: int, max_frames: int, seed: int, num_threads: int = 0):
         from ale_py.vector_env import AtariVectorEnv
 
         self.env = AtariVectorEnv(

@@ -186,6 +186,7 @@ def test_short_training_run_and_evaluation_on_ale(algo, flags, tmp_path, capsys)
     argv = ["--algo", algo, "--num-envs", "2", "--iterations", "2", "--log-every", "1", "--policy-hidden", "8"]
     argv += [*flags, "--run-dir", str(run_dir), "--no-progress"]
     assert main(argv, load_experiment().EXPERIMENT) == 0
+    assert f"python -m jaxpg.evaluate {run_dir} --ale --episodes 10" in capsys.readouterr().out
     config = json.loads((run_dir / "config.json").read_text())
     assert config["task"] == "atari_pong" and config["algo"] == algo and config["config"]["policy_hidden"] == [8]
     records = [json.loads(line) for line in (run_dir / "metrics.jsonl").read_text().splitlines()]

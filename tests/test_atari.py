@@ -202,6 +202,13 @@ def test_short_training_run_and_evaluation_on_ale(algo, flags, tmp_path, capsys)
     assert -21 <= score <= 21
 
 
+def test_several_seeds_in_one_program_are_refused():
+    from jaxpg import cli
+
+    with pytest.raises(cli.UsageError, match="one seed per command"):
+        cli.plan(["--seeds", "0", "1", "--num-envs", "2"], load_experiment().EXPERIMENT)
+
+
 def test_evaluate_ale_refuses_other_tasks(tmp_path, capsys):
     from jaxpg.cli import main
 

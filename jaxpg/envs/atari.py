@@ -30,7 +30,8 @@ that game is restarted first, which makes ``reset``/``reset_batch`` (episodic sa
 evaluation) start new games. ``reset`` itself is pure (it cannot reach the host from inside
 ``AutoReset``, which computes a reset at every step). The host games are not part of any JAX state:
 a checkpoint does not hold them, and a resumed run plays new games. Each batch size gets its own
-pool of games, so train several seeds in separate processes, not in one ``vmap`` over seeds.
+pool of games, so train several seeds in separate processes, not in one ``vmap`` over seeds (the
+command line refuses ``--seeds`` with several).
 
 Needs the ``atari`` extra (``pip install 'jaxpg[atari]'``: ``ale-py``, ROMs included); without it,
 ``AtariPong()`` raises one ``ImportError`` line that names the install.
@@ -226,6 +227,7 @@ class AtariPong(Env):
     discrete = True
     eval_metric_name = "score_difference"
     observation_size = SIZE * SIZE
+    vmap_seeds = False  # seeds vmapped in one program would share one pool of host games
 
     def __init__(
         self,

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The GPU measurements of Atari Pong on the ROM (BENCHMARKS.md, section R), in stages that each fit
+# The GPU measurements of Atari Pong on the ROM (BENCHMARKS.md, section U), in stages that each fit
 # one call of the device tool (10 minutes). Not run yet: the figures are pending.
 #
 # The device machine reaches no package index: bring ale-py (and jaxtari, for `fps`) as wheels.

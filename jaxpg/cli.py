@@ -417,6 +417,8 @@ def plan_fresh(args: argparse.Namespace, experiment: Experiment, module: Any, al
     seeds = list(args.seeds) if args.seeds else [experiment.seed if args.seed is None else args.seed]
     if len(set(seeds)) != len(seeds):
         raise UsageError(f"--seeds must be distinct, got {' '.join(map(str, seeds))}")
+    if len(seeds) > 1 and not getattr(env.unwrapped, "vmap_seeds", True):
+        raise UsageError(f"task {task!r} steps its games on the host: train one seed per command (--seed)")
     log_every = experiment.log_every if args.log_every is None else args.log_every
     if log_every < 1:
         raise UsageError(f"--log-every must be >= 1, got {log_every}")

@@ -618,6 +618,9 @@ def _report_end(plan_: Plan, callbacks: _Callbacks) -> None:
     except ValueError:
         pass
     _print(f"run directory: {run_dir}  (metrics.jsonl, curves.png, tensorboard/, checkpoints/)")
+    if run.task == "atari_pong":  # the real game is ALE's: play it there
+        _print(f"evaluate: python -m jaxpg.evaluate {run_dir} --ale --episodes 10 [--no-sticky]")
+        return
     _print(
         f"evaluate: python -m jaxpg.evaluate {run_dir} --episodes 10 [--gymnasium] [--video {run_dir}/videos/final.mp4]"
     )

@@ -69,7 +69,7 @@ examples (a CPU with a few cores: thousands of steps per second; see BENCHMARKS.
   python experiments/atari_pong.py --num-envs 16 --iterations 2000 --run-dir runs/atari-a2c
   python -m jaxpg.evaluate runs/atari-a2c --ale --episodes 10
 
-one GPU and its host's 16 cores (the issue's goal: a score > 0 over 10 games of ALE/Pong-v5):
+one GPU and its host's 16 cores (aim: a score > 0 over 10 games of ALE/Pong-v5):
   python experiments/atari_pong.py --algo a2c --num-envs 64 --iterations 40000 --run-dir runs/atari-a2c
   python experiments/atari_pong.py --algo reinforce_points --num-envs 64 --iterations 2000 \\
       --run-dir runs/atari-reinforce

@@ -15,7 +15,7 @@ Observation: ``[6400]`` float32 in ``{-1, 0, 1}``, the difference of the last tw
 ``preprocess`` (crop rows 35-194, every second row and column of the red channel, background
 erased, the rest set to 1: Karpathy's ``prepro``). A game's first observation is all zeros (no
 previous frame, Karpathy's ``np.zeros(D)``). 80x80 difference frames, not the DQN-style 84x84 stack
-of four: the issue reproduces MinPy's and Karpathy's experiment, whose 6400 -> 200 -> 2 network
+of four: this task reproduces MinPy's and Karpathy's experiment, whose 6400 -> 200 -> 2 network
 ``experiments/pong.py`` already trains on jaxpg's own Pong, and one difference frame carries the
 ball's motion that a single frame lacks, at a quarter of a stack's input size.
 

@@ -5,10 +5,14 @@ tiny settings; any error in any cell fails the test. Every notebook ends with a 
 its headline results (the pendulum or cart-pole learns, the loss decreases, the reloaded policy
 acts as the trained one ...), so a tutorial whose results broke fails here too, not only one that
 raises. Takes a few minutes on two CPU cores.
+
+The committed notebooks carry the outputs of a full-mode run (``benchmarks/notebooks_full.py
+--in-place``); the test executes a copy with those outputs cleared and never writes it back.
 """
 
 from __future__ import annotations
 
+import copy
 import os
 import sys
 from pathlib import Path
@@ -40,7 +44,11 @@ def kernel_env():
 
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=[p.stem for p in NOTEBOOKS])
 def test_notebook_runs_in_quick_mode(path, kernel_env, tmp_path):
-    nb = nbformat.read(path, as_version=4)
+    committed = path.read_bytes()
+    nb = copy.deepcopy(nbformat.read(path, as_version=4))
+    for cell in nb.cells:  # the full-mode outputs must not pass for this run's
+        if cell.cell_type == "code":
+            cell.outputs, cell.execution_count = [], None
     client = nbclient.NotebookClient(
         nb,
         timeout=CELL_TIMEOUT_S,
@@ -50,6 +58,7 @@ def test_notebook_runs_in_quick_mode(path, kernel_env, tmp_path):
     client.execute()  # raises CellExecutionError on the first failing cell
     errors = [o for c in nb.cells if c.cell_type == "code" for o in c.get("outputs", []) if o.output_type == "error"]
     assert not errors, f"{path.name}: {errors[0]['ename']}: {errors[0]['evalue']}"
+    assert path.read_bytes() == committed, f"{path.name} was changed by its quick-mode run"
 
 
 def test_notebooks_exist():
@@ -58,8 +67,28 @@ def test_notebooks_exist():
 
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=[p.stem for p in NOTEBOOKS])
 def test_notebook_ends_with_its_checks(path):
-    """The last code cell asserts the headline results; outputs stay stripped in the repository."""
+    """The last code cell asserts the headline results."""
     nb = nbformat.read(path, as_version=4)
     code = [c for c in nb.cells if c.cell_type == "code"]
     assert "assert " in code[-1].source, f"{path.name}: the last code cell asserts nothing"
-    assert not any(c.get("outputs") for c in code), f"{path.name}: committed with outputs"
+
+
+MAX_NOTEBOOK_BYTES = 2_000_000
+
+
+@pytest.mark.parametrize("path", NOTEBOOKS, ids=[p.stem for p in NOTEBOOKS])
+def test_notebook_is_committed_executed(path):
+    """Committed with the outputs of one full run, top to bottom, in full mode and without errors;
+    small (no widget state), and its first cell says where and when it ran (``**Executed**``)."""
+    nb = nbformat.read(path, as_version=4)
+    code = [c for c in nb.cells if c.cell_type == "code"]
+    counts = [c.get("execution_count") for c in code]
+    assert counts == list(range(1, len(code) + 1)), f"{path.name}: not executed top to bottom: {counts}"
+    outputs = [o for c in code for o in c.get("outputs", [])]
+    assert not [o for o in outputs if o.output_type == "error"], f"{path.name}: committed with an error"
+    printed = "".join(o.get("text", "") for o in outputs if o.output_type == "stream")
+    assert "full mode" in printed and "quick mode" not in printed, f"{path.name}: not a full-mode run"
+    assert "all checks passed" in printed, f"{path.name}: its checks did not pass"
+    assert "widgets" not in nb.metadata, f"{path.name}: widget state committed"
+    assert path.stat().st_size < MAX_NOTEBOOK_BYTES, f"{path.name}: {path.stat().st_size} bytes"
+    assert "**Executed** 20" in nb.cells[0].source, f"{path.name}: the first cell does not say when it ran"

@@ -52,8 +52,8 @@ import numpy as np
 
 from jaxpg import returns
 from jaxpg import train as train_lib
-from jaxpg.algos import a2c, npg, reinforce
-from jaxpg.algos.common import TrainState
+from jaxpg.algos import a2c, core, reinforce
+from jaxpg.algos.core import TrainState
 from jaxpg.cli import Parser, UsageError
 from jaxpg.envs import Env, EpisodeStats
 from jaxpg.envs.pong import FrameDifference, Pong
@@ -126,12 +126,12 @@ def reinforce_update(ts: TrainState) -> tuple[TrainState, dict[str, jax.Array]]:
     """One REINFORCE iteration with per-point returns normalised over the batch (module
     docstring); ``jaxpg.algos.reinforce``'s pieces with ``point_returns`` for its returns."""
     old = ts
-    ts, traj, _ = npg.phase_sample(ts)
+    ts, traj, _ = core.phase_sample(ts)
     g, complete = point_returns(traj.rewards, traj.terminated, traj.truncated, ts.config.gamma)
     weights = traj.valid * complete
     advantages = returns.normalize(g, mask=weights)
-    batch = reinforce.flatten(
-        npg.Batch(
+    batch = core.flatten_batch(
+        core.Batch(
             obs=ts.obs_stats.normalize(traj.obs),
             actions=traj.actions,
             log_probs=traj.log_probs,
@@ -141,12 +141,9 @@ def reinforce_update(ts: TrainState) -> tuple[TrainState, dict[str, jax.Array]]:
         )
     )
     ts, diagnostics = reinforce.policy_step(ts, batch)
-    metrics = {
-        **diagnostics,
-        "kl": npg.mean_kl(ts, old.params, ts.params, batch),
-        "complete_fraction": jnp.mean(weights),
-    }
-    return npg.finish_iteration(old, ts, traj, diagnostics["loss"], metrics)
+    kl = core.mean_kl(ts, old.params, ts.params, batch)
+    metrics = {**diagnostics, "complete_fraction": jnp.mean(weights)}
+    return core.finish_iteration(old, ts, traj, loss=diagnostics["loss"], kl=kl, metrics=metrics)
 
 
 def make_config(algo: str, num_envs: int, **overrides: Any) -> Any:

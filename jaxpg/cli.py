@@ -592,16 +592,16 @@ def shard_state(ts: Any, vmap_seeds: bool, mesh: Any = None) -> Any:
     """``ts`` placed on ``mesh`` (default: ``jaxpg.distributed.env_mesh()``, every device of every
     process): the env axis of ``ts.env_state`` split over the ``"envs"`` axis (after the seed axis
     with ``vmap_seeds``), everything else replicated, including MuJoCo Warp's per-batch buffers
-    (``common.env_batch_mask``). Every process passes the same ``ts``; each places its share."""
+    (``core.env_batch_mask``). Every process passes the same ``ts``; each places its share."""
     import jax
     from jax.sharding import NamedSharding
 
     from jaxpg import distributed
-    from jaxpg.algos import common
+    from jaxpg.algos import core
 
     mesh = distributed.env_mesh() if mesh is None else mesh
     lead = 1 if vmap_seeds else 0
-    mask = common.env_batch_mask(common.sampler_env(ts), ts.env_state, leading=lead)
+    mask = core.env_batch_mask(core.sampler_env(ts.env, ts.config), ts.env_state, leading=lead)
     shardings = jax.tree.map(lambda batched: NamedSharding(mesh, distributed.batch_spec(batched, lead)), mask)
     env_state = distributed.put_global(ts.env_state, shardings)
     rest = distributed.replicated(ts.replace(env_state=()), mesh)
@@ -615,13 +615,16 @@ def _seed_slice(tree: Any, index: int, vmap_seeds: bool) -> Any:
 
 
 def run_profile(plan_: Plan, ts: Any, out: Any) -> dict[str, float] | None:
-    """Time each phase of one iteration with the algorithm's ``profile_phases``."""
-    module, run = plan_.module, plan_.run
-    if not hasattr(module, "profile_phases"):
-        out(f"--profile: profiling isn't available for {run.algo} (jaxpg.algos.{run.algo} has no profile_phases)")
+    """Time each phase of one iteration (``jaxpg.profiling.profile_phases``)."""
+    from jaxpg import profiling
+
+    run = plan_.run
+    if run.algo not in profiling.PHASES:
+        known = ", ".join(sorted(profiling.PHASES))
+        out(f"--profile: profiling isn't available for {run.algo} (jaxpg.profiling has phases for {known})")
         return None
     out(f"profiling one {run.algo} iteration as separately jitted phases (compiling them first) ...")
-    _, timings = module.profile_phases(_seed_slice(ts, 0, run.vmap_seeds))
+    _, timings = profiling.profile_phases(run.algo, _seed_slice(ts, 0, run.vmap_seeds))
     timings = {k: float(v) for k, v in timings.items()}
     total = sum(timings.values())
     samples = plan_.config.samples_per_iteration

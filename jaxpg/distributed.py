@@ -1,7 +1,7 @@
 """Several devices and several processes, through JAX's own machinery.
 
 The env batch is the one axis jaxpg splits: a 1-D device ``Mesh`` with the axis ``"envs"``
-(``ENV_AXIS``) spans every device of every process, and ``jaxpg.algos.common.sample`` /
+(``ENV_AXIS``) spans every device of every process, and ``jaxpg.algos.core.sample`` /
 ``evaluate`` step each device's own slice of the envs under ``jax.shard_map``. The sampler learns
 about the mesh from JAX's mesh context (``jax.sharding.get_abstract_mesh()``), which
 ``on_mesh(update, mesh)`` sets while ``update`` is traced (``jax.set_mesh(mesh)`` around a call

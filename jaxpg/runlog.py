@@ -446,7 +446,7 @@ class MetricsWriter:
 # --------------------------------------------------------------------------- console output
 
 # Diagnostics shown in the summary line when the algorithm reports them.
-SUMMARY_DIAGNOSTICS = ("kl", "entropy", "step_size", "value_loss", "grad_norm", "cg_residual", "loss")
+SUMMARY_DIAGNOSTICS = ("kl", "entropy", "step_length", "value_loss", "grad_norm", "cg_residual", "loss")
 
 
 def _block_stat(values: np.ndarray) -> tuple[float, float]:

@@ -24,8 +24,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxpg.algos import common
-from jaxpg.algos.common import TrainState
+from jaxpg.algos import core
+from jaxpg.algos.core import TrainState
 
 UpdateFn = Callable[[TrainState], tuple[TrainState, dict[str, jax.Array]]]
 Callback = Callable[[TrainState, dict[str, np.ndarray], int], None]
@@ -69,12 +69,12 @@ def _private_copy(tree: Any) -> Any:
 
 def evaluate_state(train_state: TrainState) -> dict[str, jax.Array]:
     """Mean-policy evaluation of ``train_state``: ``config.eval_envs`` fresh episodes of the mode
-    of the policy (``common.evaluate``), keyed by the training key folded with ``EVAL_STREAM``.
+    of the policy (``core.evaluate``), keyed by the training key folded with ``EVAL_STREAM``.
 
     Returns ``[]`` scalars named as in ``EVAL_METRICS``. Pure and jittable; ``train`` runs it
     between compiled training calls, never inside ``update``.
     """
-    summary = common.evaluate(train_state, jax.random.fold_in(train_state.key, EVAL_STREAM))
+    summary = core.evaluate(train_state, jax.random.fold_in(train_state.key, EVAL_STREAM))
     return {
         "return_mean_policy": summary["episode_return"],
         "episode_length_mean_policy": summary["episode_length"],

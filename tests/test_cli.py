@@ -240,7 +240,7 @@ def test_help_lists_config_flags_and_gpu_command():
     )
     assert proc.returncode == 0
     for flag in ("--num-envs", "--policy-hidden", "--normalize-observations", "--no-normalize-observations",
-                 "--step-size", "--seeds", "--resume", "--preset", "--profile", "--video-every"):  # fmt: skip
+                 "--kl-delta", "--seeds", "--resume", "--preset", "--profile", "--video-every"):  # fmt: skip
         assert flag in proc.stdout, flag
     assert "--preset lyceum --seeds 1 2 3 5 8" in proc.stdout
 
@@ -257,22 +257,20 @@ def test_config_flags_parse_into_config(runs, monkeypatch):
     assert config.value_hidden == (128, 128) and config.sampling == "episodic"  # from the preset
     assert plan.run.seeds == [1, 2, 3] and plan.run.vmap_seeds
     assert not (runs / "planned").exists()
-    experiment = cli.Experiment(config={"*": {"horizon": 16, "no_such_field": 1}, "npg": {"step_size": 0.1}})
+    experiment = cli.Experiment(config={"*": {"horizon": 16, "no_such_field": 1}, "npg": {"kl_delta": 0.1}})
     plan = cli.plan(["--run-dir", "planned"], experiment)
-    assert plan.config.horizon == 16 and plan.config.step_size == 0.1
+    assert plan.config.horizon == 16 and plan.config.kl_delta == 0.1
 
 
 def test_profile(runs, capsys):
-    from jaxpg.algos import npg
+    from jaxpg import profiling
+    from jaxpg.algos import ppo
 
-    class NoProfile:
-        pass
-
-    plan = cli.Plan(run=runlog.RunConfig("t", "ppo", {}, [0], 1), run_dir=runs, module=NoProfile, env=None, config=None)
+    plan = cli.Plan(run=runlog.RunConfig("t", "ppo", {}, [0], 1), run_dir=runs, module=ppo, env=None, config=None)
     lines = []
     assert cli.run_profile(plan, None, lines.append) is None
     assert "profiling isn't available for ppo" in lines[0]
-    assert hasattr(npg, "profile_phases")
+    assert "npg" in profiling.PHASES
 
 
 # --------------------------------------------------------------------------- policies, evaluation, videos

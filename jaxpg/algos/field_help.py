@@ -27,7 +27,7 @@ FIELD_HELP: dict[str, str] = {
     "policy": "policy distribution (categorical is implied by a discrete task)",
     "policy_hidden": "hidden layer sizes of the policy network",
     "policy_activation": "activation of the hidden layers of the policy network",
-    "policy_init": "initialisation of the weights and biases of both networks",
+    "network_init": "initialisation of the weights and biases of the policy and value networks",
     "log_std_init": "initial log standard deviation of a Gaussian policy",
     "value_hidden": "hidden layer sizes of the value network",
     "value_activation": "activation of the hidden layers of the value network",
@@ -37,13 +37,14 @@ FIELD_HELP: dict[str, str] = {
     "value_target": "what the value network fits: gae (lambda-returns) or returns (discounted returns)",
     "normalize_value_targets": "fit the value network to standardised targets (running statistics, outputs "
     "preserved when they move)",
-    "value_lr": "learning rate of the value fit (Adam)",
+    "value_lr": "learning rate of the value fit (Adam; VPG: 0 takes the policy's lr)",
     "value_epochs": "passes over the batch of the value fit per iteration",
-    "value_batch_size": "samples per minibatch of the value fit (0 where allowed: the whole batch)",
+    "value_batch_size": "samples per minibatch of the value fit (0: the whole batch)",
     "value_minibatches": "minibatches per value-fit epoch, whatever the batch size (0: use value_batch_size)",
     "reward_scaling": "multiply rewards by this before advantages and value targets",
     # natural gradient and trust region
-    "step_size": "NPG's normalised step: the KL the step aims at in the Fisher metric (delta); also its KL bound",
+    "kl_delta": "NPG's normalised step: the step's KL in the Fisher metric is kl_delta / 2; its measured KL may "
+    "reach kl_delta",
     "cg_iters": "conjugate-gradient iterations for the natural direction F^-1 g",
     "cg_damping": "damping added to the Fisher matrix (F + damping I)",
     "fvp": "Fisher-vector product: gauss_newton (J'MJ with the analytic Fisher of the distribution) or "
@@ -77,7 +78,7 @@ FIELD_CHOICES: dict[str, tuple[str, ...]] = {
     "policy": ("gaussian", "state_std_gaussian"),
     "policy_activation": tuple(ACTIVATIONS),
     "value_activation": tuple(ACTIVATIONS),
-    "policy_init": KERNEL_INITS,
+    "network_init": KERNEL_INITS,
     "fvp": ("gauss_newton", "kl_hessian"),
     "value_target": ("gae", "returns"),
     "return_normalization": ("episode", "batch", "none"),

@@ -200,9 +200,24 @@ def config_to_dict(config: Any) -> dict[str, Any]:
     return {f.name: _jsonable(getattr(config, f.name)) for f in dataclasses.fields(config)}
 
 
+def current_field_names(cls: type, values: dict[str, Any]) -> dict[str, Any]:
+    """``values`` with the field names of an older version of config class ``cls`` replaced by the
+    current ones, as ``cls.OLD_FIELD_NAMES`` maps them (``None``: a field that is gone, dropped);
+    a current name already in ``values`` wins over its old name."""
+    renamed = dict(values)
+    for old, new in getattr(cls, "OLD_FIELD_NAMES", {}).items():
+        if old in renamed:
+            value = renamed.pop(old)
+            if new is not None:
+                renamed.setdefault(new, value)
+    return renamed
+
+
 def config_from_dict(cls: type, values: dict[str, Any]) -> Any:
-    """``cls(**values)`` with JSON values coerced to the field types; ``RunDirError`` names a
-    field the config class does not have (a run written by another version of the algorithm)."""
+    """``cls(**values)`` with JSON values coerced to the field types, old field names mapped to
+    the current ones (``current_field_names``); ``RunDirError`` names a field the config class
+    does not have (a run written by another version of the algorithm)."""
+    values = current_field_names(cls, values)
     types_ = field_types(cls)
     unknown = sorted(set(values) - set(types_))
     if unknown:

@@ -157,6 +157,44 @@ def test_resume_is_bit_identical_to_an_uninterrupted_run(trained, runs):
     assert without_wall_time(runlog.read_metrics(killed)) == expected
 
 
+def test_run_saved_under_old_field_names_loads_evaluates_and_resumes(trained, runs, capsys):
+    """A run directory written before NPG's ``step_size`` became ``kl_delta`` and ``policy_init``
+    became ``network_init`` loads with the same Config, its policy acts as before, ``jaxpg.evaluate``
+    runs it, and ``--resume`` continues it and saves its config under the current names."""
+    old = runs / "old_names"
+    shutil.copytree(trained, old)
+    data = json.loads((old / "config.json").read_text())
+    saved = data["config"]
+    saved["step_size"] = saved.pop("kl_delta")
+    saved["policy_init"] = saved.pop("network_init")
+    (old / "config.json").write_text(json.dumps(data))
+
+    assert runlog.RunConfig.load(old).algo_config() == runlog.RunConfig.load(trained).algo_config()
+    obs = np.random.default_rng(1).normal(size=(3, 4)).astype(np.float32)
+    np.testing.assert_array_equal(jaxpg.load_policy(old)(obs), jaxpg.load_policy(trained)(obs))
+    assert evaluate.main([str(old), "--episodes", "1"]) == 0
+    assert "return:" in capsys.readouterr().out
+    assert cli.main(["--resume", str(old), "--iterations", "6"]) == 0
+    resaved = json.loads((old / "config.json").read_text())["config"]
+    assert resaved["kl_delta"] == saved["step_size"] and resaved["network_init"] == saved["policy_init"]
+    assert "step_size" not in resaved and "policy_init" not in resaved
+    assert max(r["iteration"] for r in runlog.read_metrics(old)) == 6
+
+
+def test_old_field_names_map_to_current_ones():
+    """TRPO's configs held NPG's ``step_size`` (never used, now gone): dropped on load; NPG's
+    becomes ``kl_delta``; a current name already present wins."""
+    from jaxpg.algos import npg, ppo, trpo
+
+    assert runlog.config_from_dict(trpo.Config, {"step_size": 0.05, "max_kl": 0.02}) == trpo.Config(max_kl=0.02)
+    assert runlog.config_from_dict(npg.Config, {"step_size": 0.2, "policy_init": "pytorch"}) == npg.Config(
+        kl_delta=0.2, network_init="pytorch"
+    )
+    assert runlog.current_field_names(npg.Config, {"step_size": 0.2, "kl_delta": 0.3}) == {"kl_delta": 0.3}
+    with pytest.raises(runlog.RunDirError, match="does not know: step_size"):  # PPO never had one
+        runlog.config_from_dict(ppo.Config, {"step_size": 0.2})
+
+
 def test_resume_of_missing_or_foreign_directory_or_changed_settings(trained, runs, capsys):
     foreign = runs / "not_a_run"
     foreign.mkdir(exist_ok=True)

@@ -24,7 +24,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 from collections.abc import Callable
-from typing import Any
+from typing import Any, ClassVar
 
 import jax
 import jax.numpy as jnp
@@ -46,6 +46,11 @@ class Config(natural_gradient.NaturalGradientConfig):
     """
 
     kl_delta: float = 0.05
+
+    OLD_FIELD_NAMES: ClassVar[dict[str, str | None]] = {
+        **natural_gradient.NaturalGradientConfig.OLD_FIELD_NAMES,
+        "step_size": "kl_delta",
+    }
 
     def validate(self, env: Env) -> None:
         super().validate(env)

@@ -10,7 +10,7 @@ at once (``vmap``), which suits the accelerator better than a sequential loop.
 from __future__ import annotations
 
 import dataclasses
-from typing import Any
+from typing import Any, ClassVar
 
 import jax
 import jax.numpy as jnp
@@ -31,6 +31,12 @@ class Config(natural_gradient.NaturalGradientConfig):
     backtracks: int = 10
     backtrack_ratio: float = 0.8
     accept_ratio: float = 0.1
+
+    # Configs saved before TRPO stopped inheriting NPG's step size (which it never used).
+    OLD_FIELD_NAMES: ClassVar[dict[str, str | None]] = {
+        **natural_gradient.NaturalGradientConfig.OLD_FIELD_NAMES,
+        "step_size": None,
+    }
 
     def validate(self, env: Env) -> None:
         super().validate(env)

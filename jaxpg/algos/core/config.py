@@ -6,8 +6,11 @@ guard); ``GAEConfig`` adds what ``core.phase_advantages`` reads (NPG, TRPO, PPO,
 ``Config`` extends one or both and adds its own fields; the core reads every field it needs as an
 attribute, never with a fallback.
 
-A class attribute describes a ``Config`` to the command line: ``UNUSED_FIELDS`` names the
-fields the algorithm ignores (no flag; ``validate`` refuses a value other than the default).
+Two class attributes describe a ``Config`` to the command line and to saved runs:
+``UNUSED_FIELDS`` names the fields the algorithm ignores (no flag; ``validate`` refuses a value
+other than the default), and ``OLD_FIELD_NAMES`` maps the names that configs saved by earlier
+versions used to the current ones (``None``: a field that was never used and is gone), so that
+old run directories still load (``jaxpg.runlog.config_from_dict``).
 """
 
 from __future__ import annotations
@@ -64,6 +67,7 @@ class BaseConfig:
     max_update_kl: float = 1.0
 
     UNUSED_FIELDS: ClassVar[tuple[str, ...]] = ()
+    OLD_FIELD_NAMES: ClassVar[dict[str, str | None]] = {"policy_init": "network_init"}
 
     @property
     def samples_per_iteration(self) -> int:

@@ -118,17 +118,6 @@ def rollout(
     return Episodes({k: np.asarray(v) for k, v in out.items()})
 
 
-def evaluate_run(
-    run_dir: str, episodes: int, step: int | str | None = None, seed: int = 0, train_seed: int | None = None
-) -> tuple[Episodes, Any]:
-    """The run's mean policy in jaxpg's env (the run's task and env settings)."""
-    from jaxpg import policy_io
-
-    policy = policy_io.load_policy(run_dir, step, seed=train_seed)
-    env = policy.run.make_env()
-    return rollout(env, policy.policy, policy.params, policy.obs_stats, seed, episodes), policy
-
-
 def gymnasium_installed() -> bool:
     """Gymnasium can be imported (``GYMNASIUM_INSTALL`` says how to install it otherwise)."""
     try:

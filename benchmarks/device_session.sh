@@ -6,7 +6,9 @@
 #   bash benchmarks/device_session.sh card     # `python experiments/hopper.py --num-envs 256`, 3 seeds, cold and warm
 #   bash benchmarks/device_session.sh sweep    # NPG settings at 256 envs, 3 seeds vmapped, to 2 M env steps
 #   bash benchmarks/device_session.sh sweep8   # settings around the default, 8 seeds vmapped, to 1.97 M env steps
-#   bash benchmarks/device_session.sh ratio    # train(+eval)/raw of the card's defaults at 256-65536 envs
+#   bash benchmarks/device_session.sh ratio [FIELD=VALUE ...]  # train(+eval)/raw of the card's defaults
+#                                              # (with these preset overrides) at 256-65536 envs
+#   bash benchmarks/device_session.sh trace    # jax.profiler trace of the card's block; phases at 65536 envs
 #   bash benchmarks/device_session.sh ttr      # time to a Hopper return of 3000, NPG and PPO, 3 seeds each
 #   bash benchmarks/device_session.sh env      # raw env throughput table, then Pong figures
 #   bash benchmarks/device_session.sh gym      # the README's GPU training commands, then Gymnasium evaluation
@@ -39,8 +41,17 @@ sweep8)
     | tee "$OUT/sweep8.log" | grep -v "^WARN"
   ;;
 ratio)
+  shift
+  sets=(); [ $# -gt 0 ] && sets=(--set "$@")
   timeout 575 $py benchmarks/train_throughput.py --impl warp --preset hopper --horizon 64 --iterations 5 \
-    --batch-sizes 256 1024 4096 16384 65536 --json "$OUT/ratio.json" 2>&1 | tee "$OUT/ratio.log" | grep -v "^WARN\|^#"
+    --batch-sizes ${SIZES:-256 1024 4096 16384 65536} "${sets[@]}" --json "$OUT/ratio.json" 2>&1 \
+    | tee "$OUT/ratio.log" | grep -v "^WARN\|^#"
+  ;;
+trace)
+  timeout 200 $py benchmarks/profile_trace.py --num-envs 256 --iterations 10 --out /tmp/trace 2>&1 \
+    | tee "$OUT/trace.log" | grep -v "^WARN"
+  timeout 300 $py experiments/hopper.py --num-envs 65536 --iterations 1 --profile --run-dir /tmp/prof65536 \
+    --overwrite --no-progress 2>&1 | tee "$OUT/profile65536.log" | grep -A9 "^phase timings"
   ;;
 ttr)
   common=(--block 10 --seeds 0 1 2 --warmup --max-seconds 150)

@@ -100,9 +100,8 @@ def task_kwargs(name: str, fidelity: str, impl: str, batch: int) -> dict:
     if name == "cartpole":
         return {}
     kwargs: dict[str, Any] = {"fidelity": fidelity, "impl": impl}
-    if impl == "warp":
-        kwargs["max_batch"] = batch  # warp's contact buffer is one for the whole batch
-    return kwargs
+    # MuJoCo Warp's buffers serve the whole batch: the registry sizes them (as envs.make(batch=...)).
+    return {**kwargs, **envs.warp_capacity(name, kwargs, batch)}
 
 
 def configurations(args: argparse.Namespace) -> list[tuple[str, str, str]]:

@@ -82,11 +82,10 @@ def run_setting(
 
     from jaxpg import envs, train
     from jaxpg.algos import core, npg
-    from jaxpg.envs.mjx_env import default_impl
 
     config = npg.Config(**{**BASE, **overrides})
     batch = max(config.num_envs, eval_envs) * len(seeds)
-    env = envs.make("hopper", impl=impl, **({"max_batch": batch} if (impl or default_impl()) == "warp" else {}))
+    env = envs.make("hopper", batch=batch, impl=impl)
     eval_config = dataclasses.replace(config, eval_envs=eval_envs)
 
     @jax.jit

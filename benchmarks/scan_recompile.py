@@ -45,8 +45,7 @@ def main() -> None:
 
     rows = []
     for impl in args.impl:
-        extra = {"max_batch": args.num_envs} if impl == "warp" else {}
-        env = envs.make("hopper", impl=impl, **extra)
+        env = envs.make("hopper", batch=args.num_envs, impl=impl)
         config = npg.Config(num_envs=args.num_envs, horizon=8, eval_envs=0, value_batch_size=16)
         for start in ("eager", "committed"):
             state = npg.init(jax.random.PRNGKey(0), env, config)

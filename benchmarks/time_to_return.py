@@ -22,13 +22,6 @@ import sys
 import time
 
 
-def warp_capacity(impl: str | None, num_envs: int) -> dict:
-    """MuJoCo Warp sizes its contact buffer for a whole batch: tell the env how many run at once."""
-    from jaxpg.envs.mjx_env import default_impl
-
-    return {"max_batch": num_envs} if (impl or default_impl()) == "warp" else {}
-
-
 def parse_overrides(items: list[str]) -> dict:
     """``["num_envs=4096", "policy_hidden=(64,64)"]`` -> dict with Python literals."""
     out = {}
@@ -61,7 +54,7 @@ def run_one(args: argparse.Namespace, seed: int) -> dict:
     # it, and would run at iteration 0): the evaluation below runs per block, with eval_envs.
     overrides.update(eval_envs=0)
     config = module.Config(**overrides)
-    env = envs.make(args.task, impl=args.impl, fidelity=args.fidelity, **warp_capacity(args.impl, config.num_envs))
+    env = envs.make(args.task, batch=config.num_envs, impl=args.impl, fidelity=args.fidelity)
     ts = module.init(jax.random.PRNGKey(seed), env, config)
     eval_config = dataclasses.replace(config, eval_envs=args.eval_envs)
     evaluate = jax.jit(lambda ts, key: core.evaluate(ts.replace(config=eval_config), key))

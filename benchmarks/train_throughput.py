@@ -30,21 +30,18 @@ import jax
 import jax.numpy as jnp
 
 
-def warp_capacity(impl: str | None, num_envs: int) -> dict:
-    """MuJoCo Warp sizes its contact buffer for a whole batch: tell the env how many run at once."""
-    from jaxpg.envs.mjx_env import default_impl
-
-    return {"max_batch": num_envs} if (impl or default_impl()) == "warp" else {}
-
-
-def algo_config(algo: str, num_envs: int, horizon: int, preset: str | None = None) -> object:
-    """``preset`` at this batch, or a throughput-oriented config: no evaluation rollouts, large
-    value minibatches."""
+def algo_config(
+    algo: str, num_envs: int, horizon: int, preset: str | None = None, overrides: dict | None = None
+) -> object:
+    """``preset`` (with ``overrides``) at this batch, or a throughput-oriented config: no
+    evaluation rollouts, large value minibatches."""
     from jaxpg import algos
 
     module = algos.get(algo)
     if preset:
-        return module.Config(**{**module.PRESETS[preset], "num_envs": num_envs, "horizon": horizon})
+        return module.Config(
+            **{**module.PRESETS[preset], **(overrides or {}), "num_envs": num_envs, "horizon": horizon}
+        )
     samples = num_envs * horizon
     fields = module.Config.__dataclass_fields__
     overrides = dict(num_envs=num_envs, horizon=horizon, eval_envs=0, normalize_observations=True)
@@ -67,14 +64,22 @@ def time_call(fn, *args, repeats: int) -> tuple[float, float, object]:  # noqa: 
 
 
 def measure(
-    task: str, impl: str, fidelity: str, num_envs: int, horizon: int, algo: str, iterations: int, preset: str | None
+    task: str,
+    impl: str,
+    fidelity: str,
+    num_envs: int,
+    horizon: int,
+    algo: str,
+    iterations: int,
+    preset: str | None,
+    overrides: dict | None = None,
 ) -> dict:
     """One row of the table (runs in its own process)."""
     from jaxpg import algos, envs
     from jaxpg import rollout as rollout_lib
     from jaxpg import train as train_lib
 
-    env = envs.make(task, impl=impl, fidelity=fidelity, **warp_capacity(impl, num_envs))
+    env = envs.make(task, batch=num_envs, impl=impl, fidelity=fidelity)
     sampler = envs.AutoReset(env)
     state = rollout_lib.reset_batch(sampler, jax.random.PRNGKey(0), num_envs)
 
@@ -93,7 +98,7 @@ def measure(
     raw_compile, raw_s, _ = time_call(raw, state, jax.random.PRNGKey(1), repeats=10)
 
     module = algos.get(algo)
-    config = algo_config(algo, num_envs, horizon, preset)
+    config = algo_config(algo, num_envs, horizon, preset, overrides)
     # Commit every leaf to the device first. A state built eagerly mixes uncommitted leaves with
     # committed ones (MuJoCo Warp's buffers), while a jitted call's outputs are all committed, and
     # jit compiles a separate executable for each mix: without this the first timed call after
@@ -139,6 +144,7 @@ def measure(
         "train_single_steps_per_s": samples / single_s,
         "ratio_single": raw_s / single_s,
         "preset": preset,
+        "overrides": overrides or {},
         "eval_s": eval_s,
         "eval_compile_s": eval_compile,
         "eval_every": config.eval_every if config.eval_envs > 0 else 0,
@@ -161,14 +167,26 @@ def main() -> None:
     parser.add_argument("--horizon", type=int, default=32)
     parser.add_argument("--iterations", type=int, default=5, help="iterations per timed compiled call")
     parser.add_argument("--preset", help="the algorithm's preset (with its evaluation) instead of a throughput config")
+    parser.add_argument(
+        "--set", nargs="+", default=[], metavar="FIELD=JSON", help="preset overrides, e.g. value_epoch_samples=65536"
+    )
     parser.add_argument("--json", help="write all rows to this file")
     parser.add_argument("--single", help=argparse.SUPPRESS)
     args = parser.parse_args()
+    overrides = {k: json.loads(v) for k, v in (item.split("=", 1) for item in args.set)}
 
     if args.single:
         impl, num_envs = args.single.split(":")
         row = measure(
-            args.task, impl, args.fidelity, int(num_envs), args.horizon, args.algo, args.iterations, args.preset
+            args.task,
+            impl,
+            args.fidelity,
+            int(num_envs),
+            args.horizon,
+            args.algo,
+            args.iterations,
+            args.preset,
+            overrides,
         )
         print("ROW " + json.dumps(row), flush=True)
         return
@@ -180,6 +198,7 @@ def main() -> None:
             cmd += ["--task", args.task, "--algo", args.algo, "--fidelity", args.fidelity]
             cmd += ["--horizon", str(args.horizon), "--iterations", str(args.iterations)]
             cmd += ["--preset", args.preset] if args.preset else []
+            cmd += ["--set", *args.set] if args.set else []
             proc = subprocess.run(cmd, capture_output=True, text=True)
             found = [line for line in proc.stdout.splitlines() if line.startswith("ROW ")]
             if proc.returncode != 0 or not found:
@@ -192,7 +211,8 @@ def main() -> None:
         with open(args.json, "w") as f:
             json.dump(rows, f, indent=1)
     device = rows[0]["device"] if rows else ""
-    print(f"\n{args.task} {args.algo} {args.preset or ''}, horizon {args.horizon}, fidelity {args.fidelity}, {device}")
+    title = " ".join([args.task, args.algo, args.preset or "", *args.set])
+    print(f"\n{title}, horizon {args.horizon}, fidelity {args.fidelity}, {device}")
     print("| impl | envs | raw env steps/s | train env steps/s | train/raw | compile raw s | compile train s", end="")
     print(" | peak MiB/env | 1 iter/call env steps/s | 1 iter/call train/raw |")
     print("|---|---|---|---|---|---|---|---|---|---|")

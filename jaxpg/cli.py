@@ -352,8 +352,10 @@ def _check_task(task: str, experiment: Experiment) -> None:
 
 
 def _make_env(task: str, env_kwargs: dict[str, Any]) -> Any:
+    from jaxpg import envs
+
     try:
-        return runlog.make_env(task, **env_kwargs)
+        return envs.make_shared(task, **env_kwargs)
     except TypeError as e:
         given = ", ".join(_flag(k) for k in env_kwargs if k != "batch")
         raise UsageError(f"task {task!r} does not accept {given or 'these settings'} ({e})") from None

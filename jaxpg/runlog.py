@@ -20,7 +20,6 @@ from __future__ import annotations
 import atexit
 import dataclasses
 import datetime
-import functools
 import importlib.metadata
 import json
 import math
@@ -110,7 +109,10 @@ class RunConfig:
         return config_from_dict(self.algo_module().Config, self.config)
 
     def make_env(self) -> Any:
-        return make_env(self.task, **self.env_kwargs)
+        """The run's env (``jaxpg.envs.make_shared``: one object per task and arguments)."""
+        from jaxpg import envs
+
+        return envs.make_shared(self.task, **self.env_kwargs)
 
     def to_json(self) -> dict[str, Any]:
         return {"format": FORMAT_VERSION, **dataclasses.asdict(self)}
@@ -138,23 +140,6 @@ class RunConfig:
             raise RunDirError(f"{path} was written by a newer jaxpg (format {data['format']})")
         names = {f.name for f in dataclasses.fields(cls)}
         return cls(**{k: v for k, v in data.items() if k in names})
-
-
-@functools.cache
-def _make_env_cached(task: str, kwargs: tuple[tuple[str, Any], ...]) -> Any:
-    from jaxpg import envs
-
-    return envs.make(task, **dict(kwargs))
-
-
-def make_env(task: str, **kwargs: Any) -> Any:
-    """``jaxpg.envs.make``, cached per ``(task, kwargs)``.
-
-    Env objects are immutable and are static (hashed by identity) in the jitted training step,
-    so reusing the same object lets a second run in the same process (a resume, a test) reuse
-    the compiled programs instead of compiling them again.
-    """
-    return _make_env_cached(task, tuple(sorted(kwargs.items())))
 
 
 def _resolve_hints(cls: type) -> dict[str, Any]:

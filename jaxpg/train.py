@@ -10,12 +10,15 @@ The mean policy is evaluated by a separate jitted function (``evaluate_state``) 
 training calls, after every ``config.eval_every``-th iteration and after the last one, as Brax's
 evaluator runs between epochs: the training program never contains the evaluation rollout, so
 iterations that are not evaluated pay nothing for it. Its metrics (``EVAL_METRICS``) are NaN on
-the other iterations, and ``evaluated`` (1 or 0) says which iterations were evaluated.
+the other iterations, and ``evaluated`` (1 or 0) says which iterations were evaluated. The
+evaluation program is compiled on a background thread while the training calls run (started after
+the first call, once the physics kernels are loaded), so a run pays only for the evaluation rollouts.
 """
 
 from __future__ import annotations
 
 import functools
+import threading
 import time
 from collections.abc import Callable, Sequence
 from typing import Any
@@ -86,6 +89,38 @@ def evaluate_state(train_state: TrainState) -> dict[str, jax.Array]:
 def compiled_evaluate(evaluate: EvaluateFn, seeds: bool) -> Callable:
     """The jitted ``evaluate`` (``vmap``-ed over the leading seed axis with ``seeds``)."""
     return jax.jit(jax.vmap(evaluate) if seeds else evaluate)
+
+
+class _EarlyCompile:
+    """Compiles a jitted function for one example's shapes and shardings on a background thread.
+
+    Calling it waits for the compilation and runs the compiled program; it falls back to the jitted
+    function itself if the compilation failed (whose call then raises the error where it is seen)
+    or the arguments do not fit the example.
+    """
+
+    def __init__(self, jitted: Callable, example: Any) -> None:
+        self._jitted = jitted
+        specs = jax.tree.map(lambda x: jax.ShapeDtypeStruct(x.shape, x.dtype, sharding=x.sharding), example)
+        self._compiled: Callable | None = None
+        self._thread = threading.Thread(target=self._compile, args=(specs,), daemon=True)
+        self._thread.start()
+
+    def _compile(self, specs: Any) -> None:
+        try:
+            self._compiled = self._jitted.lower(specs).compile()
+        except Exception:  # noqa: BLE001 - the jitted function raises it again when called
+            self._compiled = None
+
+    def __call__(self, *args: Any) -> Any:
+        """The compiled program on ``args`` (the jitted function if it failed or they do not fit it)."""
+        self._thread.join()
+        if self._compiled is not None:
+            try:
+                return self._compiled(*args)
+            except TypeError:  # other shapes or shardings than the example's: compile them the usual way
+                pass
+        return self._jitted(*args)
 
 
 def _chunk_sizes(total: int, per_call: int) -> list[int]:
@@ -170,6 +205,7 @@ def train(
     # the block's outputs are, so the second block reuses the first block's compilation.
     train_state = _private_copy(train_state)
     start = int(np.max(jax.device_get(train_state.iteration)))
+    evaluator: _EarlyCompile | None = None
     done = 0
     while done < num_iterations:
         n = min(block_size, num_iterations - done)
@@ -177,13 +213,15 @@ def train(
         chunks, evaluations, position = [], {}, first
         for size in _calls(first, n, iterations_per_call or block_size, eval_every):
             train_state, chunk = compiled_block(update, size, seeds)(train_state)
+            if evaluator is None and (eval_every or final_eval):
+                evaluator = _EarlyCompile(compiled_evaluate(evaluate, seeds), train_state)
             chunks.append(chunk)
             position += size
             is_last = done + n == num_iterations and position == first + n
             if (eval_every and position % eval_every == 0) or (final_eval and is_last):
                 jax.block_until_ready(train_state)  # time the evaluation alone, not the training queued before it
                 t0 = time.perf_counter()
-                values = jax.device_get(compiled_evaluate(evaluate, seeds)(train_state))
+                values = jax.device_get(evaluator(train_state))
                 evaluations[position - first - 1] = (values, time.perf_counter() - t0)
         metrics = jax.tree.map(lambda *xs: np.concatenate([np.asarray(x) for x in xs]), *jax.device_get(chunks))
         if evaluate is not None:

@@ -49,23 +49,27 @@ def fit_value(
     epochs: int,
     batch_size: int,
     weights: jax.Array | None = None,
+    samples_per_epoch: int = 0,
 ) -> tuple[Params, optax.OptState, jax.Array]:
     """``epochs`` passes of minibatch ``optimizer`` steps on ``value_loss``.
 
     Each epoch draws a fresh permutation of the ``N`` samples and takes ``N // batch_size`` steps
     on disjoint minibatches (the remainder is dropped; ``batch_size`` larger than ``N`` is taken
-    as ``N``).
+    as ``N``). With ``0 < samples_per_epoch < N`` an epoch instead takes
+    ``samples_per_epoch // batch_size`` steps on minibatches drawn uniformly with replacement, so
+    that the fit's cost stops growing with the batch (and no ``N``-sized shuffle is needed).
 
     Args:
       obs: ``[N, obs_dim]``; targets: ``[N]``; weights: optional ``[N]`` (e.g. the ``valid`` mask).
       key: PRNG key for the shuffles.
-      epochs, batch_size: static.
+      epochs, batch_size, samples_per_epoch: static.
     Returns ``(params, opt_state, mean_loss [])``, the loss averaged over all minibatch steps
     (each measured before its step; NaN when no step is taken).
     """
     n = obs.shape[0]
     batch_size = min(batch_size, n)
-    num_batches = n // batch_size
+    subsample = 0 < samples_per_epoch < n
+    num_batches = max(1, samples_per_epoch // batch_size) if subsample else n // batch_size
     w_all = jnp.ones((n,), targets.dtype) if weights is None else jnp.asarray(weights, targets.dtype)
     grad_fn = jax.value_and_grad(lambda p, o, t, w: value_loss(value_fn, p, o, t, w))
 
@@ -76,8 +80,11 @@ def fit_value(
         return (optax.apply_updates(params, updates), opt_state), loss
 
     def epoch(carry: tuple, epoch_key: jax.Array) -> tuple[tuple, jax.Array]:
-        perm = jax.random.permutation(epoch_key, n)[: num_batches * batch_size]
-        return jax.lax.scan(minibatch, carry, perm.reshape(num_batches, batch_size))
+        if subsample:
+            indices = jax.random.randint(epoch_key, (num_batches, batch_size), 0, n)
+        else:
+            indices = jax.random.permutation(epoch_key, n)[: num_batches * batch_size].reshape(num_batches, batch_size)
+        return jax.lax.scan(minibatch, carry, indices)
 
     (params, opt_state), losses = jax.lax.scan(epoch, (params, opt_state), jax.random.split(key, epochs))
     return params, opt_state, jnp.mean(losses)

@@ -377,9 +377,9 @@ def test_evaluate_chooses_a_gl_backend_only_for_a_video(monkeypatch, tmp_path, c
 
 
 def test_video_of_cartpole_is_drawn_without_mujoco(tmp_path):
-    from jaxpg import video
+    from jaxpg import envs, video
 
-    env = runlog.make_env("cartpole")
+    env = envs.make_shared("cartpole")
     obs = np.array([[0.0, 0.0, 0.0, 0.0], [1.0, 0.0, 0.2, 0.0]], np.float32)
     frames = video.render_states(env, obs, None, None)
     assert frames[0].shape == (400, 640, 3) and frames[0].dtype == np.uint8

@@ -344,3 +344,12 @@ def test_gl_problem_names_the_backend_in_effect():
     none_found = lambda name: None  # noqa: E731
     assert "MUJOCO_GL unset" in video.gl_problem("", "", find=none_found)
     assert "MUJOCO_GL=glfw" in video.gl_problem("glfw", "", find=none_found)
+
+
+def test_make_shared_returns_one_env_per_task_and_arguments():
+    """``envs.make_shared`` makes each (task, arguments) once, so jitted programs keyed on the env
+    object are reused; other arguments give another env."""
+    first = envs.make_shared("cartpole")
+    assert envs.make_shared("cartpole") is first
+    assert envs.make_shared("cartpole", max_episode_steps=100) is not first
+    assert envs.make_shared("cartpole", max_episode_steps=100).max_episode_steps == 100

@@ -206,3 +206,38 @@ def test_value_minibatches_split_each_epoch(pendulum):
     for bad in (-1, 8 * 32 + 1):
         with pytest.raises(ValueError, match="value_minibatches"):
             npg.Config(**{**SMALL, "value_minibatches": bad}).validate(pendulum)
+
+
+def test_value_epoch_samples_caps_the_minibatches(pendulum):
+    """``value_epoch_samples`` below the batch sets the minibatch size from the cap; above it, it
+    changes nothing; fewer samples than minibatches, or a negative cap, is refused."""
+    capped = npg.Config(**{**SMALL, "value_minibatches": 4, "value_epoch_samples": 64})
+    assert (capped.value_samples_per_epoch, capped.value_minibatch_size) == (64, 16)
+    capped.validate(pendulum)
+    loose = npg.Config(**{**SMALL, "value_minibatches": 4, "value_epoch_samples": 10_000})
+    assert loose.value_minibatch_size == 8 * 32 // 4
+    for bad in (-1, 3):
+        with pytest.raises(ValueError, match="value_epoch_samples"):
+            npg.Config(**{**SMALL, "value_minibatches": 4, "value_epoch_samples": bad}).validate(pendulum)
+
+
+def test_fisher_samples_draws_a_subset_for_the_solve(pendulum):
+    """``fisher_samples`` below the batch builds the Fisher-vector products from that many rows
+    of the batch (a fresh draw each iteration); at or above it, from all of them, so that the
+    update is unchanged; a negative count is refused."""
+    ts = npg.init(jax.random.PRNGKey(0), pendulum, npg.Config(**SMALL))
+    ts, traj, _ = core.phase_sample(ts)
+    batch = core.phase_advantages(ts, traj)
+    obs, weights = natural_gradient.fisher_subsample(ts, batch)
+    assert obs is batch.obs and weights is batch.weights
+    sub = ts.replace(config=npg.Config(**{**SMALL, "fisher_samples": 32}))
+    obs, weights = natural_gradient.fisher_subsample(sub, batch)
+    assert obs.shape == (32, batch.obs.shape[1]) and weights.shape == (32,)
+    rows = [int(np.flatnonzero(np.all(np.asarray(batch.obs) == row, axis=1))[0]) for row in np.asarray(obs)]
+    np.testing.assert_array_equal(np.asarray(weights), np.asarray(batch.weights)[rows])
+    again, _ = natural_gradient.fisher_subsample(sub.replace(key=jax.random.PRNGKey(1)), batch)
+    assert not np.array_equal(np.asarray(again), np.asarray(obs))
+    full = ts.replace(config=npg.Config(**{**SMALL, "fisher_samples": 8 * 32}))
+    assert natural_gradient.fisher_subsample(full, batch)[0] is batch.obs
+    with pytest.raises(ValueError, match="fisher_samples"):
+        npg.Config(**{**SMALL, "fisher_samples": -1}).validate(pendulum)

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 import importlib.util
+import threading
 from pathlib import Path
 
 import jax
@@ -69,6 +70,23 @@ def test_train_evaluates_between_calls_at_its_cadence_and_at_the_end(state):
     np.testing.assert_array_equal(np.flatnonzero(no_final["evaluated"]) + 1, [3])
 
 
+def test_evaluation_program_is_compiled_once_ahead_and_used_at_every_evaluation(state):
+    """``train`` compiles the evaluation on a background thread after its first call and runs that
+    program at each evaluation: the evaluation is traced once (a fallback to the jitted function,
+    e.g. because the state's shapes or shardings differ from the example's, would trace it again)."""
+    traced_on = []
+
+    def counting_evaluate(ts):
+        traced_on.append(threading.current_thread())
+        return train_lib.evaluate_state(ts)
+
+    _, metrics = run(state, 7, block_size=7, evaluate=counting_evaluate)
+    np.testing.assert_array_equal(np.flatnonzero(metrics["evaluated"]) + 1, [3, 6, 7])
+    assert len(traced_on) == 1 and traced_on[0] is not threading.main_thread()
+    _, plain = run(state, 7, block_size=7)
+    np.testing.assert_array_equal(metrics["return_mean_policy"], plain["return_mean_policy"])
+
+
 def test_scan_of_k_iterations_gives_the_metrics_of_k_single_calls(state):
     scanned, fused = run(state, 4, block_size=4, evaluate=None)
     single, one_by_one = run(state, 4, block_size=4, iterations_per_call=1, evaluate=None)
@@ -91,8 +109,12 @@ def test_hopper_command_line_defaults_hold_from_64_to_65536_envs(num_envs, tmp_p
     plan = cli.plan(["--num-envs", str(num_envs), "--run-dir", str(tmp_path / "run")], experiment)
     config = plan.config
     assert (plan.run.algo, config.num_envs, plan.run.iterations) == ("npg", num_envs, 120)
-    # The value fit takes the same number of minibatch steps at every batch size.
-    assert config.samples_per_iteration // config.value_minibatch_size == config.value_minibatches == 16
+    # The value fit takes the same number of minibatch steps at every batch size, on minibatches
+    # that stop growing above the card's 256 x 64 samples.
+    assert config.value_samples_per_epoch // config.value_minibatch_size == config.value_minibatches == 16
+    assert config.value_minibatch_size == min(num_envs * config.horizon, 16384) // 16
+    # The natural gradient's Fisher-vector products likewise stop growing with the batch.
+    assert config.fisher_samples == 16384
     assert config.normalize_value_targets
     assert config.normalize_observations and config.kl_delta == npg.PRESETS["hopper"]["kl_delta"]
     # Evaluation costs little: a handful of evaluations, on block boundaries.

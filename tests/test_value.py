@@ -85,3 +85,22 @@ def test_preserve_outputs_keeps_predictions_in_target_units():
     assert not np.allclose(value_fn.apply(moved, obs), value_fn.apply(params, obs))
     for a, b in zip(jax.tree.leaves(moved[:-1]), jax.tree.leaves(params[:-1]), strict=True):
         np.testing.assert_array_equal(a, b)
+
+
+def test_samples_per_epoch_caps_the_steps_and_still_fits():
+    """``samples_per_epoch`` below ``N`` takes ``samples_per_epoch // batch_size`` Adam steps an
+    epoch (counted by the optimizer), from minibatches of the batch, and still lowers the loss;
+    at or above ``N`` it is the plain epoch (same result as without it)."""
+    obs, targets = problem()
+    params = VF.init(jax.random.key(0), OBS)
+    counting = optax.chain(optax.scale_by_adam(), optax.scale(-1e-2))
+    opt_state = counting.init(params)
+    kwargs = dict(epochs=20, batch_size=20, key=jax.random.key(1))
+    capped, capped_state, _ = fit_value(VF, params, opt_state, counting, obs, targets, samples_per_epoch=60, **kwargs)
+    assert int(capped_state[0].count) == 20 * 3
+    assert value_loss(VF, capped, obs, targets) < 0.5 * value_loss(VF, params, obs, targets)
+    full, full_state, _ = fit_value(VF, params, opt_state, counting, obs, targets, **kwargs)
+    same, _, _ = fit_value(VF, params, opt_state, counting, obs, targets, samples_per_epoch=N, **kwargs)
+    assert int(full_state[0].count) == 20 * (N // 20)
+    for a, b in zip(jax.tree.leaves(full), jax.tree.leaves(same), strict=True):
+        np.testing.assert_array_equal(a, b)

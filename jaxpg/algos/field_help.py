@@ -41,12 +41,14 @@ FIELD_HELP: dict[str, str] = {
     "value_epochs": "passes over the batch of the value fit per iteration",
     "value_batch_size": "samples per minibatch of the value fit (0: the whole batch)",
     "value_minibatches": "minibatches per value-fit epoch, whatever the batch size (0: use value_batch_size)",
+    "value_epoch_samples": "at most this many samples per value-fit epoch, drawn from larger batches (0: all)",
     "reward_scaling": "multiply rewards by this before advantages and value targets",
     # natural gradient and trust region
     "kl_delta": "NPG's normalised step: the step's KL in the Fisher metric is kl_delta / 2; its measured KL may "
     "reach kl_delta",
     "cg_iters": "conjugate-gradient iterations for the natural direction F^-1 g",
     "cg_damping": "damping added to the Fisher matrix (F + damping I)",
+    "fisher_samples": "samples of the batch drawn for the Fisher-vector products of the solve (0: all)",
     "fvp": "Fisher-vector product: gauss_newton (J'MJ with the analytic Fisher of the distribution) or "
     "kl_hessian (Hessian of the mean KL)",
     "max_kl": "TRPO's bound on the mean KL of an update",

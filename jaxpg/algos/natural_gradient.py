@@ -29,7 +29,10 @@ class NaturalGradientConfig(core.GAEConfig, core.ValueFitConfig):
 
     ``cg_iters`` conjugate-gradient iterations solve ``(F + cg_damping I) x = g``; ``fvp`` selects
     the Fisher-vector product (``"gauss_newton"``: J'MJ with the distribution's analytic Fisher
-    metric, or ``"kl_hessian"``: the Hessian of the mean KL; ``jaxpg.linalg``).
+    metric, or ``"kl_hessian"``: the Hessian of the mean KL; ``jaxpg.linalg``). ``fisher_samples``
+    > 0 builds the products of the solve from that many samples of the batch, drawn afresh each
+    iteration (Schulman et al. 2015 used 10 % of the batch), so that the solve stops growing with
+    the batch; the gradient and the KL checks still use every sample.
     """
 
     gamma: float = 0.995
@@ -37,6 +40,7 @@ class NaturalGradientConfig(core.GAEConfig, core.ValueFitConfig):
     cg_iters: int = 10
     cg_damping: float = 1e-4
     fvp: str = "gauss_newton"
+    fisher_samples: int = 0
 
     def validate(self, env: Env) -> None:
         super().validate(env)
@@ -46,6 +50,8 @@ class NaturalGradientConfig(core.GAEConfig, core.ValueFitConfig):
             raise ValueError(f"cg_iters must be >= 1, got {self.cg_iters}")
         if not self.cg_damping >= 0:
             raise ValueError(f"cg_damping must be >= 0, got {self.cg_damping}")
+        if self.fisher_samples < 0:
+            raise ValueError(f"fisher_samples must be >= 0 (0: all), got {self.fisher_samples}")
 
 
 # LyceumAI's NaturalPolicyGradient on HopperV2 (Summers et al., L4DC 2020): its sampling, networks
@@ -91,18 +97,34 @@ def phase_gradient(ts: core.TrainState, batch: core.Batch) -> jax.Array:
     return ravel_pytree(grad)[0]
 
 
-def fisher_vector_product(ts: core.TrainState, batch: core.Batch) -> Callable[[jax.Array], jax.Array]:
+def fisher_vector_product(ts: core.TrainState, obs: jax.Array, weights: jax.Array) -> Callable[[jax.Array], jax.Array]:
     """``v [num_params] -> (F + cg_damping I) v [num_params]``, ``F`` the policy's Fisher matrix at
-    ``ts.params`` averaged over the valid samples of ``batch`` (``config.fvp`` says how)."""
+    ``ts.params`` averaged over the states ``obs [M, obs_dim]`` weighted by ``weights [M]``
+    (``config.fvp`` says how)."""
     config = ts.config
     _, unravel = ravel_pytree(ts.params)
     fvp = linalg.make_fisher_vector_product(
-        ts.policy, ts.params, batch.obs, weights=batch.weights, damping=config.cg_damping, mode=config.fvp
+        ts.policy, ts.params, obs, weights=weights, damping=config.cg_damping, mode=config.fvp
     )
     return lambda v: ravel_pytree(fvp(unravel(v)))[0]
 
 
+FISHER_STREAM = 0x666973  # folded into the state's key to draw the Fisher subsample
+
+
+def fisher_subsample(ts: core.TrainState, batch: core.Batch) -> tuple[jax.Array, jax.Array]:
+    """The states and weights the solve's Fisher-vector products average over: all ``N`` of the
+    batch, or ``config.fisher_samples`` of them drawn uniformly with replacement (a fresh draw each
+    iteration, from the state's key) when that is fewer. Returns ``obs [M, obs_dim]``, ``weights [M]``."""
+    n, m = batch.obs.shape[0], ts.config.fisher_samples
+    if m <= 0 or m >= n:
+        return batch.obs, batch.weights
+    rows = jax.random.randint(jax.random.fold_in(ts.key, FISHER_STREAM), (m,), 0, n)
+    return batch.obs[rows], batch.weights[rows]
+
+
 def phase_natural_gradient(ts: core.TrainState, batch: core.Batch, grad: jax.Array) -> linalg.CGResult:
     """The natural direction ``x = F^-1 g [num_params]`` by ``config.cg_iters`` conjugate-gradient
-    iterations on ``fisher_vector_product``."""
-    return linalg.conjugate_gradient(fisher_vector_product(ts, batch), grad, ts.config.cg_iters)
+    iterations on ``fisher_vector_product`` over ``fisher_subsample``'s states."""
+    fvp = fisher_vector_product(ts, *fisher_subsample(ts, batch))
+    return linalg.conjugate_gradient(fvp, grad, ts.config.cg_iters)

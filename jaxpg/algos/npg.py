@@ -82,9 +82,17 @@ PRESETS: dict[str, dict[str, Any]] = {
     # policies past 3000 by 1.05 M steps and past 3290 by 1.97 M. Without the last two, four of
     # eight seeds ended below 3000 (238-1713): in the "dive forward once" local optimum (return
     # ~235), standing (~1000), or still on the way.
+    # A value epoch visits at most 16384 samples (all of them at 256 x 64), so that above 256
+    # envs the value fit stops growing with the batch: at 65536 envs it took 16% of an iteration
+    # (train/raw 0.67 -> 0.78 with the cap; at 4096 envs the mean policy still reached 3506 in
+    # 120 iterations, 3451 without it).
+    # Likewise the conjugate gradient's Fisher-vector products use 16384 samples of the batch
+    # (12% of an iteration at 65536 envs otherwise): with both caps train/raw is 0.91 at 16384
+    # envs and 0.89 at 65536, and the mean policy reached 3349 at 4096 envs (120 iterations)
+    # and 3319 at 16384 (60 iterations).
     # The mean policy is evaluated after the last iteration (and every 120): one evaluation
-    # (1000 sequential steps, ~1.3 s on an H100; 2 s with loading its program) is ~5.5% of a
-    # warm run.
+    # (1000 sequential steps) is ~1.3 s on an H100, 3% of a warm run; its program is compiled
+    # on a background thread while training runs.
     "hopper": dict(
         num_envs=256,
         horizon=64,
@@ -94,6 +102,8 @@ PRESETS: dict[str, dict[str, Any]] = {
         value_hidden=(128, 128),
         value_epochs=10,
         value_minibatches=16,
+        value_epoch_samples=16384,
+        fisher_samples=16384,
         normalize_value_targets=True,
         eval_envs=16,
         eval_every=120,

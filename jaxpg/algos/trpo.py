@@ -59,7 +59,7 @@ def line_search(
     ``line_search_backtracks``."""
     config = ts.config
     flat_params, unravel = ravel_pytree(ts.params)
-    curvature = jnp.dot(direction, natural_gradient.fisher_vector_product(ts, batch)(direction))
+    curvature = jnp.dot(direction, natural_gradient.fisher_vector_product(ts, batch.obs, batch.weights)(direction))
     full_step = jnp.sqrt(2.0 * config.max_kl / jnp.maximum(curvature, 1e-20))
     fractions = config.backtrack_ratio ** jnp.arange(config.backtracks, dtype=jnp.float32)
     baseline = natural_gradient.surrogate(ts, ts.params, batch)

@@ -10,6 +10,7 @@ continuing sampler in ``jaxpg.rollout`` adds ``AutoReset``.
 
 from __future__ import annotations
 
+import functools
 import importlib
 from typing import Any
 
@@ -92,6 +93,21 @@ def make(name: str, batch: int | None = None, **kwargs: Any) -> Env:
     return EpisodeStats(ClipAction(make_task(name, **kwargs)))
 
 
+@functools.cache
+def _shared(name: str, batch: int | None, items: tuple[tuple[str, Any], ...]) -> Env:
+    return make(name, batch=batch, **dict(items))
+
+
+def make_shared(name: str, batch: int | None = None, **kwargs: Any) -> Env:
+    """``make``, returning the same env object for the same arguments (made once per process).
+
+    Envs are immutable and are static arguments of jitted functions (hashed by identity), so a
+    second run, evaluation or Gymnasium env of the same task in one process (a resume, a test, a
+    notebook) reuses the programs compiled for the first instead of compiling them again.
+    """
+    return _shared(name, batch, tuple(sorted(kwargs.items())))
+
+
 __all__ = [
     "AutoReset",
     "ClipAction",
@@ -102,6 +118,7 @@ __all__ = [
     "gymnasium_env",
     "gymnasium_vector_env",
     "make",
+    "make_shared",
     "make_task",
     "names",
     "warp_capacity",

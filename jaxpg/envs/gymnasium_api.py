@@ -97,7 +97,7 @@ def _render_one(env: envs_lib.Env, state: envs_lib.State) -> np.ndarray:
 def _single_env(task: str, make_items: tuple) -> tuple[envs_lib.Env, Callable, Callable]:
     """The env and its jitted ``reset``/``step``, shared by every ``JaxpgEnv`` of the same task and
     arguments (so a second env, e.g. a checker's or an evaluation env, compiles nothing)."""
-    env = envs_lib.make(task, **dict(make_items))
+    env = envs_lib.make_shared(task, **dict(make_items))
     return env, jax.jit(env.reset), jax.jit(env.step)
 
 
@@ -105,7 +105,7 @@ def _single_env(task: str, make_items: tuple) -> tuple[envs_lib.Env, Callable, C
 def _vector_env(task: str, make_items: tuple, num_envs: int) -> tuple[envs_lib.Env, Callable, Callable]:
     """The env and the jitted batched ``reset``/``step`` of ``JaxpgVectorEnv``, shared likewise."""
     make_kwargs = dict(make_items)
-    env = envs_lib.make(task, batch=num_envs, **make_kwargs)
+    env = envs_lib.make_shared(task, batch=num_envs, **make_kwargs)
     sampler = envs_lib.AutoReset(env)
     step = jax.jit(lambda state, actions: _vector_step(sampler, env.max_episode_steps, state, actions))
     return env, jax.jit(jax.vmap(sampler.reset)), step

@@ -147,19 +147,29 @@ class ValueFitConfig(BaseConfig):
     samples, with Adam at ``value_fit_lr``. ``value_minibatches`` > 0 cuts each epoch into that
     many minibatches whatever the batch size (the fit then takes the same number of steps at any
     ``num_envs`` and ``horizon``); otherwise minibatches hold ``value_batch_size`` samples (0: the
-    whole batch).
+    whole batch). ``value_epoch_samples`` > 0 caps the samples one epoch visits (minibatches drawn
+    with replacement from the batch when it holds more), so that the fit costs the same at any
+    larger batch.
     """
 
     value_lr: float = 1e-3
     value_epochs: int = 3
     value_batch_size: int = 64
     value_minibatches: int = 0
+    value_epoch_samples: int = 0
+
+    @property
+    def value_samples_per_epoch(self) -> int:
+        """Samples one value epoch visits: the iteration's, or ``value_epoch_samples`` if fewer."""
+        if self.value_epoch_samples > 0:
+            return min(self.value_epoch_samples, self.samples_per_iteration)
+        return self.samples_per_iteration
 
     @property
     def value_minibatch_size(self) -> int:
         """Samples per value-fit minibatch (``value_minibatches`` wins over ``value_batch_size``)."""
         if self.value_minibatches > 0:
-            return max(1, self.samples_per_iteration // self.value_minibatches)
+            return max(1, self.value_samples_per_epoch // self.value_minibatches)
         return self.value_batch_size or self.samples_per_iteration
 
     @property
@@ -179,6 +189,11 @@ class ValueFitConfig(BaseConfig):
             raise ValueError(
                 f"value_minibatches must be in [0, {self.samples_per_iteration}] (the samples of an iteration), "
                 f"got {self.value_minibatches}"
+            )
+        if self.value_epoch_samples < 0 or 0 < self.value_epoch_samples < self.value_minibatches:
+            raise ValueError(
+                f"value_epoch_samples must be 0 (all) or at least value_minibatches ({self.value_minibatches}), "
+                f"got {self.value_epoch_samples}"
             )
         if self.value_minibatches == 0 and self.value_batch_size > self.samples_per_iteration:
             raise ValueError(

@@ -36,7 +36,8 @@ def absorb_value_targets(ts: TrainState, batch: Batch) -> TrainState:
 
 def phase_value_fit(ts: TrainState, batch: Batch, key: jax.Array) -> tuple[TrainState, jax.Array]:
     """Fit the value network to ``batch.value_targets``: ``config.value_epochs`` passes of
-    minibatch Adam (``value_optimizer``) on the weighted mean squared error.
+    minibatch Adam (``value_optimizer``) on the weighted mean squared error, each epoch over at
+    most ``config.value_epoch_samples`` samples (when > 0).
 
     With ``normalize_value_targets`` the statistics first absorb this batch
     (``absorb_value_targets``) and the network is fitted to the standardised targets; the loss is
@@ -59,5 +60,6 @@ def phase_value_fit(ts: TrainState, batch: Batch, key: jax.Array) -> tuple[Train
         epochs=config.value_epochs,
         batch_size=config.value_minibatch_size,
         weights=batch.weights,
+        samples_per_epoch=config.value_epoch_samples,
     )
     return ts.replace(value_params=value_params, value_opt_state=value_opt_state), loss

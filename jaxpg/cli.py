@@ -788,7 +788,7 @@ class _Callbacks:
         try:
             from jaxpg import plotting
 
-            plotting.plot_run(self.plan.run_dir, eval_metric_name=getattr(self.plan.env, "eval_metric_name", None))
+            plotting.plot_run(self.plan.run_dir, task_score_name=self.plan.env.task_score_name)
         except Exception as e:  # noqa: BLE001 - a plot must never stop training
             self.progress.write(f"warning: curves.png not updated ({type(e).__name__}: {e})")
 

@@ -314,8 +314,8 @@ LEADING_KEYS = (
     "return_stochastic",
     "return_mean_policy",
     "episode_length",
-    "eval_metric",
-    "eval_metric_mean_policy",
+    "task_score",
+    "task_score_mean_policy",
 )
 
 
@@ -350,8 +350,17 @@ def block_records(
     return records
 
 
+# Metric names that earlier versions wrote -> the current ones (read_metrics renames them).
+OLD_METRIC_NAMES = {
+    "eval_metric": "task_score",
+    "eval_metric_mean_policy": "task_score_mean_policy",
+    "step_size": "step_length",
+}
+
+
 def read_metrics(path: str | os.PathLike) -> list[dict[str, Any]]:
-    """The records of a ``metrics.jsonl`` (a torn last line, from a killed process, is skipped)."""
+    """The records of a ``metrics.jsonl`` (a torn last line, from a killed process, is skipped),
+    with metric names of earlier versions renamed (``OLD_METRIC_NAMES``)."""
     path = Path(path)
     if path.is_dir():
         path = path / METRICS_FILE
@@ -364,9 +373,10 @@ def read_metrics(path: str | os.PathLike) -> list[dict[str, Any]]:
             if not line:
                 continue
             try:
-                records.append(json.loads(line))
+                record = json.loads(line)
             except json.JSONDecodeError:
                 continue
+            records.append({OLD_METRIC_NAMES.get(k, k): v for k, v in record.items()})
     return records
 
 

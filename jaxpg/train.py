@@ -34,7 +34,7 @@ UpdateFn = Callable[[TrainState], tuple[TrainState, dict[str, jax.Array]]]
 Callback = Callable[[TrainState, dict[str, np.ndarray], int], None]
 EvaluateFn = Callable[[TrainState], dict[str, jax.Array]]
 
-EVAL_METRICS = ("return_mean_policy", "episode_length_mean_policy", "eval_metric_mean_policy")
+EVAL_METRICS = ("return_mean_policy", "episode_length_mean_policy", "task_score_mean_policy")
 # Folded into the training key to seed evaluations: they never consume or change training's draws.
 EVAL_STREAM = 0x65766C
 
@@ -81,7 +81,7 @@ def evaluate_state(train_state: TrainState) -> dict[str, jax.Array]:
     return {
         "return_mean_policy": summary["episode_return"],
         "episode_length_mean_policy": summary["episode_length"],
-        "eval_metric_mean_policy": summary["episode_eval_metric"],
+        "task_score_mean_policy": summary["episode_task_score"],
     }
 
 

@@ -33,7 +33,7 @@ def without_wall_time(records):
     return [{k: v for k, v in r.items() if k not in ("wall_time_s", "eval_seconds")} for r in records]
 
 
-EVAL_KEYS = ("evaluated", "return_mean_policy", "episode_length_mean_policy", "eval_metric_mean_policy")
+EVAL_KEYS = ("evaluated", "return_mean_policy", "episode_length_mean_policy", "task_score_mean_policy")
 
 
 def same_run(resumed, expected, stopped_at):
@@ -158,9 +158,11 @@ def test_resume_is_bit_identical_to_an_uninterrupted_run(trained, runs):
 
 
 def test_run_saved_under_old_field_names_loads_evaluates_and_resumes(trained, runs, capsys):
-    """A run directory written before NPG's ``step_size`` became ``kl_delta`` and ``policy_init``
-    became ``network_init`` loads with the same Config, its policy acts as before, ``jaxpg.evaluate``
-    runs it, and ``--resume`` continues it and saves its config under the current names."""
+    """A run directory written before NPG's ``step_size`` became ``kl_delta``, ``policy_init``
+    became ``network_init`` and the metrics ``eval_metric``/``step_size`` became
+    ``task_score``/``step_length`` loads with the same Config, its policy acts as before,
+    ``jaxpg.evaluate`` runs it, and ``--resume`` continues it and saves its config and metrics
+    under the current names."""
     old = runs / "old_names"
     shutil.copytree(trained, old)
     data = json.loads((old / "config.json").read_text())
@@ -168,6 +170,14 @@ def test_run_saved_under_old_field_names_loads_evaluates_and_resumes(trained, ru
     saved["step_size"] = saved.pop("kl_delta")
     saved["policy_init"] = saved.pop("network_init")
     (old / "config.json").write_text(json.dumps(data))
+    renamed = {
+        "task_score": "eval_metric",
+        "task_score_mean_policy": "eval_metric_mean_policy",
+        "step_length": "step_size",
+    }
+    lines = [json.dumps({renamed.get(k, k): v for k, v in r.items()}) for r in runlog.read_metrics(trained)]
+    (old / "metrics.jsonl").write_text("\n".join(lines) + "\n")
+    assert runlog.read_metrics(old) == runlog.read_metrics(trained)
 
     assert runlog.RunConfig.load(old).algo_config() == runlog.RunConfig.load(trained).algo_config()
     obs = np.random.default_rng(1).normal(size=(3, 4)).astype(np.float32)
@@ -179,6 +189,8 @@ def test_run_saved_under_old_field_names_loads_evaluates_and_resumes(trained, ru
     assert resaved["kl_delta"] == saved["step_size"] and resaved["network_init"] == saved["policy_init"]
     assert "step_size" not in resaved and "policy_init" not in resaved
     assert max(r["iteration"] for r in runlog.read_metrics(old)) == 6
+    written = [json.loads(line) for line in (old / "metrics.jsonl").read_text().splitlines()]
+    assert all("task_score" in r and "step_length" in r and not set(renamed.values()) & set(r) for r in written)
 
 
 def test_old_field_names_map_to_current_ones():
@@ -407,7 +419,7 @@ def test_several_seeds_records_summary_and_curves(tmp_path):
     assert runlog.latest_score(metrics) == 7.0
     iterations, values = plotting.seed_curves(records, "return_mean_policy")
     assert iterations.tolist() == [5, 6] and values.tolist() == [[2.0, 4.0], [6.0, 8.0]]
-    out = plotting.plot_runs([("run", records)], tmp_path / "curves.png", title="t", eval_metric_name="return")
+    out = plotting.plot_runs([("run", records)], tmp_path / "curves.png", title="t", task_score_name="return")
     assert out.stat().st_size > 0
 
 

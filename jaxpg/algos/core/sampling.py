@@ -164,7 +164,7 @@ def phase_sample(ts: TrainState) -> tuple[TrainState, Trajectory, jax.Array]:
 
 
 def evaluate(ts: TrainState, key: jax.Array, deterministic: bool = True) -> dict[str, jax.Array]:
-    """Mean return, length and eval metric of ``config.eval_envs`` fresh episodes: ``[]`` each.
+    """Mean return, length and task score of ``config.eval_envs`` fresh episodes: ``[]`` each.
 
     ``deterministic=True`` runs the mode of the policy (LyceumAI's ``meantraj_reward``). An
     episode still running after ``eval_horizon`` steps counts with what it reached by then.
@@ -188,11 +188,11 @@ def evaluate(ts: TrainState, key: jax.Array, deterministic: bool = True) -> dict
     traj = jax.tree.map(lambda x: x[:, :count], traj)
     lengths = jnp.sum(traj.valid, axis=0)
     last = jnp.maximum(lengths.astype(jnp.int32) - 1, 0)
-    final_metric = jnp.take_along_axis(traj.metrics["eval_metric"], last[None, :], axis=0)[0]
+    final_metric = jnp.take_along_axis(traj.metrics["task_score"], last[None, :], axis=0)[0]
     return {
         "episode_return": jnp.mean(jnp.sum(traj.rewards * traj.valid, axis=0)),
         "episode_length": jnp.mean(lengths),
-        "episode_eval_metric": jnp.mean(final_metric),
+        "episode_task_score": jnp.mean(final_metric),
         "episodes": jnp.asarray(config.eval_envs, jnp.float32),
     }
 
@@ -209,7 +209,7 @@ def sampling_metrics(ts: TrainState, traj: Trajectory) -> dict[str, jax.Array]:
         "env_steps": (ts.iteration + 1).astype(jnp.float32) * ts.config.samples_per_iteration,
         "return_stochastic": summary["episode_return"],
         "episode_length": summary["episode_length"],
-        "eval_metric": summary["episode_eval_metric"],
+        "task_score": summary["episode_task_score"],
         "episodes": summary["episodes"],
         "nonfinite": jnp.sum(traj.metrics["nonfinite"] * traj.valid),
         "invalid_action": jnp.sum(traj.metrics["invalid_action"] * traj.valid),

@@ -71,7 +71,7 @@ def measure(task: str, impl: str | None, devices: int, envs_per_device: int, hor
     from jaxpg import distributed, envs, train
     from jaxpg import rollout as rollout_lib
     from jaxpg.algos import core, npg
-    from jaxpg.cli import shard_state
+    from jaxpg.distributed import shard_state
 
     if jax.device_count() < devices:
         raise SystemExit(f"only {jax.device_count()} devices are visible, {devices} asked for")

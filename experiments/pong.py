@@ -8,9 +8,9 @@ policy over {up, down}); A2C adds a value network of the same shape.
 * ``--algo reinforce``: Karpathy's / MinPy's policy gradient. Each env runs on (continuing
   sampling) and every ``--horizon`` steps the policy takes one Adam step on
   ``-E[G^_t log pi(a_t|s_t)]``, where ``G_t`` is the discounted return *of the point* the step
-  belongs to (a nonzero reward ends a point, so returns restart there: ``point_returns``) and
-  ``G^`` is ``G`` normalised over the batch. The steps after the last finished point of each env
-  column have no known return yet and are left out of the batch.
+  belongs to (a nonzero reward ends a point, so returns restart there:
+  ``jaxpg.algos.reinforce_points``) and ``G^`` is ``G`` normalised over the batch. The steps
+  after the last finished point of each env column have no known return yet and are left out.
 * ``--algo a2c``: synchronous advantage actor-critic (``jaxpg.algos.a2c``): ``--num-envs`` games
   in lock-step, an update every ``--horizon`` (t_max) steps, GAE(0.99, 0.95) bootstrapped
   through the value of the last frame, value loss and entropy bonus.
@@ -32,6 +32,11 @@ Bad arguments exit with status 2 and one ``error:`` line, before anything is wri
     python experiments/pong.py --algo reinforce --num-envs 16 --minutes 30
     python experiments/pong.py --compare-envs 1 2 4 16 64 256 --minutes 5
     python experiments/pong.py --compare-envs 1 4 16 --minutes 1 --size 40      # a quick look on a CPU
+    python experiments/pong.py --task atari_pong --compare-envs 1 2 4 16 64 --minutes 20   # the ROM
+
+``--task atari_pong`` plays the Atari ROM in the Arcade Learning Environment instead
+(``jaxpg.envs.atari``; the games step on the host's CPU cores): MinPy's comparison on the real game.
+For a run that ``python -m jaxpg.evaluate RUN --ale`` can load, train with ``experiments/atari_pong.py``.
 """
 
 from __future__ import annotations
@@ -50,9 +55,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxpg import returns
 from jaxpg import train as train_lib
-from jaxpg.algos import a2c, core, reinforce
+from jaxpg.algos import a2c, reinforce, reinforce_points
 from jaxpg.algos.core import TrainState
 from jaxpg.cli import Parser, UsageError
 from jaxpg.envs import Env, EpisodeStats
@@ -98,52 +102,16 @@ def make_env(size: int = 80, stay_action: bool = False, **pong_kwargs: Any) -> E
     return EpisodeStats(FrameDifference(Pong(size=size, stay_action=stay_action, **pong_kwargs)))
 
 
-# ---------------------------------------------------------------------------------------------
-# REINFORCE with returns that restart at every point.
+def make_atari_env(stay_action: bool = False) -> Env:
+    """``EpisodeStats(AtariPong)``: the ALE ROM's 80x80 frame differences, game statistics."""
+    from jaxpg.envs.atari import AtariPong
+
+    return EpisodeStats(AtariPong(action_set="stay" if stay_action else "updown"))
 
 
-def point_returns(
-    rewards: jax.Array, terminated: jax.Array, truncated: jax.Array, gamma: float
-) -> tuple[jax.Array, jax.Array]:
-    """Discounted returns within each point, and where they are known: ``([T, B], [T, B] bool)``.
-
-    A step with a nonzero reward ends a point (as well as the game's end), so
-    ``G_t = sum_k gamma^k r_{t+k}`` runs only up to the end of ``t``'s point (Karpathy's
-    ``discount_rewards`` with its reset at ``r != 0``). ``complete`` is true where that point
-    ended inside the batch with a point scored; steps of a point still running at the end of the
-    batch, or cut by the time limit, have an unknown return and come out false.
-    """
-    point_end = rewards != 0
-    ends = point_end | terminated
-    g = returns.discounted_returns(rewards, ends, truncated, gamma)
-    # The same recursion with gamma 1 on the indicator of a scored point: 1 where the segment
-    # ends with a point, 0 where it ends by truncation or runs past the batch.
-    scored = returns.discounted_returns(point_end.astype(rewards.dtype), ends, truncated, 1.0)
-    return g, scored > 0
-
-
-def reinforce_update(ts: TrainState) -> tuple[TrainState, dict[str, jax.Array]]:
-    """One REINFORCE iteration with per-point returns normalised over the batch (module
-    docstring); ``jaxpg.algos.reinforce``'s pieces with ``point_returns`` for its returns."""
-    old = ts
-    ts, traj, _ = core.phase_sample(ts)
-    g, complete = point_returns(traj.rewards, traj.terminated, traj.truncated, ts.config.gamma)
-    weights = traj.valid * complete
-    advantages = returns.normalize(g, mask=weights)
-    batch = core.flatten_batch(
-        core.Batch(
-            obs=ts.obs_stats.normalize(traj.obs),
-            actions=traj.actions,
-            log_probs=traj.log_probs,
-            advantages=advantages,
-            value_targets=advantages,
-            weights=weights,
-        )
-    )
-    ts, diagnostics = reinforce.policy_step(ts, batch)
-    kl = core.mean_kl(ts, old.params, ts.params, batch)
-    metrics = {**diagnostics, "complete_fraction": jnp.mean(weights)}
-    return core.finish_iteration(old, ts, traj, loss=diagnostics["loss"], kl=kl, metrics=metrics)
+# REINFORCE with returns that restart at every point: ``jaxpg.algos.reinforce_points``.
+point_returns = reinforce_points.point_returns
+reinforce_update = reinforce_points.update
 
 
 def make_config(algo: str, num_envs: int, **overrides: Any) -> Any:
@@ -296,6 +264,12 @@ def build_parser() -> argparse.ArgumentParser:
         formatter_class=argparse.RawDescriptionHelpFormatter,
         epilog="\n\n".join(__doc__.split("\n\n")[1:]),
     )
+    parser.add_argument(
+        "--task",
+        choices=("pong", "atari_pong"),
+        default="pong",
+        help="pong: jaxpg's own Pong; atari_pong: the Atari ROM in ALE (pip install 'jaxpg[atari]'; no GIF)",
+    )
     parser.add_argument("--algo", choices=sorted(ALGORITHMS), default="a2c")
     parser.add_argument("--num-envs", type=int, nargs="+", default=[16], help="one run per value, in turn")
     parser.add_argument(
@@ -384,7 +358,11 @@ def plan(argv: Sequence[str] | None) -> argparse.Namespace:
     args = build_parser().parse_args(argv)
     if args.compare_envs is not None:
         args.algo = "a2c"  # the comparison is A2C's
-    args.run_dir = args.run_dir or Path("runs") / f"pong-{args.algo}-{time.strftime('%Y%m%d-%H%M%S')}"
+    args.run_dir = args.run_dir or Path("runs") / f"{args.task}-{args.algo}-{time.strftime('%Y%m%d-%H%M%S')}"
+    if args.task == "atari_pong":
+        if args.size != 80:
+            raise UsageError("--size is jaxpg Pong's; atari_pong's frames are 80x80")
+        args.video_steps = 0  # the GIF draws jaxpg Pong's frames
     check_args(args)
     return args
 
@@ -403,7 +381,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     algo = args.algo
     counts = args.compare_envs if compare else args.num_envs
     overrides = {k: v for k, v in (("horizon", args.horizon), ("lr", args.lr)) if v is not None}
-    env = make_env(args.size, args.stay_action)
+    env = make_env(args.size, args.stay_action) if args.task == "pong" else make_atari_env(args.stay_action)
     configs = {n: make_config(algo, n, **overrides) for n in counts}
     run_dir = args.run_dir
     run_dir.mkdir(parents=True)
@@ -449,7 +427,8 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     name = "pong_envs.png" if compare else f"pong_{algo}.png"
     lr = configs[counts[0]].lr
-    title = f"{algo.upper()} on jaxpg Pong ({args.size}x{args.size} frame differences, lr {lr:g}), {device.device_kind}"
+    game = "jaxpg Pong" if args.task == "pong" else "Atari Pong (ALE)"
+    title = f"{algo.upper()} on {game} ({args.size}x{args.size} frame differences, lr {lr:g}), {device.device_kind}"
     plot_curves(curves, run_dir / name, title)
     print(f"wrote {run_dir / name}")
     return 0

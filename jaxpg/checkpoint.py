@@ -36,7 +36,7 @@ Retention: the ``keep`` latest steps plus the best one (highest ``score``: the l
 Several processes (``jaxpg.distributed``): every process calls ``save``, which gathers the
 state to the host (a collective: arrays split over processes are all-gathered); process 0 alone
 writes. Every process restores, each reading the files itself (a shared file system across
-hosts), onto its own first device; ``jaxpg.cli.shard_state`` then places the state on the
+hosts), onto its own first device; ``jaxpg.distributed.shard_state`` then places the state on the
 global mesh. Each process's Orbax manager works alone (no barriers across processes).
 """
 

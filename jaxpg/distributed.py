@@ -93,7 +93,7 @@ def on_mesh(update: Callable[..., Any], mesh: Mesh | AbstractMesh) -> Callable[.
     per ``(update, mesh)`` so that ``jaxpg.train``'s compiled blocks are reused. Only the tracing of
     ``update`` sees the mesh: jitted host-side code elsewhere (videos, checkpoints) is unaffected,
     which ``jax.set_mesh`` around the training loop would not guarantee. The state should already
-    live on ``mesh`` (``jaxpg.cli.shard_state``).
+    live on ``mesh`` (``shard_state``).
     """
     abstract = mesh.abstract_mesh if isinstance(mesh, Mesh) else mesh
 
@@ -146,6 +146,22 @@ def replicated(tree: Any, mesh: Mesh) -> Any:
     """``tree`` replicated on every device of ``mesh`` (``put_global`` with ``PartitionSpec()``)."""
     sharding = NamedSharding(mesh, PartitionSpec())
     return put_global(tree, jax.tree.map(lambda _: sharding, tree))
+
+
+def shard_state(ts: Any, vmap_seeds: bool, mesh: Any = None) -> Any:
+    """``ts`` placed on ``mesh`` (default: ``env_mesh()``, every device of every
+    process): the env axis of ``ts.env_state`` split over the ``"envs"`` axis (after the seed axis
+    with ``vmap_seeds``), everything else replicated, including MuJoCo Warp's per-batch buffers
+    (``core.env_batch_mask``). Every process passes the same ``ts``; each places its share."""
+    from jaxpg.algos import core  # the algorithms import this module
+
+    mesh = env_mesh() if mesh is None else mesh
+    lead = 1 if vmap_seeds else 0
+    mask = core.env_batch_mask(core.sampler_env(ts.env, ts.config), ts.env_state, leading=lead)
+    shardings = jax.tree.map(lambda batched: NamedSharding(mesh, batch_spec(batched, lead)), mask)
+    env_state = put_global(ts.env_state, shardings)
+    rest = replicated(ts.replace(env_state=()), mesh)
+    return rest.replace(env_state=env_state)
 
 
 # --------------------------------------------------------------------------- several processes

@@ -1,10 +1,14 @@
-"""Evaluate a trained policy: ``python -m jaxpg.evaluate RUN_DIR --episodes N [--gymnasium] [--video out.mp4]``.
+"""Evaluate a trained policy: ``python -m jaxpg.evaluate RUN_DIR --episodes N [--gymnasium | --ale] [--video out.mp4]``.
 
 By default the run's mean (deterministic) policy plays ``N`` episodes of jaxpg's own env (the
 task and env settings the run trained on, all episodes in parallel). ``--gymnasium`` plays them
 in the corresponding Gymnasium CPU env instead (``Hopper-v5``, ``InvertedPendulum-v5``,
 ``InvertedDoublePendulum-v5``, ``CartPole-v1``), through ``jaxpg.load_policy``: a check that the
 policy transfers to the reference implementation. Prints mean and std of return and length.
+``--ale`` plays a Pong policy (``atari_pong``, or jaxpg's own ``pong`` at 80x80) in the real Atari
+game, Gymnasium's ``ALE/Pong-v5``, with its sticky actions (``--no-sticky``: none), and prints the
+mean score (points won minus lost, -21 to 21); ``--sample`` samples the actions instead of taking
+the most probable one.
 """
 
 from __future__ import annotations
@@ -179,6 +183,28 @@ def evaluate_gymnasium(
     return np.asarray(returns), np.asarray(lengths), frames
 
 
+def ale_action_set(task: str, env_kwargs: dict[str, Any]) -> str:
+    """The ``jaxpg.envs.atari.ACTION_SETS`` entry that maps a Pong run's actions to ALE's
+    (``ValueError``, one line, for a task that cannot play ``ALE/Pong-v5``)."""
+    if task == "atari_pong":
+        return str(env_kwargs.get("action_set", "updown"))
+    if task == "pong":  # jaxpg's own Pong: {up, down} or {stay, up, down} on 80x80 frame differences
+        if int(env_kwargs.get("size", 80)) != 80:
+            raise ValueError(f"--ale needs 80x80 frames; this pong run used size {env_kwargs['size']}")
+        return "stay" if env_kwargs.get("stay_action") else "updown"
+    raise ValueError(f"--ale plays Atari Pong: task {task!r} is not a Pong task (atari_pong or pong)")
+
+
+def evaluate_ale(
+    policy: Callable[[np.ndarray], np.ndarray], action_set: str, episodes: int, sticky: bool, seed: int = 0
+) -> tuple[np.ndarray, np.ndarray]:
+    """``(scores [N], lengths [N])`` of ``policy`` in Gymnasium's ``ALE/Pong-v5``
+    (``jaxpg.envs.atari.play_ale``)."""
+    from jaxpg.envs import atari
+
+    return atari.play_ale(policy, episodes, action_set, sticky=sticky, seed=seed)
+
+
 def _stats(x: np.ndarray) -> str:
     return f"{np.mean(x):.2f} ± {np.std(x):.2f}"
 
@@ -207,6 +233,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("run_dir", help="a run directory written by jaxpg.cli / experiments/*.py")
     parser.add_argument("--episodes", type=int, default=10, help="number of episodes (default: 10)")
     parser.add_argument("--gymnasium", action="store_true", help="play in the Gymnasium CPU env instead of jaxpg's")
+    parser.add_argument("--ale", action="store_true", help="play a Pong policy in the real Atari game, ALE/Pong-v5")
+    parser.add_argument(
+        "--sticky",
+        action=argparse.BooleanOptionalAction,
+        default=True,
+        help="with --ale: ALE/Pong-v5's sticky actions (repeat probability 0.25); --no-sticky: none",
+    )
+    parser.add_argument("--sample", action="store_true", help="sample actions instead of the most probable one")
     parser.add_argument("--video", metavar="OUT", help="render the first episode to OUT (.mp4 or .gif)")
     parser.add_argument("--step", default="latest", help="checkpoint: 'latest' (default), 'best' or an iteration")
     parser.add_argument("--seed", type=int, default=0, help="seed of the evaluation episodes (default: 0)")
@@ -223,15 +257,34 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.gymnasium and not gymnasium_installed():
         print(f"error: --gymnasium needs Gymnasium: {GYMNASIUM_INSTALL}", file=sys.stderr)
         return 2
+    if args.ale and (args.gymnasium or args.video):
+        print("error: --ale plays ALE/Pong-v5 alone: drop --gymnasium and --video", file=sys.stderr)
+        return 2
     try:
         from jaxpg import policy_io
 
-        policy = policy_io.load_policy(args.run_dir, args.step, seed=args.train_seed)
-    except ValueError as e:
+        if args.ale:
+            from jaxpg.envs import atari
+
+            atari.require_ale()
+        policy = policy_io.load_policy(
+            args.run_dir, args.step, seed=args.train_seed, deterministic=not args.sample, sample_seed=args.seed
+        )
+        action_set = ale_action_set(policy.run.task, policy.run.env_kwargs) if args.ale else None
+    except (ValueError, ImportError) as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
     run = policy.run
-    where = f"checkpoint step {policy.step} of {args.run_dir} (seed {policy.seed}), mean policy"
+    kind = "sampled actions" if args.sample else "mean policy"
+    where = f"checkpoint step {policy.step} of {args.run_dir} (seed {policy.seed}), {kind}"
+    if args.ale:
+        scores, lengths = evaluate_ale(policy, action_set, args.episodes, args.sticky, args.seed)
+        sticky = "sticky actions 0.25" if args.sticky else "repeat_action_probability=0"
+        print(f"{where}, {args.episodes} games of ALE/Pong-v5 ({sticky})")
+        print(f"score: {_stats(scores)}  (min {np.min(scores):+.0f}, max {np.max(scores):+.0f}; points won - lost)")
+        print(f"length: {_stats(lengths)} steps (4 frames each)")
+        print(f"mean score: {np.mean(scores):+.2f}")
+        return 0
     problem = _video_problem(run, args.gymnasium) if args.video else None
     if problem is not None:
         print(f"error: --video: {problem}", file=sys.stderr)
@@ -247,7 +300,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         metric_line = ""
     else:
         env = run.make_env()
-        eps = rollout(env, policy.policy, policy.params, policy.obs_stats, args.seed, args.episodes)
+        eps = rollout(
+            env, policy.policy, policy.params, policy.obs_stats, args.seed, args.episodes, deterministic=not args.sample
+        )
         returns, lengths = eps.returns, eps.lengths
         env_name = f"jaxpg {run.task}" + (f" {run.env_kwargs}" if run.env_kwargs else "")
         metric_line = ""

@@ -112,9 +112,13 @@ class _EarlyCompile:
         except Exception:  # noqa: BLE001 - the jitted function raises it again when called
             self._compiled = None
 
+    def wait(self) -> None:
+        """Block until the background compilation has finished (or failed)."""
+        self._thread.join()
+
     def __call__(self, *args: Any) -> Any:
         """The compiled program on ``args`` (the jitted function if it failed or they do not fit it)."""
-        self._thread.join()
+        self.wait()
         if self._compiled is not None:
             try:
                 return self._compiled(*args)
@@ -207,32 +211,36 @@ def train(
     start = int(np.max(jax.device_get(train_state.iteration)))
     evaluator: _EarlyCompile | None = None
     done = 0
-    while done < num_iterations:
-        n = min(block_size, num_iterations - done)
-        first = start + done
-        chunks, evaluations, position = [], {}, first
-        for size in _calls(first, n, iterations_per_call or block_size, eval_every):
-            train_state, chunk = compiled_block(update, size, seeds)(train_state)
-            if evaluator is None and (eval_every or final_eval):
-                evaluator = _EarlyCompile(compiled_evaluate(evaluate, seeds), train_state)
-            chunks.append(chunk)
-            position += size
-            is_last = done + n == num_iterations and position == first + n
-            if (eval_every and position % eval_every == 0) or (final_eval and is_last):
-                jax.block_until_ready(train_state)  # time the evaluation alone, not the training queued before it
-                t0 = time.perf_counter()
-                values = jax.device_get(evaluator(train_state))
-                evaluations[position - first - 1] = (values, time.perf_counter() - t0)
-        metrics = jax.tree.map(lambda *xs: np.concatenate([np.asarray(x) for x in xs]), *jax.device_get(chunks))
-        if evaluate is not None:
-            metrics = _with_evaluations(metrics, evaluations)
-        for callback in callbacks:
-            callback(train_state, metrics, first)
-        failures = int(np.max(jax.device_get(train_state.failures)))
-        if failures >= max_consecutive_failures:
-            raise TrainingDiverged(
-                f"{failures} consecutive updates produced non-finite parameters or losses "
-                f"(iteration {first + n}); stopping instead of training on NaNs"
-            )
-        done += n
+    try:
+        while done < num_iterations:
+            n = min(block_size, num_iterations - done)
+            first = start + done
+            chunks, evaluations, position = [], {}, first
+            for size in _calls(first, n, iterations_per_call or block_size, eval_every):
+                train_state, chunk = compiled_block(update, size, seeds)(train_state)
+                if evaluator is None and (eval_every or final_eval):
+                    evaluator = _EarlyCompile(compiled_evaluate(evaluate, seeds), train_state)
+                chunks.append(chunk)
+                position += size
+                is_last = done + n == num_iterations and position == first + n
+                if (eval_every and position % eval_every == 0) or (final_eval and is_last):
+                    jax.block_until_ready(train_state)  # time the evaluation alone, not the training queued before it
+                    t0 = time.perf_counter()
+                    values = jax.device_get(evaluator(train_state))
+                    evaluations[position - first - 1] = (values, time.perf_counter() - t0)
+            metrics = jax.tree.map(lambda *xs: np.concatenate([np.asarray(x) for x in xs]), *jax.device_get(chunks))
+            if evaluate is not None:
+                metrics = _with_evaluations(metrics, evaluations)
+            for callback in callbacks:
+                callback(train_state, metrics, first)
+            failures = int(np.max(jax.device_get(train_state.failures)))
+            if failures >= max_consecutive_failures:
+                raise TrainingDiverged(
+                    f"{failures} consecutive updates produced non-finite parameters or losses "
+                    f"(iteration {first + n}); stopping instead of training on NaNs"
+                )
+            done += n
+    finally:
+        if evaluator is not None:
+            evaluator.wait()  # never leave a compilation running: exiting under one aborts the process
     return train_state

@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 import jaxpg
-from jaxpg import cli, evaluate, plotting, policy_io, runlog
+from jaxpg import cli, evaluate, plotting, policy_io, runlog, session
 
 ROOT = Path(__file__).resolve().parent.parent
 TINY = [
@@ -316,9 +316,10 @@ def test_profile(runs, capsys):
     from jaxpg import profiling
     from jaxpg.algos import ppo
 
-    plan = cli.Plan(run=runlog.RunConfig("t", "ppo", {}, [0], 1), run_dir=runs, module=ppo, env=None, config=None)
+    run = runlog.RunConfig("t", "ppo", {}, [0], 1)
+    plan = session.Plan(run=run, run_dir=runs, module=ppo, env=None, config=None)
     lines = []
-    assert cli.run_profile(plan, None, lines.append) is None
+    assert session.run_profile(plan, None, lines.append) is None
     assert "profiling isn't available for ppo" in lines[0]
     assert "npg" in profiling.PHASES
 

@@ -2,8 +2,9 @@
 algorithms build on it rather than on each other.
 
 * The import graph: every algorithm imports the core and at most the one shared piece of its
-  family (``natural_gradient`` for NPG and TRPO, ``actor_critic`` for PPO and A2C; VPG is
-  REINFORCE with a baseline), and REINFORCE imports nothing but the core.
+  family (``natural_gradient`` for NPG and TRPO, ``actor_critic`` for PPO and A2C; VPG and
+  ``reinforce_points`` are REINFORCE with a baseline or other returns), and REINFORCE imports
+  nothing but the core.
 * The sample budget against a NumPy loop, the end of an iteration (rollback on a non-finite
   update, on a KL beyond ``max_update_kl``, on a step the algorithm did not accept), the value-target
   statistics (outputs preserved), and the fields an algorithm does not use; under ``jit`` and without.
@@ -29,6 +30,7 @@ from jaxpg.rollout import Trajectory
 ALLOWED_ALGOS_IMPORTS = {
     "jaxpg.algos.reinforce": {"core"},
     "jaxpg.algos.vpg": {"core", "reinforce"},
+    "jaxpg.algos.reinforce_points": {"core", "reinforce"},
     "jaxpg.algos.npg": {"core", "natural_gradient"},
     "jaxpg.algos.trpo": {"core", "natural_gradient"},
     "jaxpg.algos.ppo": {"core", "actor_critic"},

@@ -344,7 +344,8 @@ def test_make_unknown_name_lists_known_names():
         envs.make("nope")
     for name in envs.names():
         assert name in str(error.value)
-    assert envs.names() == sorted(["cartpole", "hopper", "inverted_double_pendulum", "inverted_pendulum", "pong"])
+    expected = ["atari_pong", "cartpole", "hopper", "inverted_double_pendulum", "inverted_pendulum", "pong"]
+    assert envs.names() == sorted(expected)
 
 
 def test_wrappers_forward_task_attributes():

@@ -22,7 +22,7 @@ import numpy as np
 import pytest
 import test_cli
 
-from jaxpg import cli, envs, runlog
+from jaxpg import cli, envs, runlog, session
 from jaxpg.algos import npg, ppo
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -178,9 +178,9 @@ def test_overwritten_run_comes_back_when_the_new_run_writes_no_checkpoint(existi
     subprocess.run(["cp", "-r", str(existing), str(copy)], check=True)
     before = digest(copy)
     plan = cli.plan([*TINY, "--iterations", "4", "--run-dir", str(copy), "--overwrite"], cli.Experiment())
-    cli.prepare_run_dir(plan)
+    session.prepare_run_dir(plan)
     assert plan.replaced is not None and plan.replaced.exists() and digest(copy) != before
-    note = cli.finish_run_dir(plan, checkpointed=False)
+    note = session.finish_run_dir(plan, checkpointed=False)
     assert "is back" in note and digest(copy) == before and not plan.replaced.exists()
 
 
@@ -240,7 +240,7 @@ def test_interrupt_between_writing_the_run_directory_and_the_training_loop(tmp_p
         assert (plan_.run_dir / runlog.CONFIG_FILE).exists()
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(cli, "_train", interrupted)
+    monkeypatch.setattr(session, "_train", interrupted)
     run_dir = tmp_path / "run"
     try:
         status = cli.main([*TINY, "--iterations", "4", "--run-dir", str(run_dir)])

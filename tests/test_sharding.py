@@ -2,7 +2,7 @@
 
 The device count is fixed when JAX starts, so the multi-device checks run in subprocesses with
 ``XLA_FLAGS=--xla_force_host_platform_device_count=4`` (or 2). NPG on ``cartpole``, once on one
-device and once with the state on a 4-device mesh (``jaxpg.cli.shard_state``) and ``update``
+device and once with the state on a 4-device mesh (``jaxpg.distributed.shard_state``) and ``update``
 traced on it (``jaxpg.distributed.on_mesh``): sampling and evaluation then run under
 ``jax.shard_map``, each device stepping its own envs, and the learning side under jit's
 partitioner. Both must give the same metrics up to float reduction order.
@@ -46,7 +46,7 @@ CARTPOLE_SCRIPT = textwrap.dedent(
     import jaxpg.envs as envs
     from jaxpg import distributed, train
     from jaxpg.algos import npg
-    from jaxpg.cli import shard_state
+    from jaxpg.distributed import shard_state
 
     assert len(jax.devices()) == 4, jax.devices()
     mesh = distributed.env_mesh()
@@ -96,7 +96,7 @@ WARP_SCRIPT = textwrap.dedent(
     import jaxpg.envs as envs
     from jaxpg import distributed
     from jaxpg.algos import core, npg
-    from jaxpg.cli import shard_state
+    from jaxpg.distributed import shard_state
 
     warp.config.quiet = True
     assert len(jax.devices()) == 2, jax.devices()

@@ -13,6 +13,7 @@ ALGORITHMS: dict[str, str] = {
     "npg": "jaxpg.algos.npg",
     "trpo": "jaxpg.algos.trpo",
     "reinforce": "jaxpg.algos.reinforce",
+    "reinforce_points": "jaxpg.algos.reinforce_points",
     "vpg": "jaxpg.algos.vpg",
     "a2c": "jaxpg.algos.a2c",
     "ppo": "jaxpg.algos.ppo",

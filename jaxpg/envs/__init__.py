@@ -24,6 +24,8 @@ REGISTRY: dict[str, str] = {
     "inverted_double_pendulum": "jaxpg.envs.inverted_double_pendulum:InvertedDoublePendulum",
     "cartpole": "jaxpg.envs.cartpole:CartPole",
     "pong": "jaxpg.envs.pong:Pong",
+    # The Atari ROM through the Arcade Learning Environment (needs `pip install 'jaxpg[atari]'`).
+    "atari_pong": "jaxpg.envs.atari:AtariPong",
 }
 
 

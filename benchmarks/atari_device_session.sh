@@ -1,0 +1,66 @@
+#!/usr/bin/env bash
+# The GPU measurements of Atari Pong on the ROM (BENCHMARKS.md, section U), in stages that each fit
+# one call of the device tool (10 minutes). Not run yet: the figures are pending.
+#
+# The device machine reaches no package index: bring ale-py (and jaxtari, for `fps`) as wheels.
+# On the development machine, from the repository root:
+#   pip download --no-deps --only-binary=:all: --python-version 3.12 ale-py==0.12.1 jaxtari==0.2.0 -d wheels
+#   echo /wheels/ >> .git/info/exclude          # ignored, so the device tool can carry it
+# and run each stage with carry ["wheels"]. Then, on the device machine, from the repository root:
+#
+#   bash benchmarks/atari_device_session.sh fps       # frames/s of every path at 16-1024 envs
+#   bash benchmarks/atari_device_session.sh a2c       # A2C, 64 envs, 9 minutes of training, then ALE/Pong-v5
+#   bash benchmarks/atari_device_session.sh a2c 256   # the same with 256 envs
+#   bash benchmarks/atari_device_session.sh reinforce # reinforce_points, 64 envs, 9 minutes, then ALE/Pong-v5
+#   bash benchmarks/atari_device_session.sh envs      # MinPy's comparison on the ROM: 1 2 4 16 64 envs, 100 s each
+#
+# Runs go to runs/atari-*; logs to $OUT (default: benchmarks/results/latest). A training stage
+# stops after its time (`timeout`): its latest checkpoint (every 250 iterations) is evaluated, and
+# metrics.jsonl gives the env steps and wall-clock seconds of every iteration.
+set -u
+OUT=${OUT:-benchmarks/results/latest}
+mkdir -p "$OUT"
+export PYTHONUNBUFFERED=1
+py=${PYTHON:-python3}
+if ! $py -c "import ale_py" 2>/dev/null; then
+  $py -m pip install -q --no-index --no-deps wheels/ale_py-*.whl || { echo "error: no ale-py (see the top of $0)"; exit 2; }
+fi
+nvidia-smi --query-gpu=name,memory.total,driver_version --format=csv,noheader > "$OUT/gpu.txt" 2>&1
+nproc > "$OUT/cores.txt"
+
+train_and_evaluate() {  # algo num_envs seconds
+  local run=runs/atari-$1-$2
+  rm -rf "$run"
+  timeout "$3" $py experiments/atari_pong.py --algo "$1" --num-envs "$2" --iterations 1000000 \
+    --log-every 50 --checkpoint-every 250 --run-dir "$run" --no-progress 2>&1 | tee "$OUT/atari-$1-$2.log" \
+    | grep -v "A.L.E\|Stella"
+  cp "$run/metrics.jsonl" "$OUT/atari-$1-$2.metrics.jsonl"
+  for sticky in --sticky --no-sticky; do
+    timeout 120 $py -m jaxpg.evaluate "$run" --ale --episodes 10 $sticky 2>&1 | grep -v "A.L.E\|Stella" \
+      | tee -a "$OUT/atari-$1-$2.eval.txt"
+  done
+}
+
+case "${1:-}" in
+fps)
+  $py -m pip install -q --no-index --no-deps wheels/jaxtari-*.whl 2>/dev/null
+  timeout 570 $py benchmarks/atari_throughput.py --envs 16 64 256 1024 --seconds 5 2>&1 | grep -v "A.L.E\|Stella" \
+    | tee "$OUT/atari_throughput.txt"
+  ;;
+a2c)
+  train_and_evaluate a2c "${2:-64}" 540
+  ;;
+reinforce)
+  train_and_evaluate reinforce_points "${2:-64}" 540
+  ;;
+envs)
+  rm -rf runs/atari-envs
+  timeout 590 $py experiments/pong.py --task atari_pong --compare-envs 1 2 4 16 64 --minutes 1.6 \
+    --run-dir runs/atari-envs 2>&1 | grep -v "A.L.E\|Stella" | tee "$OUT/atari-envs.log"
+  cp runs/atari-envs/pong_envs.png runs/atari-envs/metrics.jsonl "$OUT/" 2>/dev/null
+  ;;
+*)
+  echo "usage: bash $0 fps|a2c [ENVS]|reinforce [ENVS]|envs"
+  exit 2
+  ;;
+esac

@@ -1,0 +1,85 @@
+"""Pong from pixels on the real Atari game: A2C or REINFORCE on ALE's Pong ROM, evaluated in ALE/Pong-v5.
+
+The task is ``atari_pong`` (``jaxpg.envs.atari``): ``--num-envs`` games of the Arcade Learning
+Environment's Pong with ``ALE/Pong-v5``'s settings (four frames per step, sticky actions 0.25),
+stepped by ALE's C++ thread pool on the host's CPU cores and fed to the jitted learner through a
+batched ``io_callback``; observations are Karpathy's 80x80 difference frames, actions {up, down}.
+The network is the seed's (MinPy's, Karpathy's): 6400 -> 200 (ReLU) -> action probabilities; A2C
+adds a value network of the same shape.
+
+* ``--algo a2c`` (default): synchronous advantage actor-critic, GAE(0.99, 0.95), t_max 8, Adam
+  1e-3, entropy bonus 0.01 (``experiments/pong.py``'s settings for jaxpg's own Pong).
+* ``--algo reinforce_points``: MinPy's first experiment, Karpathy's REINFORCE: returns that
+  restart at every point, normalised over the batch, one Adam step per 256 steps of every game.
+
+The run directory is ``jaxpg.cli``'s (``config.json``, ``metrics.jsonl`` with ``env_steps`` and
+``wall_time_s`` per iteration, Orbax checkpoints), so the trained policy plays the real game with
+
+    python -m jaxpg.evaluate RUN --ale --episodes 10              # ALE/Pong-v5, sticky actions
+    python -m jaxpg.evaluate RUN --ale --episodes 10 --no-sticky  # repeat_action_probability=0
+
+``return`` in the log is the score of the games that ended (points won minus lost). The games are
+not part of a checkpoint: ``--resume`` continues the networks on new games. Several seeds train
+in separate processes (each batch size has one pool of host games). Needs ``pip install
+'jaxpg[atari]'``. Every flag: ``python experiments/atari_pong.py --help``.
+"""
+
+from __future__ import annotations
+
+import sys
+from typing import Any
+
+from jaxpg.cli import Experiment, main
+
+# The seed's network: one hidden layer of 200 ReLU units.
+SEED_NETWORK: dict[str, Any] = dict(policy_hidden=(200,), policy_activation="relu")
+
+EXPERIMENT = Experiment(
+    task="atari_pong",
+    tasks=("atari_pong",),
+    algo="a2c",
+    iterations=20_000,
+    log_every=100,
+    checkpoint_every=1000,
+    config={
+        "a2c": dict(
+            **SEED_NETWORK,
+            value_hidden=(200,),
+            value_activation="relu",
+            num_envs=64,
+            horizon=8,
+            optimizer="adam",
+            lr=1e-3,
+            gamma=0.99,
+            gae_lambda=0.95,
+            entropy_coef=0.01,
+            value_coef=0.5,
+            max_grad_norm=0.5,
+            eval_envs=0,
+        ),
+        "reinforce_points": dict(**SEED_NETWORK, num_envs=64, horizon=256, lr=1e-3, gamma=0.99, eval_envs=0),
+        "reinforce": dict(
+            **SEED_NETWORK, num_envs=64, horizon=256, sampling="continuing", return_normalization="batch", eval_envs=0
+        ),
+    },
+    prog="python experiments/atari_pong.py",
+    description=__doc__.split("\n\n")[0],
+    epilog="""\
+examples (a CPU with a few cores: thousands of steps per second; see BENCHMARKS.md):
+  python experiments/atari_pong.py --num-envs 16 --iterations 2000 --run-dir runs/atari-a2c
+  python -m jaxpg.evaluate runs/atari-a2c --ale --episodes 10
+
+one GPU and its host's 16 cores (the issue's goal: a score > 0 over 10 games of ALE/Pong-v5):
+  python experiments/atari_pong.py --algo a2c --num-envs 64 --iterations 40000 --run-dir runs/atari-a2c
+  python experiments/atari_pong.py --algo reinforce_points --num-envs 64 --iterations 2000 \\
+      --run-dir runs/atari-reinforce
+  python -m jaxpg.evaluate runs/atari-a2c --ale --episodes 10 && \\
+      python -m jaxpg.evaluate runs/atari-a2c --ale --episodes 10 --no-sticky
+
+MinPy's comparison on the real game (running reward against wall-clock time, 1 to 64 envs):
+  python experiments/pong.py --task atari_pong --compare-envs 1 2 4 16 64 --minutes 20
+""",
+)
+
+if __name__ == "__main__":
+    sys.exit(main(experiment=EXPERIMENT))

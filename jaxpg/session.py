@@ -1,0 +1,629 @@
+"""The host side of a training run: the run directory, the training loop's callbacks, checkpoints,
+evaluation between compiled calls, videos, curves, interrupts and the end-of-run report.
+
+``jaxpg.cli`` parses a command into a ``Plan`` (nothing written or compiled yet) and hands it to
+``execute``; notebooks and benchmarks can do the same with a plan of their own
+(``cli.plan(argv, experiment)``) to get a run directory that ``jaxpg.evaluate``,
+``jaxpg.policy_io.load_policy`` and ``--resume`` read.
+
+    plan = jaxpg.cli.plan(["--env", "cartpole", "--iterations", "20", "--run-dir", "runs/cp"], experiment)
+    status = jaxpg.session.execute(plan)    # 0: trained; 130/143: interrupted, checkpoint written
+
+What ``execute`` guarantees: the initial state is built (and compiled) before the run directory
+is touched; ``--overwrite`` moves the old run aside until the new one has a checkpoint; SIGINT /
+SIGTERM finish the current compiled call, write a checkpoint and exit with 130 / 143; write and
+checkpoint errors are one ``error:`` line with status 2; process 0 alone writes files.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import datetime
+import functools
+import json
+import os
+import shutil
+import signal
+import sys
+import time
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from jaxpg import runlog
+from jaxpg.runlog import RunConfig
+
+
+@dataclasses.dataclass
+class Plan:
+    """A checked run: everything is known, nothing is written or compiled yet."""
+
+    run: RunConfig
+    run_dir: Path
+    module: Any
+    env: Any
+    config: Any
+    start: int = 0
+    state: Any = None
+    overwrite: bool = False
+    replaced: Path | None = None  # the old run that --overwrite moved aside
+    created: bool = False  # this run created its directory
+    profile: bool = False
+    progress: bool | None = None
+    command: list[str] = dataclasses.field(default_factory=list)
+
+
+@functools.lru_cache(maxsize=16)
+def _compiled_init(module: Any, env: Any, config: Any, seeds: tuple[int, ...]) -> Any:
+    """Jitted ``init`` (several seeds: ``train.init_seeds``), cached so that runs in one process
+    share the compiled program."""
+    import jax
+
+    from jaxpg import train
+
+    if len(seeds) > 1:
+        return jax.jit(lambda: train.init_seeds(module.init, seeds, env, config))
+    return jax.jit(lambda key: module.init(key, env, config))
+
+
+def initial_state(module: Any, env: Any, config: Any, seeds: Sequence[int]) -> Any:
+    import jax
+
+    init = _compiled_init(module, env, config, tuple(seeds))
+    return init() if len(seeds) > 1 else init(jax.random.PRNGKey(seeds[0]))
+
+
+def distinct_buffers(tree: Any) -> Any:
+    """A copy of ``tree`` in which no two leaves share a device buffer (the training step donates
+    its input, and XLA refuses to donate one buffer twice)."""
+    import jax
+
+    seen: set[int] = set()
+
+    def fresh(x: Any) -> Any:
+        try:
+            ptr = x.unsafe_buffer_pointer()
+        except Exception:  # noqa: BLE001 - sharded or deleted arrays: copy to be safe
+            return jax.numpy.array(x, copy=True)
+        if ptr in seen:
+            return jax.numpy.array(x, copy=True)
+        seen.add(ptr)
+        return x
+
+    return jax.tree.map(fresh, tree)
+
+
+def _seed_slice(tree: Any, index: int, vmap_seeds: bool) -> Any:
+    import jax
+
+    return jax.tree.map(lambda x: x[index], tree) if vmap_seeds else tree
+
+
+def run_profile(plan_: Plan, ts: Any, out: Any) -> dict[str, float] | None:
+    """Time each phase of one iteration (``jaxpg.profiling.profile_phases``)."""
+    from jaxpg import profiling
+
+    run = plan_.run
+    if run.algo not in profiling.PHASES:
+        known = ", ".join(sorted(profiling.PHASES))
+        out(f"--profile: profiling isn't available for {run.algo} (jaxpg.profiling has phases for {known})")
+        return None
+    out(f"profiling one {run.algo} iteration as separately jitted phases (compiling them first) ...")
+    _, timings = profiling.profile_phases(run.algo, _seed_slice(ts, 0, run.vmap_seeds))
+    timings = {k: float(v) for k, v in timings.items()}
+    total = sum(timings.values())
+    samples = plan_.config.samples_per_iteration
+    lines = [f"phase timings of one iteration ({samples:,} samples, seed {run.seeds[0]}):"]
+    for name, seconds in timings.items():
+        share = 100 * seconds / total if total > 0 else 0.0
+        lines.append(f"  {name:<14} {seconds * 1e3:10.2f} ms  {share:5.1f}%")
+    lines.append(f"  {'sum':<14} {total * 1e3:10.2f} ms  ({samples / total if total > 0 else 0:,.0f} samples/s)")
+    out("\n".join(lines))
+    return timings
+
+
+class _Callbacks:
+    """Host side of training: metrics, progress, summaries, checkpoints, videos, curves."""
+
+    def __init__(
+        self,
+        plan_: Plan,
+        checkpoints: Any,
+        writer: runlog.MetricsWriter,
+        progress: runlog.Progress,
+        wall_offset: float,
+        interrupts: Any = None,
+    ):
+        self.plan, self.run = plan_, plan_.run
+        self.checkpoints, self.writer, self.progress = checkpoints, writer, progress
+        self.wall_offset = wall_offset
+        self.t_start = self.t_last = time.perf_counter()
+        self.pending: list[dict[str, np.ndarray]] = []
+        self.pending_steps = 0
+        self.pending_time = 0.0
+        self.first_block = True
+        self.last_saved = plan_.start
+        self.last_iteration = plan_.start
+        self.block_times: list[tuple[int, float]] = []
+        self.videos_enabled = self.run.video_every > 0
+        self.samples = plan_.config.samples_per_iteration * len(self.run.seeds)
+        self.primary = _primary()
+        self.eval_seconds = 0.0
+        self.evaluations = 0
+        self.overflow_noted = False
+        self.interrupts = interrupts
+
+    def _wall(self, now: float) -> float:
+        return self.wall_offset + (now - self.t_start)
+
+    def __call__(self, ts: Any, metrics: dict[str, np.ndarray], first: int) -> None:
+        if self.interrupts is not None:
+            self.interrupts.graceful = True  # a call has finished: from now on interrupts checkpoint first
+        now = time.perf_counter()
+        duration = now - self.t_last
+        n = len(next(iter(metrics.values())))
+        last = first + n
+        wall_times = [self._wall(self.t_last + duration * (i + 1) / n) for i in range(n)]
+        self.t_last = now
+        # Evaluation ran between this block's training calls: keep it out of the training rate.
+        eval_s = float(np.max(np.sum(metrics["eval_seconds"], axis=0))) if "eval_seconds" in metrics else 0.0
+        self.eval_seconds += eval_s
+        self.evaluations += int(np.max(np.sum(metrics.get("evaluated", np.zeros(1)), axis=0)))
+        train_s = max(duration - eval_s, 1e-9)
+        self.block_times.append((n, train_s))
+        self.writer.write(runlog.block_records(metrics, first, self.run.seeds, wall_times))
+        steps_per_s = self.samples * n / train_s
+        self.progress.update(n, metrics, steps_per_s)
+        self.pending.append(metrics)
+        self.pending_steps += self.samples * n
+        self.pending_time += train_s
+        self.last_iteration = last
+        at_end = last >= self.run.iterations
+        self._note_overflow(metrics, first)
+        if last % self.run.log_every == 0 or at_end:
+            merged = {k: np.concatenate([m[k] for m in self.pending]) for k in self.pending[0]}
+            rate = self.pending_steps / max(self.pending_time, 1e-9)
+            note = " (incl. compile)" if self.first_block else ""
+            line = runlog.summary_line(merged, last, self.run.iterations, rate, note, self.eta(last))
+            self.progress.write(line)
+            self._note_rejections(merged, last - len(next(iter(merged.values()))))
+            self.pending, self.pending_steps, self.pending_time = [], 0, 0.0
+            self.first_block = False
+        if (self.run.checkpoint_every and last % self.run.checkpoint_every == 0) or at_end:
+            self.save(ts, last, metrics)  # every process: gathers the state; process 0 writes
+            if self.primary:
+                self.plot()
+        if self.primary and self.videos_enabled and (last % self.run.video_every == 0 or at_end):
+            self.video(ts, last)
+        if self.interrupts is not None and self.interrupts.requested is not None:
+            if self.last_saved != last:
+                self.save(ts, last, metrics)
+                if self.primary:
+                    self.plot()
+            raise _Stop(self.interrupts.requested)
+        # Host work (checkpoints, plots, videos) is left out of the next block's throughput.
+        self.t_last = time.perf_counter()
+
+    def _note_rejections(self, metrics: dict[str, np.ndarray], first: int) -> None:
+        """One line per block in which updates were rolled back (trust region or non-finite) or
+        TRPO's line search accepted no step, so that a policy that stops moving says why."""
+        n = len(next(iter(metrics.values())))
+        rejected = np.asarray(metrics.get("update_rejected", np.zeros(n))).reshape(n, -1).max(axis=1)
+        if "line_search_accepted" in metrics:
+            no_step = np.asarray(metrics["line_search_accepted"]).reshape(n, -1).min(axis=1) == 0
+            if no_step.any():
+                self.progress.write(
+                    f"warning: TRPO's line search accepted no step in {int(no_step.sum())} of iterations "
+                    f"{first + 1}-{first + n} (the policy did not move; is max_kl {self.plan.config.max_kl} too large "
+                    "or too small?)"
+                )
+        if rejected.any():
+            limit = getattr(self.plan.config, "max_update_kl", 0)
+            self.progress.write(
+                f"warning: {int((rejected > 0).sum())} of iterations {first + 1}-{first + n} were rolled back "
+                f"(mean KL above max_update_kl {limit}, or non-finite values); lower the step size or learning rate"
+            )
+
+    def eta(self, last: int) -> float | None:
+        """Seconds left at the training rate measured after the first block (which compiles), plus
+        the evaluations still due at their measured cost; ``None`` until a block after the first."""
+        timed = self.block_times[1:]
+        iterations = sum(n for n, _ in timed)
+        if not iterations:
+            return None
+        left = self.run.iterations - last
+        per_eval = self.eval_seconds / self.evaluations if self.evaluations else 0.0
+        every = int(self.plan.config.eval_every) if getattr(self.plan.config, "eval_envs", 0) else 0
+        evals_left = (left // every if every else 0) + (1 if every else 0)
+        return left * sum(t for _, t in timed) / iterations + evals_left * per_eval
+
+    def _note_overflow(self, metrics: dict[str, np.ndarray], first: int) -> None:
+        """One line, the first time the physics reports an overflow (MuJoCo Warp's solver at its
+        iteration limit, or a full contact buffer); afterwards only the metric counts them."""
+        if self.overflow_noted or "physics_overflow" not in metrics:
+            return
+        counts = np.asarray(metrics["physics_overflow"]).reshape(len(metrics["physics_overflow"]), -1).sum(axis=1)
+        hits = np.flatnonzero(counts > 0)
+        if hits.size:
+            self.overflow_noted = True
+            row = int(hits[0])
+            self.progress.write(
+                f"note: the physics hit a solver or buffer limit in {counts[row]:.0f} of "
+                f"{self.samples:,} env steps of iteration {first + row + 1} (MuJoCo Warp overflow flags; "
+                "counted per iteration in metrics.jsonl as physics_overflow, not reported again)"
+            )
+
+    def save(self, ts: Any, step: int, metrics: dict[str, np.ndarray]) -> None:
+        last_metrics = {
+            k: float(np.nanmean(v[-1])) if not np.all(np.isnan(v[-1])) else None for k, v in metrics.items()
+        }
+        self.checkpoints.save(
+            step,
+            ts,
+            score=runlog.latest_score(metrics),
+            metrics=last_metrics,
+            info={"task": self.run.task, "algo": self.run.algo, "seeds": self.run.seeds},
+        )
+        self.last_saved = step
+
+    def plot(self) -> None:
+        try:
+            from jaxpg import plotting
+
+            plotting.plot_run(self.plan.run_dir, task_score_name=self.plan.env.task_score_name)
+        except Exception as e:  # noqa: BLE001 - a plot must never stop training
+            self.progress.write(f"warning: curves.png not updated ({type(e).__name__}: {e})")
+
+    def video(self, ts: Any, step: int) -> None:
+        from jaxpg import distributed
+        from jaxpg import video as video_lib
+
+        path = self.plan.run_dir / runlog.VIDEO_DIR / f"iter_{step:06d}.mp4"
+        try:
+            # Host copies: the video is recorded by process 0 alone, off the training mesh.
+            params = _seed_slice(distributed.host_copy(ts.params), 0, self.run.vmap_seeds)
+            stats = _seed_slice(distributed.host_copy(ts.obs_stats), 0, self.run.vmap_seeds)
+            out, ret, length = video_lib.record_policy(self.plan.env, ts.policy, params, stats, path, seed=step)
+            self.progress.write(
+                f"video {out} (mean policy, seed {self.run.seeds[0]}: return {ret:.1f}, {length} steps)"
+            )
+        except Exception as e:  # noqa: BLE001 - videos are optional: warn once, go on training
+            self.videos_enabled = False
+            self.progress.write(f"warning: videos disabled: {type(e).__name__}: {e}")
+
+
+def _primary() -> bool:
+    """This process writes files and prints (``jaxpg.distributed.is_primary``)."""
+    from jaxpg import distributed
+
+    return distributed.is_primary()
+
+
+def _print(line: str) -> None:
+    if _primary():
+        print(line, flush=True)
+
+
+class _Silent:
+    """Metrics writer and progress of the processes other than 0, which write nothing."""
+
+    def write(self, *args: Any) -> None:
+        pass
+
+    def add_text(self, *args: Any) -> None:
+        pass
+
+    def update(self, *args: Any) -> None:
+        pass
+
+    def close(self) -> None:
+        pass
+
+
+def prepare_run_dir(plan_: Plan) -> float:
+    """Create (or replace, or reopen) the run directory; returns the wall-time offset.
+
+    ``--overwrite`` moves the old run aside (``plan_.replaced``) instead of deleting it: it is
+    deleted once the new run has written a checkpoint, and put back if the new run stops before
+    (``finish_run_dir``), so that nothing on disk is lost to a run that never got going.
+    """
+    run_dir, run = plan_.run_dir, plan_.run
+    if plan_.start > 0:
+        wall_offset = runlog.truncate_metrics(run_dir, plan_.start)
+        history = run.info.setdefault("resumes", [])
+        history.append(
+            {
+                "from_iteration": plan_.start,
+                "command": " ".join(plan_.command),
+                "time": datetime.datetime.now().astimezone().isoformat(timespec="seconds"),
+            }
+        )
+        run.save(run_dir)
+        return wall_offset
+    if plan_.overwrite and run_dir.exists() and any(run_dir.iterdir()):
+        plan_.replaced = run_dir.with_name(f"{run_dir.name}.replaced-{os.getpid()}")
+        run_dir.rename(plan_.replaced)
+    plan_.created = not run_dir.exists()
+    run_dir.mkdir(parents=True, exist_ok=True)
+    run.info = runlog.provenance([sys.argv[0], *plan_.command])
+    run.save(run_dir)
+    return 0.0
+
+
+def finish_run_dir(plan_: Plan, checkpointed: bool) -> str:
+    """After the run: drop the run it replaced once the new one has a checkpoint; otherwise (it
+    stopped before its first checkpoint) remove the new directory and put back what was there, so
+    that the same command can simply be run again. Returns a note for the user ('' if none)."""
+    run_dir = plan_.run_dir
+    if plan_.start > 0:
+        return ""
+    if checkpointed:
+        if plan_.replaced is not None:
+            shutil.rmtree(plan_.replaced, ignore_errors=True)
+        return ""
+    if plan_.replaced is not None:
+        shutil.rmtree(run_dir, ignore_errors=True)
+        plan_.replaced.rename(run_dir)
+        return f"; the run it was replacing is back in {run_dir}"
+    if plan_.created:
+        shutil.rmtree(run_dir, ignore_errors=True)
+        return f"; {run_dir} was removed (no checkpoint had been written)"
+    return ""
+
+
+class _Stop(Exception):
+    """Raised by the callbacks after an interrupt, once the current compiled call has finished and
+    its checkpoint is written."""
+
+    def __init__(self, signum: int):
+        super().__init__(signal.Signals(signum).name)
+        self.signum = signum
+
+
+class _Interrupts:
+    """SIGINT and SIGTERM. Once the first compiled call has finished (``graceful``), the first
+    signal asks to stop after the current call (``requested``) and a second SIGINT stops at once;
+    before that (building the state, compiling) any of them stops at once (``KeyboardInterrupt``),
+    so that an interrupted start leaves nothing behind. Only in a single-process run: several
+    processes must agree on when to stop, which they cannot here."""
+
+    def __init__(self) -> None:
+        self.requested: int | None = None
+        self.graceful = False
+        self.previous: dict[int, Any] = {}
+
+    def __enter__(self) -> _Interrupts:
+        import jax
+
+        if jax.process_count() == 1:
+            for signum in (signal.SIGINT, signal.SIGTERM):
+                self.previous[signum] = signal.signal(signum, self._handle)
+        return self
+
+    def _handle(self, signum: int, frame: Any) -> None:
+        at_once = not self.graceful or (self.requested is not None and signum == signal.SIGINT)
+        self.requested = signum if self.requested is None else self.requested
+        if at_once:
+            self.requested = signum
+            raise KeyboardInterrupt
+
+    def __exit__(self, *exc: Any) -> None:
+        for signum, handler in self.previous.items():
+            signal.signal(signum, handler)
+
+
+def _exit_status(signum: int) -> int:
+    return 128 + int(signum)
+
+
+def execute(plan_: Plan) -> int:
+    """Train as planned; returns the exit status.
+
+    The initial state is built (and its program compiled) before the run directory is touched.
+    SIGINT / SIGTERM finish the current compiled call, write a checkpoint, print one line and exit
+    with 130 / 143; a second SIGINT exits at once. Write errors (disk full, permissions) and
+    checkpoint errors are one ``error:`` line with status 2.
+    """
+    from jaxpg import distributed
+
+    run, run_dir = plan_.run, plan_.run_dir
+    primary = _primary()
+    with _Interrupts() as interrupts:
+        try:
+            ts = plan_.state
+            if ts is None:
+                ts = initial_state(plan_.module, plan_.env, plan_.config, run.seeds)
+        except KeyboardInterrupt:
+            name = signal.Signals(interrupts.requested or signal.SIGINT).name
+            print(f"\n{name}: stopped before training started; nothing was written", file=sys.stderr)
+            return _exit_status(interrupts.requested or signal.SIGINT)
+        # Process 0 writes the run directory once every process has checked it, before any reads it.
+        distributed.barrier("jaxpg: planned")
+        lock = runlog.RunLock(run_dir)
+        try:
+            try:
+                if primary:
+                    if run_dir.exists() and plan_.start > 0:
+                        lock.acquire()
+                    wall_offset = prepare_run_dir(plan_)
+                    if not lock.held:
+                        lock.acquire()
+                else:
+                    wall_offset = 0.0
+            except OSError as e:
+                print(f"error: cannot write the run directory {str(run_dir)!r}: {e.strerror or e}", file=sys.stderr)
+                return 2
+            except runlog.RunDirError as e:
+                print(f"error: {e}", file=sys.stderr)
+                return 2
+            return _train(plan_, ts, wall_offset, interrupts)
+        except KeyboardInterrupt:
+            # While writing the run directory or between that and the training loop's own handler
+            # (imports, profiling, device placement): the same clean-up as an interrupt in the
+            # first block.
+            note = finish_run_dir(plan_, checkpointed=plan_.start > 0) if primary else ""
+            resume = f"; continue with: python -m jaxpg.cli --resume {run_dir}" if plan_.start > 0 else ""
+            signum = interrupts.requested or signal.SIGINT
+            print(f"\n{signal.Signals(signum).name}: stopped at once{resume}{note}", file=sys.stderr)
+            return _exit_status(signum)
+        finally:
+            lock.release()
+
+
+def _train(plan_: Plan, ts: Any, wall_offset: float, interrupts: _Interrupts) -> int:
+    """The training loop of ``execute``, in a prepared and locked run directory."""
+    import jax
+
+    from jaxpg import checkpoint as ckpt_lib
+    from jaxpg import distributed, train
+
+    run, run_dir = plan_.run, plan_.run_dir
+    primary = _primary()
+    distributed.barrier("jaxpg: run directory ready")
+    verb = f"resuming at iteration {plan_.start}" if plan_.start else "training"
+    seeds = " ".join(map(str, run.seeds))
+    _print(
+        f"{verb}: {run.algo} on {run.task} ({plan_.env!r}), seed{'s' if len(run.seeds) > 1 else ''} {seeds}, "
+        f"{run.iterations} iterations of {plan_.config.samples_per_iteration:,} samples, "
+        f"{jax.device_count()} {jax.devices()[0].device_kind} device(s)"
+        f"{f' in {jax.process_count()} processes' if jax.process_count() > 1 else ''} -> {run_dir}"
+    )
+    ts = distinct_buffers(ts)
+    update, evaluate = plan_.module.update, train.evaluate_state
+    mesh = distributed.env_mesh() if run.shard else None
+    if mesh is not None:
+        # The env batch splits over the mesh: sampling under shard_map, learning under jit's partitioner.
+        ts = distributed.shard_state(ts, run.vmap_seeds, mesh)
+        update = distributed.on_mesh(update, mesh)
+        evaluate = distributed.on_mesh(evaluate, mesh)
+    if plan_.profile:
+        with jax.set_mesh(mesh) if mesh is not None else contextlib.nullcontext():
+            timings = run_profile(plan_, ts, _print)
+        if timings is not None and primary:
+            runlog.write_json_atomic(run_dir / "profile.json", {"phases_s": timings, "iteration": plan_.start})
+    remaining = run.iterations - plan_.start
+    if remaining <= 0:
+        _print(f"nothing to do: {run_dir} has done {plan_.start} of {run.iterations} iterations (raise --iterations)")
+        return 0
+    checkpoints = writer = progress = None
+    status = 0
+    callbacks: _Callbacks | None = None
+    try:
+        checkpoints = ckpt_lib.Checkpointer(run_dir / runlog.CHECKPOINT_DIR, keep=run.keep_checkpoints, create=True)
+        writer = runlog.MetricsWriter(run_dir, run.seeds, start_iteration=plan_.start) if primary else _Silent()
+        if plan_.start == 0:
+            writer.add_text("config", "```\n" + json.dumps(run.to_json(), indent=2) + "\n```")
+        progress = (
+            runlog.Progress(run.iterations, initial=plan_.start, enabled=plan_.progress, desc=f"{run.algo} {run.task}")
+            if primary
+            else _Silent()
+        )
+        callbacks = _Callbacks(plan_, checkpoints, writer, progress, wall_offset, interrupts)
+        block = run.block_size
+        # Blocks start at multiples of block_size, as in an uninterrupted run.
+        segments = []
+        misaligned = (-plan_.start) % block
+        if misaligned:
+            segments.append(min(misaligned, remaining))
+        if remaining - sum(segments) > 0:
+            segments.append(remaining - sum(segments))
+        for index, count in enumerate(segments):
+            ts = train.train(
+                update,
+                ts,
+                count,
+                block_size=min(block, count),
+                callbacks=[callbacks],
+                seeds=run.vmap_seeds,
+                evaluate=evaluate,
+                final_eval=index == len(segments) - 1,  # the run's last iteration is always evaluated
+            )
+    except _Stop as stop:
+        progress.close()
+        print(
+            f"{stop}: stopped after iteration {callbacks.last_iteration}, checkpoint {callbacks.last_saved} written. "
+            f"Continue with: python -m jaxpg.cli --resume {run_dir}",
+            file=sys.stderr,
+        )
+        status = _exit_status(stop.signum)
+    except KeyboardInterrupt:
+        if progress is not None:
+            progress.close()
+        saved = callbacks.last_saved if callbacks is not None else plan_.start
+        note = finish_run_dir(plan_, checkpointed=saved > 0) if primary else ""
+        resume = f"; continue from checkpoint {saved} with: python -m jaxpg.cli --resume {run_dir}" if saved else ""
+        signum = interrupts.requested or signal.SIGINT
+        print(f"\n{signal.Signals(signum).name}: stopped at once{resume}{note}", file=sys.stderr)
+        return _exit_status(signum)
+    except train.TrainingDiverged as e:
+        progress.close()
+        print(f"error: {e}; metrics and checkpoints up to then are in {run_dir}", file=sys.stderr)
+        status = 1
+    except (OSError, ckpt_lib.CheckpointError) as e:
+        if progress is not None:
+            progress.close()
+        what = f"{e.strerror}: {e.filename}" if isinstance(e, OSError) and e.strerror else str(e).splitlines()[0]
+        hint = " (disk full?)" if isinstance(e, OSError) and e.errno == 28 else ""
+        print(f"error: writing the run directory failed: {what}{hint}", file=sys.stderr)
+        status = 2
+    finally:
+        for closable in (progress, writer, checkpoints):
+            if closable is not None:
+                try:
+                    closable.close()
+                except Exception:  # noqa: BLE001 - closing after a failure must not hide it
+                    pass
+    if primary:
+        saved = callbacks.last_saved if callbacks is not None else plan_.start
+        note = finish_run_dir(plan_, checkpointed=saved > 0)
+        if note:
+            print(f"the run stopped before its first checkpoint{note}", file=sys.stderr)
+    if status == 0 and primary:
+        _report_end(plan_, callbacks)
+    distributed.barrier("jaxpg: done")  # the processes leave together (JAX's shutdown waits for all)
+    return status
+
+
+def _report_end(plan_: Plan, callbacks: _Callbacks) -> None:
+    run, run_dir = plan_.run, plan_.run_dir
+    # The first block includes compilation.
+    timed = callbacks.block_times[1:]
+    iters = sum(n for n, _ in timed)
+    secs = sum(t for _, t in timed)
+    total = sum(t for _, t in callbacks.block_times)
+    total += callbacks.eval_seconds
+    if iters and secs > 0:
+        rate = callbacks.samples * iters / secs
+        _print(f"done in {total:.1f} s: {secs / iters:.3f} s per iteration, {rate:,.0f} env steps/s after compilation")
+    else:
+        _print(f"done in {total:.1f} s (including compilation)")
+    if callbacks.evaluations:
+        share = 100 * callbacks.eval_seconds / max(total, 1e-9)
+        _print(
+            f"evaluation: {callbacks.evaluations} of the mean policy ({run.config.get('eval_envs')} episodes each), "
+            f"{callbacks.eval_seconds:.1f} s ({share:.1f}% of the training loop's wall clock)"
+        )
+    if plan_.profile and iters:
+        seeds = f", {len(run.seeds)} seeds vmapped" if run.vmap_seeds else ""
+        _print(f"fused update (scan of {run.block_size} iterations{seeds}): {secs / iters * 1e3:.2f} ms per iteration")
+    try:
+        from jaxpg import checkpoint as ckpt_lib
+
+        checkpoints = ckpt_lib.Checkpointer(run_dir / runlog.CHECKPOINT_DIR, keep=None)
+        best, latest = checkpoints.best_step(), checkpoints.latest_step()
+        if best is not None and best != latest:
+            score = checkpoints.score(best)
+            _print(f"best checkpoint: iteration {best} (return {score:.1f}); evaluate it with --step best")
+        checkpoints.close()
+    except ValueError:
+        pass
+    _print(f"run directory: {run_dir}  (metrics.jsonl, curves.png, tensorboard/, checkpoints/)")
+    if run.task == "atari_pong":  # the real game is ALE's: play it there
+        _print(f"evaluate: python -m jaxpg.evaluate {run_dir} --ale --episodes 10 [--no-sticky]")
+        return
+    _print(
+        f"evaluate: python -m jaxpg.evaluate {run_dir} --episodes 10 [--gymnasium] [--video {run_dir}/videos/final.mp4]"
+    )

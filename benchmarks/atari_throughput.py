@@ -94,14 +94,14 @@ def a2c_state(num_envs: int) -> Any:
 
 def atari_pong_scan(num_envs: int, seconds: float, blocks: int = 8) -> float:
     """Agent steps per second of sampling alone (the task and the policy in a jitted scan)."""
-    from jaxpg.algos import common
+    from jaxpg.algos import core
 
     box = [a2c_state(num_envs)]
 
     @jax.jit
     def run(ts: Any) -> Any:
         def body(ts: Any, key: jax.Array) -> tuple[Any, None]:
-            env_state, _ = common.sample(ts, key)
+            env_state, _ = core.sample(ts, key)
             return ts.replace(env_state=env_state), None
 
         return jax.lax.scan(body, ts, jax.random.split(jax.random.PRNGKey(1), blocks))[0]

@@ -24,7 +24,7 @@ from typing import Any
 BASE: dict[str, Any] = dict(
     num_envs=256,
     horizon=64,
-    step_size=0.05,
+    kl_delta=0.05,
     normalize_observations=True,
     log_std_init=-0.5,
     value_hidden=(128, 128),
@@ -35,11 +35,11 @@ BASE: dict[str, Any] = dict(
 
 SETTINGS: dict[str, dict[str, Any]] = {
     "base": {},
-    "step07": dict(step_size=0.07),
-    "step10": dict(step_size=0.1),
+    "step07": dict(kl_delta=0.07),
+    "step10": dict(kl_delta=0.1),
     "h32": dict(horizon=32),
-    "h32s035": dict(horizon=32, step_size=0.035),
-    "h32s07": dict(horizon=32, step_size=0.07),
+    "h32s035": dict(horizon=32, kl_delta=0.035),
+    "h32s07": dict(horizon=32, kl_delta=0.07),
     "vep10": dict(value_epochs=10),
     "vep10lr3": dict(value_epochs=10, value_lr=3e-3),
     "g99": dict(gamma=0.99, gae_lambda=0.95),
@@ -47,22 +47,22 @@ SETTINGS: dict[str, dict[str, Any]] = {
     "std1": dict(log_std_init=-1.0),
     "pol32": dict(policy_hidden=(32, 32)),
     "damp01": dict(cg_damping=0.1),
-    "step07vep10": dict(step_size=0.07, value_epochs=10),
+    "step07vep10": dict(kl_delta=0.07, value_epochs=10),
     "h32vep10": dict(horizon=32, value_epochs=10),
     "vb256": dict(value_batch_size=256),
     "cg20": dict(cg_iters=20),
-    "s07g99": dict(step_size=0.07, gamma=0.99, gae_lambda=0.95),
-    "s07std1": dict(step_size=0.07, log_std_init=-1.0),
-    "s10vep10": dict(step_size=0.1, value_epochs=10),
-    "s07vep10lr3": dict(step_size=0.07, value_epochs=10, value_lr=3e-3),
+    "s07g99": dict(kl_delta=0.07, gamma=0.99, gae_lambda=0.95),
+    "s07std1": dict(kl_delta=0.07, log_std_init=-1.0),
+    "s10vep10": dict(kl_delta=0.1, value_epochs=10),
+    "s07vep10lr3": dict(kl_delta=0.07, value_epochs=10, value_lr=3e-3),
     # Around the command line's default (step 0.07, 10 value epochs):
-    "vnorm": dict(step_size=0.07, value_epochs=10, normalize_value_targets=True),
-    "std0": dict(step_size=0.07, value_epochs=10, log_std_init=0.0),
-    "vnorm_std0": dict(step_size=0.07, value_epochs=10, normalize_value_targets=True, log_std_init=0.0),
-    "lam95": dict(step_size=0.07, value_epochs=10, gae_lambda=0.95),
-    "vnorm_s10": dict(step_size=0.1, value_epochs=10, normalize_value_targets=True),
-    "vnorm_vep5": dict(step_size=0.07, value_epochs=5, normalize_value_targets=True),
-    "vep20": dict(step_size=0.07, value_epochs=20),
+    "vnorm": dict(kl_delta=0.07, value_epochs=10, normalize_value_targets=True),
+    "std0": dict(kl_delta=0.07, value_epochs=10, log_std_init=0.0),
+    "vnorm_std0": dict(kl_delta=0.07, value_epochs=10, normalize_value_targets=True, log_std_init=0.0),
+    "lam95": dict(kl_delta=0.07, value_epochs=10, gae_lambda=0.95),
+    "vnorm_s10": dict(kl_delta=0.1, value_epochs=10, normalize_value_targets=True),
+    "vnorm_vep5": dict(kl_delta=0.07, value_epochs=5, normalize_value_targets=True),
+    "vep20": dict(kl_delta=0.07, value_epochs=20),
 }
 
 
@@ -81,7 +81,7 @@ def run_setting(
     import numpy as np
 
     from jaxpg import envs, train
-    from jaxpg.algos import common, npg
+    from jaxpg.algos import core, npg
 
     config = npg.Config(**{**BASE, **overrides})
     batch = max(config.num_envs, eval_envs) * len(seeds)
@@ -91,7 +91,7 @@ def run_setting(
     @jax.jit
     def evaluate(ts: Any, key: jax.Array) -> Any:
         keys = jax.random.split(key, len(seeds))
-        return jax.vmap(lambda t, k: common.evaluate(t.replace(config=eval_config), k))(ts, keys)
+        return jax.vmap(lambda t, k: core.evaluate(t.replace(config=eval_config), k))(ts, keys)
 
     start = time.perf_counter()
     ts = train.init_seeds(npg.init, seeds, env, config)

@@ -6,7 +6,7 @@ For each device count ``k`` (in a fresh process; the env mesh over the first ``k
 
   raw       env steps/s of the simulation alone: the same env (automatic reset included), batch and
             horizon, random actions, each device stepping its own envs under ``jax.shard_map``;
-  sample    env steps/s of NPG's sampling alone (the policy acting, ``npg.phase_sample``);
+  sample    env steps/s of NPG's sampling alone (the policy acting, ``core.phase_sample``);
   train     env steps/s of whole NPG iterations (sampling, GAE, gradient, CG on Fisher-vector
             products, value fit; the ``hopper_gpu`` preset without evaluation), compiled and
             called as ``jaxpg.train`` runs them (one iteration per call with MuJoCo Warp);
@@ -70,7 +70,7 @@ def measure(task: str, impl: str | None, devices: int, envs_per_device: int, hor
 
     from jaxpg import distributed, envs, train
     from jaxpg import rollout as rollout_lib
-    from jaxpg.algos import common, npg
+    from jaxpg.algos import core, npg
     from jaxpg.distributed import shard_state
 
     if jax.device_count() < devices:
@@ -84,8 +84,8 @@ def measure(task: str, impl: str | None, devices: int, envs_per_device: int, hor
     samples = num_envs * horizon
 
     # raw: random actions, the env batch split over the devices as sampling splits it
-    sampler = common.sampler_env(ts)
-    state_specs = jax.tree.map(distributed.batch_spec, common.env_batch_mask(sampler, ts.env_state))
+    sampler = core.sampler_env(ts.env, ts.config)
+    state_specs = jax.tree.map(distributed.batch_spec, core.env_batch_mask(sampler, ts.env_state))
 
     def random_act(params: Any, obs: jax.Array, key: jax.Array) -> tuple[jax.Array, jax.Array]:
         del params
@@ -101,8 +101,8 @@ def measure(task: str, impl: str | None, devices: int, envs_per_device: int, hor
         def simulate(state: Any, key: jax.Array, rows: Any) -> Any:
             return rollout_lib.rollout(sampler, random_act, None, state, key, horizon)[0]
 
-        specs = (state_specs, common.REPLICATED)
-        state = common.split_over_envs(simulate, num_envs, specs, state_specs, state, step_key)
+        specs = (state_specs, core.REPLICATED)
+        state = core.split_over_envs(simulate, num_envs, specs, state_specs, state, step_key)
         return (state, key), None
 
     raw = jax.jit(distributed.on_mesh(raw_step, mesh), donate_argnums=0)
@@ -111,7 +111,7 @@ def measure(task: str, impl: str | None, devices: int, envs_per_device: int, hor
 
     # sample: NPG's sampling alone, the policy acting
     def sample_step(ts: Any) -> tuple:
-        ts, traj, _ = npg.phase_sample(ts)
+        ts, traj, _ = core.phase_sample(ts)
         return ts, jnp.mean(traj.rewards)
 
     sample = jax.jit(distributed.on_mesh(sample_step, mesh), donate_argnums=0)

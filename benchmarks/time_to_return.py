@@ -45,7 +45,7 @@ def run_one(args: argparse.Namespace, seed: int) -> dict:
 
     from jaxpg import algos, envs
     from jaxpg import train as train_lib
-    from jaxpg.algos import common
+    from jaxpg.algos import core
 
     module = algos.get(args.algo)
     overrides = dict(module.PRESETS.get(args.preset, {})) if args.preset else {}
@@ -57,7 +57,7 @@ def run_one(args: argparse.Namespace, seed: int) -> dict:
     env = envs.make(args.task, batch=config.num_envs, impl=args.impl, fidelity=args.fidelity)
     ts = module.init(jax.random.PRNGKey(seed), env, config)
     eval_config = dataclasses.replace(config, eval_envs=args.eval_envs)
-    evaluate = jax.jit(lambda ts, key: common.evaluate(ts.replace(config=eval_config), key))
+    evaluate = jax.jit(lambda ts, key: core.evaluate(ts.replace(config=eval_config), key))
     per_call = args.iterations_per_call or args.block
     block_fn = train_lib.compiled_block(module.update, per_call, False)
 

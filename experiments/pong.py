@@ -57,7 +57,7 @@ import numpy as np
 
 from jaxpg import train as train_lib
 from jaxpg.algos import a2c, reinforce, reinforce_points
-from jaxpg.algos.common import TrainState
+from jaxpg.algos.core import TrainState
 from jaxpg.cli import Parser, UsageError
 from jaxpg.envs import Env, EpisodeStats
 from jaxpg.envs.pong import FrameDifference, Pong

@@ -460,6 +460,7 @@ def plan_resume(args: argparse.Namespace, run: RunConfig, run_dir: Path) -> Plan
         )
     module = _algo_module(run.algo)
     config = run.algo_config()
+    run.config = runlog.config_to_dict(config)  # saved again under the current field names
     env = _make_env(run.task, run.env_kwargs)
     config.validate(env)
     for key in ("iterations", "checkpoint_every", "keep_checkpoints", "log_every", "video_every"):
@@ -511,7 +512,7 @@ def plan(argv: Sequence[str], experiment: Experiment) -> Plan:
     if resume_run is None and pre.preset is not None:
         defaults.update(getattr(module, "PRESETS", {}).get(pre.preset, {}))
     if resume_run is not None:
-        defaults.update(resume_run.config)
+        defaults.update(runlog.current_field_names(config_cls, resume_run.config))
     parser = build_parser(experiment, algo, config_cls, defaults)
     args = parser.parse_args(argv)
     if args.resume is not None:

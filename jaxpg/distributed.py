@@ -1,7 +1,7 @@
 """Several devices and several processes, through JAX's own machinery.
 
 The env batch is the one axis jaxpg splits: a 1-D device ``Mesh`` with the axis ``"envs"``
-(``ENV_AXIS``) spans every device of every process, and ``jaxpg.algos.common.sample`` /
+(``ENV_AXIS``) spans every device of every process, and ``jaxpg.algos.core.sample`` /
 ``evaluate`` step each device's own slice of the envs under ``jax.shard_map``. The sampler learns
 about the mesh from JAX's mesh context (``jax.sharding.get_abstract_mesh()``), which
 ``on_mesh(update, mesh)`` sets while ``update`` is traced (``jax.set_mesh(mesh)`` around a call
@@ -34,7 +34,6 @@ import numpy as np
 from jax.sharding import AbstractMesh, AxisType, Mesh, NamedSharding, PartitionSpec
 
 ENV_AXIS = "envs"
-ENV_VARS = ("JAX_COORDINATOR_ADDRESS", "JAX_NUM_PROCESSES", "JAX_PROCESS_ID")
 
 
 class DistributedError(ValueError):
@@ -153,12 +152,12 @@ def shard_state(ts: Any, vmap_seeds: bool, mesh: Any = None) -> Any:
     """``ts`` placed on ``mesh`` (default: ``env_mesh()``, every device of every
     process): the env axis of ``ts.env_state`` split over the ``"envs"`` axis (after the seed axis
     with ``vmap_seeds``), everything else replicated, including MuJoCo Warp's per-batch buffers
-    (``common.env_batch_mask``). Every process passes the same ``ts``; each places its share."""
-    from jaxpg.algos import common  # the algorithms import this module
+    (``core.env_batch_mask``). Every process passes the same ``ts``; each places its share."""
+    from jaxpg.algos import core  # the algorithms import this module
 
     mesh = env_mesh() if mesh is None else mesh
     lead = 1 if vmap_seeds else 0
-    mask = common.env_batch_mask(common.sampler_env(ts), ts.env_state, leading=lead)
+    mask = core.env_batch_mask(core.sampler_env(ts.env, ts.config), ts.env_state, leading=lead)
     shardings = jax.tree.map(lambda batched: NamedSharding(mesh, batch_spec(batched, lead)), mask)
     env_state = put_global(ts.env_state, shardings)
     rest = replicated(ts.replace(env_state=()), mesh)

@@ -38,7 +38,7 @@ class Episodes:
       rewards: ``[T, E]`` (0 after an episode's end); valid: ``[T, E]`` 1 up to and including
       the last step; returns, lengths: ``[E]``; obs: ``[T + 1, E, obs_dim]`` states from the
       reset on; qpos, qvel: ``[T + 1, E, nq/nv]`` for MJX tasks, else ``None``;
-      eval_metric: ``[E]`` the task's eval metric at each episode's end.
+      task_score: ``[E]`` the task's score (``Env.task_score_name``) at each episode's end.
     """
 
     def __init__(self, out: dict[str, np.ndarray]):
@@ -47,7 +47,7 @@ class Episodes:
         self.obs, self.qpos, self.qvel = out["obs"], out.get("qpos"), out.get("qvel")
         self.returns = np.sum(self.rewards * self.valid, axis=0)
         self.lengths = np.sum(self.valid, axis=0).astype(np.int64)
-        self.eval_metric = out["eval_metric"]
+        self.task_score = out["task_score"]
 
     def episode_states(self, i: int) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
         """``(obs, qpos, qvel)`` of episode ``i``, from its reset to its last state (``[L + 1, ...]``)."""
@@ -81,7 +81,7 @@ def _rollout_impl(env: Any, policy: Any, num_episodes: int, horizon: int, determ
                 action, _ = policy.sample(params, obs, step_key)
             nxt = jax.vmap(env.step)(s, action)
             record = {"rewards": nxt.reward, "valid": alive.astype(jnp.float32), **physics(nxt)}
-            metric = jnp.where(alive, nxt.metrics["eval_metric"].astype(jnp.float32), metric)
+            metric = jnp.where(alive, nxt.metrics["task_score"].astype(jnp.float32), metric)
             return (nxt, alive & ~nxt.done, metric), record
 
         alive = jnp.ones((num_episodes,), bool)
@@ -90,7 +90,7 @@ def _rollout_impl(env: Any, policy: Any, num_episodes: int, horizon: int, determ
         first = physics(state)
         for k, v in first.items():
             records[k] = jnp.concatenate([v[None], records[k]], axis=0)
-        records["eval_metric"] = metric
+        records["task_score"] = metric
         return records
 
     return jax.jit(run)
@@ -120,17 +120,6 @@ def rollout(
     key = jax.random.PRNGKey(seed) if isinstance(seed, int) else seed
     out = jax.device_get(_COMPILED[cache_key](params, obs_stats, key))
     return Episodes({k: np.asarray(v) for k, v in out.items()})
-
-
-def evaluate_run(
-    run_dir: str, episodes: int, step: int | str | None = None, seed: int = 0, train_seed: int | None = None
-) -> tuple[Episodes, Any]:
-    """The run's mean policy in jaxpg's env (the run's task and env settings)."""
-    from jaxpg import policy_io
-
-    policy = policy_io.load_policy(run_dir, step, seed=train_seed)
-    env = policy.run.make_env()
-    return rollout(env, policy.policy, policy.params, policy.obs_stats, seed, episodes), policy
 
 
 def gymnasium_installed() -> bool:
@@ -317,8 +306,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         returns, lengths = eps.returns, eps.lengths
         env_name = f"jaxpg {run.task}" + (f" {run.env_kwargs}" if run.env_kwargs else "")
         metric_line = ""
-        if env.eval_metric_name != "return":
-            metric_line = f"\n{env.eval_metric_name}: {_stats(eps.eval_metric)}"
+        if env.task_score_name != "return":
+            metric_line = f"\n{env.task_score_name}: {_stats(eps.task_score)}"
     print(f"{where}, {args.episodes} episodes in {env_name}")
     print(f"return: {_stats(returns)}  (min {np.min(returns):.2f}, max {np.max(returns):.2f})")
     print(f"length: {_stats(lengths)}{metric_line}")

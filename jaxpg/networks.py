@@ -111,11 +111,6 @@ class MLP:
         if self.bias_init not in BIAS_INITS:
             raise ValueError(f"unknown bias_init {self.bias_init!r}; expected one of {', '.join(BIAS_INITS)}")
 
-    @property
-    def out_size(self) -> int:
-        """Size of the last axis of ``apply``'s output."""
-        return self.layer_sizes[-1]
-
     def init(self, key: jax.Array, in_size: int) -> Params:
         """Parameters for inputs ``[..., in_size]``: a list of ``{"w": [in, out], "b": [out]}``.
 

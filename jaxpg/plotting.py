@@ -4,8 +4,8 @@
 
 Top panel: episode return of the stochastic (sampling) policy and of the mean (deterministic)
 policy over iterations. With several seeds, the line is the mean over seeds and the band spans
-their minimum to maximum. A second panel shows the task's eval metric (e.g. the hopper's forward
-distance) when it is not the return itself. Several run directories are drawn on the same axes.
+their minimum to maximum. A second panel shows the task's score (``task_score``, e.g. the hopper's
+forward distance) when it is not the return itself. Several run directories are drawn on the same axes.
 """
 
 from __future__ import annotations
@@ -24,7 +24,7 @@ import numpy as np
 from jaxpg import runlog
 
 CURVES = (("return_stochastic", "stochastic policy", "-"), ("return_mean_policy", "mean policy", "--"))
-EVAL_CURVES = (("eval_metric", "stochastic policy", "-"), ("eval_metric_mean_policy", "mean policy", "--"))
+TASK_SCORE_CURVES = (("task_score", "stochastic policy", "-"), ("task_score_mean_policy", "mean policy", "--"))
 
 
 def seed_curves(records: Sequence[dict[str, Any]], key: str) -> tuple[np.ndarray, np.ndarray]:
@@ -74,7 +74,7 @@ def plot_runs(
     runs: Sequence[tuple[str, Sequence[dict[str, Any]]]],
     path: str | os.PathLike,
     title: str | None = None,
-    eval_metric_name: str | None = None,
+    task_score_name: str | None = None,
 ) -> Path:
     """Draw ``[(label, records)]`` into ``path`` (png, pdf, svg ...) and return the path."""
     import matplotlib
@@ -83,13 +83,13 @@ def plot_runs(
     import matplotlib.pyplot as plt
     from matplotlib.ticker import MaxNLocator
 
-    show_eval = eval_metric_name not in (None, "return") and any(
-        r.get("eval_metric") is not None or r.get("eval_metric_mean_policy") is not None
+    show_task_score = task_score_name not in (None, "return") and any(
+        r.get("task_score") is not None or r.get("task_score_mean_policy") is not None
         for _, records in runs
         for r in records
     )
     fig, axes = plt.subplots(
-        2 if show_eval else 1, 1, figsize=(7.5, 7.0 if show_eval else 4.2), sharex=True, squeeze=False
+        2 if show_task_score else 1, 1, figsize=(7.5, 7.0 if show_task_score else 4.2), sharex=True, squeeze=False
     )
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     for i, (label, records) in enumerate(runs):
@@ -97,11 +97,11 @@ def plot_runs(
         prefix = f"{label}: " if len(runs) > 1 else ""
         pair = colors[:2] if len(runs) == 1 else [colors[i % len(colors)]] * 2
         _draw(axes[0, 0], records, CURVES, pair, prefix)
-        if show_eval:
-            _draw(axes[1, 0], records, EVAL_CURVES, pair, prefix)
+        if show_task_score:
+            _draw(axes[1, 0], records, TASK_SCORE_CURVES, pair, prefix)
     axes[0, 0].set_ylabel("episode return")
-    if show_eval:
-        axes[1, 0].set_ylabel(str(eval_metric_name).replace("_", " "))
+    if show_task_score:
+        axes[1, 0].set_ylabel(str(task_score_name).replace("_", " "))
     axes[-1, 0].set_xlabel("iteration")
     axes[-1, 0].xaxis.set_major_locator(MaxNLocator(integer=True))
     for ax in axes[:, 0]:
@@ -126,14 +126,14 @@ def run_title(run: runlog.RunConfig) -> str:
 
 
 def plot_run(
-    run_dir: str | os.PathLike, path: str | os.PathLike | None = None, eval_metric_name: str | None = None
+    run_dir: str | os.PathLike, path: str | os.PathLike | None = None, task_score_name: str | None = None
 ) -> Path:
     """``curves.png`` of one run directory (from its ``metrics.jsonl``)."""
     run_dir = Path(run_dir)
     run = runlog.RunConfig.load(run_dir)
     records = runlog.read_metrics(run_dir / runlog.METRICS_FILE)
     out = run_dir / runlog.CURVES_FILE if path is None else Path(path)
-    return plot_runs([(run_dir.name, records)], out, title=run_title(run), eval_metric_name=eval_metric_name)
+    return plot_runs([(run_dir.name, records)], out, title=run_title(run), task_score_name=task_score_name)
 
 
 def main(argv: Sequence[str] | None = None) -> int:

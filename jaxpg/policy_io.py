@@ -161,12 +161,12 @@ def load_policy(
     Raises ``ValueError`` (``RunDirError``/``CheckpointError``) with one line when the run or
     checkpoint is missing, foreign, damaged or does not fit, or ``run_dir`` is a file.
     """
-    from jaxpg.algos import common
+    from jaxpg.algos import core
 
     run = load_run_config(run_dir)
     env = run.make_env()
     config = run.algo_config()
-    policy, _ = common.make_networks(env, config)
+    policy, _ = core.make_networks(env, config)
     if seed is None:
         seed = run.seeds[0]
     if seed not in run.seeds:

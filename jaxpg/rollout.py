@@ -152,7 +152,7 @@ def episode_summary(traj: Trajectory) -> dict[str, jax.Array]:
     """Means over the episodes that ended inside ``traj`` (NaN where none did).
 
     Needs the ``EpisodeStats`` wrapper. Returns ``episode_return``, ``episode_length``,
-    ``episode_eval_metric`` and ``episodes`` (how many ended), all scalars.
+    ``episode_task_score`` and ``episodes`` (how many ended), all scalars.
     """
     ended = traj.metrics["episode_done"] * traj.valid
     count = jnp.sum(ended)
@@ -163,6 +163,6 @@ def episode_summary(traj: Trajectory) -> dict[str, jax.Array]:
     return {
         "episode_return": mean(traj.metrics["episode_return"]),
         "episode_length": mean(traj.metrics["episode_length"]),
-        "episode_eval_metric": mean(traj.metrics["episode_eval_metric"]),
+        "episode_task_score": mean(traj.metrics["episode_task_score"]),
         "episodes": count,
     }

@@ -185,9 +185,24 @@ def config_to_dict(config: Any) -> dict[str, Any]:
     return {f.name: _jsonable(getattr(config, f.name)) for f in dataclasses.fields(config)}
 
 
+def current_field_names(cls: type, values: dict[str, Any]) -> dict[str, Any]:
+    """``values`` with the field names of an older version of config class ``cls`` replaced by the
+    current ones, as ``cls.OLD_FIELD_NAMES`` maps them (``None``: a field that is gone, dropped);
+    a current name already in ``values`` wins over its old name."""
+    renamed = dict(values)
+    for old, new in getattr(cls, "OLD_FIELD_NAMES", {}).items():
+        if old in renamed:
+            value = renamed.pop(old)
+            if new is not None:
+                renamed.setdefault(new, value)
+    return renamed
+
+
 def config_from_dict(cls: type, values: dict[str, Any]) -> Any:
-    """``cls(**values)`` with JSON values coerced to the field types; ``RunDirError`` names a
-    field the config class does not have (a run written by another version of the algorithm)."""
+    """``cls(**values)`` with JSON values coerced to the field types, old field names mapped to
+    the current ones (``current_field_names``); ``RunDirError`` names a field the config class
+    does not have (a run written by another version of the algorithm)."""
+    values = current_field_names(cls, values)
     types_ = field_types(cls)
     unknown = sorted(set(values) - set(types_))
     if unknown:
@@ -299,8 +314,8 @@ LEADING_KEYS = (
     "return_stochastic",
     "return_mean_policy",
     "episode_length",
-    "eval_metric",
-    "eval_metric_mean_policy",
+    "task_score",
+    "task_score_mean_policy",
 )
 
 
@@ -335,8 +350,17 @@ def block_records(
     return records
 
 
+# Metric names that earlier versions wrote -> the current ones (read_metrics renames them).
+OLD_METRIC_NAMES = {
+    "eval_metric": "task_score",
+    "eval_metric_mean_policy": "task_score_mean_policy",
+    "step_size": "step_length",
+}
+
+
 def read_metrics(path: str | os.PathLike) -> list[dict[str, Any]]:
-    """The records of a ``metrics.jsonl`` (a torn last line, from a killed process, is skipped)."""
+    """The records of a ``metrics.jsonl`` (a torn last line, from a killed process, is skipped),
+    with metric names of earlier versions renamed (``OLD_METRIC_NAMES``)."""
     path = Path(path)
     if path.is_dir():
         path = path / METRICS_FILE
@@ -349,9 +373,10 @@ def read_metrics(path: str | os.PathLike) -> list[dict[str, Any]]:
             if not line:
                 continue
             try:
-                records.append(json.loads(line))
+                record = json.loads(line)
             except json.JSONDecodeError:
                 continue
+            records.append({OLD_METRIC_NAMES.get(k, k): v for k, v in record.items()})
     return records
 
 
@@ -431,7 +456,7 @@ class MetricsWriter:
 # --------------------------------------------------------------------------- console output
 
 # Diagnostics shown in the summary line when the algorithm reports them.
-SUMMARY_DIAGNOSTICS = ("kl", "entropy", "step_size", "value_loss", "grad_norm", "cg_residual", "loss")
+SUMMARY_DIAGNOSTICS = ("kl", "entropy", "step_length", "value_loss", "grad_norm", "cg_residual", "loss")
 
 
 def _block_stat(values: np.ndarray) -> tuple[float, float]:

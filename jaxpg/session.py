@@ -103,13 +103,16 @@ def _seed_slice(tree: Any, index: int, vmap_seeds: bool) -> Any:
 
 
 def run_profile(plan_: Plan, ts: Any, out: Any) -> dict[str, float] | None:
-    """Time each phase of one iteration with the algorithm's ``profile_phases``."""
-    module, run = plan_.module, plan_.run
-    if not hasattr(module, "profile_phases"):
-        out(f"--profile: profiling isn't available for {run.algo} (jaxpg.algos.{run.algo} has no profile_phases)")
+    """Time each phase of one iteration (``jaxpg.profiling.profile_phases``)."""
+    from jaxpg import profiling
+
+    run = plan_.run
+    if run.algo not in profiling.PHASES:
+        known = ", ".join(sorted(profiling.PHASES))
+        out(f"--profile: profiling isn't available for {run.algo} (jaxpg.profiling has phases for {known})")
         return None
     out(f"profiling one {run.algo} iteration as separately jitted phases (compiling them first) ...")
-    _, timings = module.profile_phases(_seed_slice(ts, 0, run.vmap_seeds))
+    _, timings = profiling.profile_phases(run.algo, _seed_slice(ts, 0, run.vmap_seeds))
     timings = {k: float(v) for k, v in timings.items()}
     total = sum(timings.values())
     samples = plan_.config.samples_per_iteration
@@ -270,7 +273,7 @@ class _Callbacks:
         try:
             from jaxpg import plotting
 
-            plotting.plot_run(self.plan.run_dir, eval_metric_name=getattr(self.plan.env, "eval_metric_name", None))
+            plotting.plot_run(self.plan.run_dir, task_score_name=self.plan.env.task_score_name)
         except Exception as e:  # noqa: BLE001 - a plot must never stop training
             self.progress.write(f"warning: curves.png not updated ({type(e).__name__}: {e})")
 

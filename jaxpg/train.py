@@ -27,14 +27,14 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxpg.algos import common
-from jaxpg.algos.common import TrainState
+from jaxpg.algos import core
+from jaxpg.algos.core import TrainState
 
 UpdateFn = Callable[[TrainState], tuple[TrainState, dict[str, jax.Array]]]
 Callback = Callable[[TrainState, dict[str, np.ndarray], int], None]
 EvaluateFn = Callable[[TrainState], dict[str, jax.Array]]
 
-EVAL_METRICS = ("return_mean_policy", "episode_length_mean_policy", "eval_metric_mean_policy")
+EVAL_METRICS = ("return_mean_policy", "episode_length_mean_policy", "task_score_mean_policy")
 # Folded into the training key to seed evaluations: they never consume or change training's draws.
 EVAL_STREAM = 0x65766C
 
@@ -72,16 +72,16 @@ def _private_copy(tree: Any) -> Any:
 
 def evaluate_state(train_state: TrainState) -> dict[str, jax.Array]:
     """Mean-policy evaluation of ``train_state``: ``config.eval_envs`` fresh episodes of the mode
-    of the policy (``common.evaluate``), keyed by the training key folded with ``EVAL_STREAM``.
+    of the policy (``core.evaluate``), keyed by the training key folded with ``EVAL_STREAM``.
 
     Returns ``[]`` scalars named as in ``EVAL_METRICS``. Pure and jittable; ``train`` runs it
     between compiled training calls, never inside ``update``.
     """
-    summary = common.evaluate(train_state, jax.random.fold_in(train_state.key, EVAL_STREAM))
+    summary = core.evaluate(train_state, jax.random.fold_in(train_state.key, EVAL_STREAM))
     return {
         "return_mean_policy": summary["episode_return"],
         "episode_length_mean_policy": summary["episode_length"],
-        "eval_metric_mean_policy": summary["episode_eval_metric"],
+        "task_score_mean_policy": summary["episode_task_score"],
     }
 
 

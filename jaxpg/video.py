@@ -224,12 +224,6 @@ def draw_cartpole(obs: np.ndarray, width: int = 640, height: int = 400) -> np.nd
     return frame
 
 
-def can_render(env: Any) -> bool:
-    """The task has a way to be drawn (MuJoCo model, its own ``render_frame``, or CartPole)."""
-    task = env.unwrapped
-    return hasattr(task, "render_frame") or hasattr(task, "mj_model") or _is_cartpole(task)
-
-
 def _is_cartpole(task: Any) -> bool:
     return type(task).__name__.lower() == "cartpole"
 

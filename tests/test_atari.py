@@ -118,7 +118,7 @@ def test_a_game_ends_at_21_and_the_next_one_starts():
     def run(key):
         def body(s, _):
             s = jax.vmap(env.step)(s, jnp.zeros(2, jnp.int32))
-            return s, (s.terminated, s.metrics["episode_return"], s.metrics["eval_metric"], s.obs, s.reward)
+            return s, (s.terminated, s.metrics["episode_return"], s.metrics["task_score"], s.obs, s.reward)
 
         return jax.lax.scan(body, rollout.reset_batch(env, key, 2), None, length=steps)[1]
 

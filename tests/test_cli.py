@@ -33,7 +33,7 @@ def without_wall_time(records):
     return [{k: v for k, v in r.items() if k not in ("wall_time_s", "eval_seconds")} for r in records]
 
 
-EVAL_KEYS = ("evaluated", "return_mean_policy", "episode_length_mean_policy", "eval_metric_mean_policy")
+EVAL_KEYS = ("evaluated", "return_mean_policy", "episode_length_mean_policy", "task_score_mean_policy")
 
 
 def same_run(resumed, expected, stopped_at):
@@ -157,6 +157,56 @@ def test_resume_is_bit_identical_to_an_uninterrupted_run(trained, runs):
     assert without_wall_time(runlog.read_metrics(killed)) == expected
 
 
+def test_run_saved_under_old_field_names_loads_evaluates_and_resumes(trained, runs, capsys):
+    """A run directory written before NPG's ``step_size`` became ``kl_delta``, ``policy_init``
+    became ``network_init`` and the metrics ``eval_metric``/``step_size`` became
+    ``task_score``/``step_length`` loads with the same Config, its policy acts as before,
+    ``jaxpg.evaluate`` runs it, and ``--resume`` continues it and saves its config and metrics
+    under the current names."""
+    old = runs / "old_names"
+    shutil.copytree(trained, old)
+    data = json.loads((old / "config.json").read_text())
+    saved = data["config"]
+    saved["step_size"] = saved.pop("kl_delta")
+    saved["policy_init"] = saved.pop("network_init")
+    (old / "config.json").write_text(json.dumps(data))
+    renamed = {
+        "task_score": "eval_metric",
+        "task_score_mean_policy": "eval_metric_mean_policy",
+        "step_length": "step_size",
+    }
+    lines = [json.dumps({renamed.get(k, k): v for k, v in r.items()}) for r in runlog.read_metrics(trained)]
+    (old / "metrics.jsonl").write_text("\n".join(lines) + "\n")
+    assert runlog.read_metrics(old) == runlog.read_metrics(trained)
+
+    assert runlog.RunConfig.load(old).algo_config() == runlog.RunConfig.load(trained).algo_config()
+    obs = np.random.default_rng(1).normal(size=(3, 4)).astype(np.float32)
+    np.testing.assert_array_equal(jaxpg.load_policy(old)(obs), jaxpg.load_policy(trained)(obs))
+    assert evaluate.main([str(old), "--episodes", "1"]) == 0
+    assert "return:" in capsys.readouterr().out
+    assert cli.main(["--resume", str(old), "--iterations", "6"]) == 0
+    resaved = json.loads((old / "config.json").read_text())["config"]
+    assert resaved["kl_delta"] == saved["step_size"] and resaved["network_init"] == saved["policy_init"]
+    assert "step_size" not in resaved and "policy_init" not in resaved
+    assert max(r["iteration"] for r in runlog.read_metrics(old)) == 6
+    written = [json.loads(line) for line in (old / "metrics.jsonl").read_text().splitlines()]
+    assert all("task_score" in r and "step_length" in r and not set(renamed.values()) & set(r) for r in written)
+
+
+def test_old_field_names_map_to_current_ones():
+    """TRPO's configs held NPG's ``step_size`` (never used, now gone): dropped on load; NPG's
+    becomes ``kl_delta``; a current name already present wins."""
+    from jaxpg.algos import npg, ppo, trpo
+
+    assert runlog.config_from_dict(trpo.Config, {"step_size": 0.05, "max_kl": 0.02}) == trpo.Config(max_kl=0.02)
+    assert runlog.config_from_dict(npg.Config, {"step_size": 0.2, "policy_init": "pytorch"}) == npg.Config(
+        kl_delta=0.2, network_init="pytorch"
+    )
+    assert runlog.current_field_names(npg.Config, {"step_size": 0.2, "kl_delta": 0.3}) == {"kl_delta": 0.3}
+    with pytest.raises(runlog.RunDirError, match="does not know: step_size"):  # PPO never had one
+        runlog.config_from_dict(ppo.Config, {"step_size": 0.2})
+
+
 def test_resume_of_missing_or_foreign_directory_or_changed_settings(trained, runs, capsys):
     foreign = runs / "not_a_run"
     foreign.mkdir(exist_ok=True)
@@ -240,7 +290,7 @@ def test_help_lists_config_flags_and_gpu_command():
     )
     assert proc.returncode == 0
     for flag in ("--num-envs", "--policy-hidden", "--normalize-observations", "--no-normalize-observations",
-                 "--step-size", "--seeds", "--resume", "--preset", "--profile", "--video-every"):  # fmt: skip
+                 "--kl-delta", "--seeds", "--resume", "--preset", "--profile", "--video-every"):  # fmt: skip
         assert flag in proc.stdout, flag
     assert "--preset lyceum --seeds 1 2 3 5 8" in proc.stdout
 
@@ -257,23 +307,21 @@ def test_config_flags_parse_into_config(runs, monkeypatch):
     assert config.value_hidden == (128, 128) and config.sampling == "episodic"  # from the preset
     assert plan.run.seeds == [1, 2, 3] and plan.run.vmap_seeds
     assert not (runs / "planned").exists()
-    experiment = cli.Experiment(config={"*": {"horizon": 16, "no_such_field": 1}, "npg": {"step_size": 0.1}})
+    experiment = cli.Experiment(config={"*": {"horizon": 16, "no_such_field": 1}, "npg": {"kl_delta": 0.1}})
     plan = cli.plan(["--run-dir", "planned"], experiment)
-    assert plan.config.horizon == 16 and plan.config.step_size == 0.1
+    assert plan.config.horizon == 16 and plan.config.kl_delta == 0.1
 
 
 def test_profile(runs, capsys):
-    from jaxpg.algos import npg
-
-    class NoProfile:
-        pass
+    from jaxpg import profiling
+    from jaxpg.algos import ppo
 
     run = runlog.RunConfig("t", "ppo", {}, [0], 1)
-    plan = session.Plan(run=run, run_dir=runs, module=NoProfile, env=None, config=None)
+    plan = session.Plan(run=run, run_dir=runs, module=ppo, env=None, config=None)
     lines = []
     assert session.run_profile(plan, None, lines.append) is None
     assert "profiling isn't available for ppo" in lines[0]
-    assert hasattr(npg, "profile_phases")
+    assert "npg" in profiling.PHASES
 
 
 # --------------------------------------------------------------------------- policies, evaluation, videos
@@ -372,7 +420,7 @@ def test_several_seeds_records_summary_and_curves(tmp_path):
     assert runlog.latest_score(metrics) == 7.0
     iterations, values = plotting.seed_curves(records, "return_mean_policy")
     assert iterations.tolist() == [5, 6] and values.tolist() == [[2.0, 4.0], [6.0, 8.0]]
-    out = plotting.plot_runs([("run", records)], tmp_path / "curves.png", title="t", eval_metric_name="return")
+    out = plotting.plot_runs([("run", records)], tmp_path / "curves.png", title="t", task_score_name="return")
     assert out.stat().st_size > 0
 
 

@@ -17,7 +17,7 @@ import pytest
 import jaxpg.envs as envs
 from jaxpg import returns
 from jaxpg import train as train_lib
-from jaxpg.algos import common, npg
+from jaxpg.algos import core, natural_gradient, npg
 from jaxpg.rollout import flatten_samples
 
 ITERATIONS = 2
@@ -42,29 +42,30 @@ def composed_update(flatten):
 
     def update(ts):
         old = ts
-        ts, traj, key = npg.phase_sample(ts)
+        ts, traj, key = core.phase_sample(ts)
         value_key, _ = jax.random.split(key)
-        batch = npg.phase_advantages(ts, traj)  # obs, actions, value targets ...
-        values = npg.value_predictions(ts, ts.obs_stats.normalize(traj.obs))
-        next_values = npg.value_predictions(ts, ts.obs_stats.normalize(traj.next_obs))
+        batch = core.phase_advantages(ts, traj)  # obs, actions, value targets ...
+        values = core.value_predictions(ts, ts.obs_stats.normalize(traj.obs))
+        next_values = core.value_predictions(ts, ts.obs_stats.normalize(traj.next_obs))
         adv, _ = handwritten_gae(ts, traj, values, next_values)
         batch = batch.replace(advantages=flatten(returns.normalize(adv, mask=traj.valid)))
-        grad = npg.phase_gradient(ts, batch)
-        cg = npg.phase_natural_gradient(ts, batch, grad)
-        step = npg.normalized_step(grad, cg.x, ts.config.step_size)
-        new_params, kl, fraction = npg.step_within_kl(ts, batch, cg.x, step)
-        entropy = common.weighted_mean(ts.policy.entropy(ts.params, batch.obs), batch.weights)
-        ts, value_loss = npg.phase_value_fit(ts.replace(params=new_params), batch, value_key)
+        grad = natural_gradient.phase_gradient(ts, batch)
+        cg = natural_gradient.phase_natural_gradient(ts, batch, grad)
+        step = npg.normalized_step(grad, cg.x, ts.config.kl_delta)
+        new_params, kl, fraction = npg.step_within_kl(ts, batch, cg.x, step, npg.kl_bound(ts.config))
+        entropy = core.mean_entropy(ts, ts.params, batch)
+        ts, value_loss = core.phase_value_fit(ts.replace(params=new_params), batch, value_key)
         metrics = {
-            "kl": kl,
             "entropy": entropy,
-            "step_size": fraction * step,
+            "step_length": fraction * step,
             "step_fraction": fraction,
             "cg_residual": cg.residual_norm,
             "grad_norm": jnp.linalg.norm(grad),
             "value_loss": value_loss,
         }
-        return npg.finish_iteration(old, ts, traj, value_loss + kl, metrics)
+        return core.finish_iteration(
+            old, ts, traj, loss=value_loss + kl, kl=kl, metrics=metrics, step_accepted=fraction > 0
+        )
 
     return update
 
@@ -110,13 +111,17 @@ def test_flatten_samples_is_env_major():
     for b in range(2):
         for t in range(3):
             np.testing.assert_array_equal(flat[b * 3 + t], x[t, b])
-    assert common.flatten_samples is flatten_samples  # the old name still works
+    batch = core.Batch(obs=x, actions=x[..., 0], log_probs=x[..., 1], advantages=x[..., 2], value_targets=x[..., 3],
+                       weights=x[..., 0])  # fmt: skip
+    flat = core.flatten_batch(batch)  # every field of a Batch the same way
+    for field in ("obs", "actions", "log_probs", "advantages", "value_targets", "weights"):
+        np.testing.assert_array_equal(getattr(flat, field), flatten_samples(getattr(batch, field)))
 
 
 def test_make_update_with_gae_reproduces_npg_update(initial, reference):
     update = npg.make_update(handwritten_gae)
     assert update is npg.make_update(handwritten_gae)  # cached: one compiled program per estimator
-    assert npg.make_update(npg.gae_advantages) is npg.update
+    assert npg.make_update(core.gae_advantages) is npg.update
     assert_same_run(run(update, initial), reference)
 
 

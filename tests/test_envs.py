@@ -351,13 +351,13 @@ def test_make_unknown_name_lists_known_names():
 def test_wrappers_forward_task_attributes():
     cartpole = AutoReset(envs.make("cartpole"))
     assert cartpole.discrete and cartpole.action_size == 2 and cartpole.max_episode_steps == 500
-    assert cartpole.eval_metric_name == "steps"
+    assert cartpole.task_score_name == "steps"
     pendulum = envs.make("inverted_pendulum", impl="jax")
     assert (pendulum.action_low, pendulum.action_high) == (-3.0, 3.0) and not pendulum.discrete
     assert pendulum.dt == pytest.approx(0.04) and pendulum.max_episode_steps == 1000
     double = envs.make_task("inverted_double_pendulum", impl="jax")
     assert double.observation_size == 9 and double.dt == pytest.approx(0.05)
-    assert double.eval_metric_name == "tip_height"
+    assert double.task_score_name == "tip_height"
 
 
 def test_clip_action_clips_to_the_task_range(pendulum_case):

@@ -12,8 +12,10 @@ import pytest
 from jax.flatten_util import ravel_pytree
 
 import jaxpg.envs as envs
+from jaxpg import profiling
 from jaxpg import train as train_lib
-from jaxpg.algos import npg, trpo
+from jaxpg import value as value_lib
+from jaxpg.algos import core, natural_gradient, npg, trpo
 
 SMALL = dict(num_envs=8, horizon=32, eval_envs=2, eval_horizon=32, value_batch_size=64, cg_damping=1e-2)
 
@@ -34,10 +36,10 @@ def batch_and_direction(small_state):
 
     @jax.jit
     def phases(ts):
-        ts, traj, _ = npg.phase_sample(ts)
-        batch = npg.phase_advantages(ts, traj)
-        grad = npg.phase_gradient(ts, batch)
-        return ts, batch, grad, npg.phase_natural_gradient(ts, batch, grad)
+        ts, traj, _ = core.phase_sample(ts)
+        batch = core.phase_advantages(ts, traj)
+        grad = natural_gradient.phase_gradient(ts, batch)
+        return ts, batch, grad, natural_gradient.phase_natural_gradient(ts, batch, grad)
 
     return phases(small_state)
 
@@ -50,7 +52,7 @@ def test_normalized_step_meets_kl_to_first_order(batch_and_direction):
     step = npg.normalized_step(grad, cg.x, delta)
     flat, unravel = ravel_pytree(ts.params)
     new_params = unravel(flat + step * cg.x)
-    kl = float(npg.mean_kl(ts, ts.params, new_params, batch))
+    kl = float(core.mean_kl(ts, ts.params, new_params, batch))
     np.testing.assert_allclose(kl, delta / 2, rtol=0.05)
     assert float(cg.residual_norm) < 1e-2 * float(jnp.linalg.norm(grad))
 
@@ -60,8 +62,8 @@ def test_npg_direction_improves_surrogate(batch_and_direction):
     assert float(jnp.dot(grad, cg.x)) > 0  # F^-1 is positive definite: an ascent direction
     flat, unravel = ravel_pytree(ts.params)
     step = npg.normalized_step(grad, cg.x, 1e-3)
-    before = npg.surrogate(ts, ts.params, batch)
-    after = npg.surrogate(ts, unravel(flat + step * cg.x), batch)
+    before = natural_gradient.surrogate(ts, ts.params, batch)
+    after = natural_gradient.surrogate(ts, unravel(flat + step * cg.x), batch)
     assert float(after) > float(before)
 
 
@@ -69,7 +71,7 @@ def test_trpo_line_search_respects_max_kl(batch_and_direction):
     ts, batch, grad, cg = batch_and_direction
     ts = ts.replace(config=trpo.Config(**SMALL, max_kl=0.01))
     new_params, info = jax.jit(trpo.line_search)(ts, batch, grad, cg.x)
-    kl = float(npg.mean_kl(ts, ts.params, new_params, batch))
+    kl = float(core.mean_kl(ts, ts.params, new_params, batch))
     # On this batch the search must take a step: a search that always rejects (KL 0) fails here.
     assert float(info["line_search_accepted"]) == 1.0 and 0 < kl <= 0.01 + 1e-6
     assert float(info["surrogate_improvement"]) > 0
@@ -78,7 +80,7 @@ def test_trpo_line_search_respects_max_kl(batch_and_direction):
     # and says so: the policy is unchanged.
     huge = ts.replace(config=trpo.Config(**SMALL, max_kl=1e6))
     same, info = jax.jit(trpo.line_search)(huge, batch, grad, cg.x)
-    assert float(info["line_search_accepted"]) == 0.0 and float(info["step_size"]) == 0.0
+    assert float(info["line_search_accepted"]) == 0.0 and float(info["step_length"]) == 0.0
     for a, b in zip(jax.tree.leaves(same), jax.tree.leaves(ts.params), strict=True):
         np.testing.assert_array_equal(a, b)
 
@@ -87,11 +89,11 @@ def test_nonfinite_update_is_rejected(small_state):
     """An update that produces NaN parameters leaves the learned state untouched and is counted."""
     old = small_state
     poisoned = old.replace(params=jax.tree.map(lambda x: x * jnp.nan, old.params))
-    kept, rejected = npg.common.accept_if_finite(old, poisoned, jnp.array(0.0))
+    kept, rejected = core.accept_if_finite(old, poisoned, jnp.array(0.0))
     assert float(rejected) == 1.0 and int(kept.failures) == 1
     for a, b in zip(jax.tree.leaves(kept.params), jax.tree.leaves(old.params), strict=True):
         np.testing.assert_array_equal(a, b)
-    kept, rejected = npg.common.accept_if_finite(old, old, jnp.array(jnp.inf))
+    kept, rejected = core.accept_if_finite(old, old, jnp.array(jnp.inf))
     assert float(rejected) == 1.0
 
 
@@ -106,7 +108,7 @@ def test_diverging_run_stops_with_clear_error(small_state):
 
 
 def test_profile_phases_times_every_phase(small_state):
-    ts, timings = npg.profile_phases(small_state)
+    ts, timings = profiling.profile_phases("npg", small_state)
     assert set(timings) == {"sampling", "advantages", "gradient", "cg", "value_fit"}
     assert all(t > 0 for t in timings.values())
     assert int(ts.iteration) == int(small_state.iteration) + 1
@@ -143,7 +145,7 @@ def test_same_seed_same_numbers_and_seed_vmap_matches(pendulum):
                 continue
             if not np.allclose(together[key][0, i], alone[i][key][0], rtol=1e-3, atol=1e-5, equal_nan=True):
                 mismatches.append((i, 0, key, float(together[key][0, i]), float(alone[i][key][0])))
-        for key in ("kl", "value_loss", "grad_norm", "step_size"):
+        for key in ("kl", "value_loss", "grad_norm", "step_length"):
             if not np.allclose(together[key][1, i], alone[i][key][1], rtol=2e-2):
                 mismatches.append((i, 1, key, float(together[key][1, i]), float(alone[i][key][1])))
     assert not mismatches, mismatches
@@ -156,27 +158,25 @@ def test_normalized_value_targets(small_state):
     statistics too."""
     config = npg.Config(**SMALL, normalize_value_targets=True)
     ts = small_state.replace(config=config)
-    ts, traj, key = jax.jit(npg.phase_sample)(ts)
-    batch = jax.jit(npg.phase_advantages)(ts, traj)
+    ts, traj, key = jax.jit(core.phase_sample)(ts)
+    batch = jax.jit(core.phase_advantages)(ts, traj)
     # Targets on the scale of a long task's returns (hundreds), far from standardised.
     batch = batch.replace(value_targets=300.0 + 50.0 * batch.value_targets)
-    before = npg.value_predictions(ts, batch.obs)
+    before = core.value_predictions(ts, batch.obs)
     np.testing.assert_allclose(before, ts.value_fn.apply(ts.value_params, batch.obs), rtol=1e-6)  # identity at start
 
     def absorb(state, b):
         """``state`` with its target statistics moved by batch ``b`` and its outputs preserved."""
         stats = state.value_stats.update(b.value_targets[:, None], b.weights)
         old = state.value_stats
-        params = npg.value_lib.preserve_outputs(
-            state.value_params, old.mean[0], old.std[0], stats.mean[0], stats.std[0]
-        )
+        params = value_lib.preserve_outputs(state.value_params, old.mean[0], old.std[0], stats.mean[0], stats.std[0])
         return state.replace(value_stats=stats, value_params=params)
 
     preserved = absorb(ts, batch)
     moved = preserved.value_stats
-    np.testing.assert_allclose(npg.value_predictions(preserved, batch.obs), before, rtol=1e-4, atol=1e-3)
+    np.testing.assert_allclose(core.value_predictions(preserved, batch.obs), before, rtol=1e-4, atol=1e-3)
 
-    fitted, loss = jax.jit(npg.phase_value_fit)(ts, batch, key)
+    fitted, loss = jax.jit(core.phase_value_fit)(ts, batch, key)
     np.testing.assert_allclose(fitted.value_stats.mean, moved.mean, rtol=1e-6)
     np.testing.assert_allclose(fitted.value_stats.var, moved.var, rtol=1e-6)
     targets = batch.value_targets
@@ -184,14 +184,14 @@ def test_normalized_value_targets(small_state):
     assert abs(float(jnp.mean(raw_outputs))) < 1.0  # the network itself predicts standardised targets
     # A second batch on a higher level: the fit starts from the first fit's predictions, kept.
     again = batch.replace(value_targets=batch.value_targets + 200.0)
-    kept = npg.value_predictions(fitted, again.obs)
-    np.testing.assert_allclose(npg.value_predictions(absorb(fitted, again), again.obs), kept, rtol=1e-4, atol=1e-2)
+    kept = core.value_predictions(fitted, again.obs)
+    np.testing.assert_allclose(core.value_predictions(absorb(fitted, again), again.obs), kept, rtol=1e-4, atol=1e-2)
     assert np.isfinite(float(loss))
     err_before = float(jnp.mean(jnp.square(before - targets)))
-    err_after = float(jnp.mean(jnp.square(npg.value_predictions(fitted, batch.obs) - targets)))
+    err_after = float(jnp.mean(jnp.square(core.value_predictions(fitted, batch.obs) - targets)))
     assert err_after < err_before
 
-    kept, rejected = npg.common.accept_if_finite(ts, fitted, jnp.array(jnp.nan))
+    kept, rejected = core.accept_if_finite(ts, fitted, jnp.array(jnp.nan))
     assert float(rejected) == 1.0
     np.testing.assert_array_equal(kept.value_stats.mean, ts.value_stats.mean)
     np.testing.assert_array_equal(kept.value_stats.count, ts.value_stats.count)
@@ -226,18 +226,18 @@ def test_fisher_samples_draws_a_subset_for_the_solve(pendulum):
     of the batch (a fresh draw each iteration); at or above it, from all of them, so that the
     update is unchanged; a negative count is refused."""
     ts = npg.init(jax.random.PRNGKey(0), pendulum, npg.Config(**SMALL))
-    ts, traj, _ = npg.phase_sample(ts)
-    batch = npg.phase_advantages(ts, traj)
-    obs, weights = npg.fisher_subsample(ts, batch)
+    ts, traj, _ = core.phase_sample(ts)
+    batch = core.phase_advantages(ts, traj)
+    obs, weights = natural_gradient.fisher_subsample(ts, batch)
     assert obs is batch.obs and weights is batch.weights
     sub = ts.replace(config=npg.Config(**{**SMALL, "fisher_samples": 32}))
-    obs, weights = npg.fisher_subsample(sub, batch)
+    obs, weights = natural_gradient.fisher_subsample(sub, batch)
     assert obs.shape == (32, batch.obs.shape[1]) and weights.shape == (32,)
     rows = [int(np.flatnonzero(np.all(np.asarray(batch.obs) == row, axis=1))[0]) for row in np.asarray(obs)]
     np.testing.assert_array_equal(np.asarray(weights), np.asarray(batch.weights)[rows])
-    again, _ = npg.fisher_subsample(sub.replace(key=jax.random.PRNGKey(1)), batch)
+    again, _ = natural_gradient.fisher_subsample(sub.replace(key=jax.random.PRNGKey(1)), batch)
     assert not np.array_equal(np.asarray(again), np.asarray(obs))
     full = ts.replace(config=npg.Config(**{**SMALL, "fisher_samples": 8 * 32}))
-    assert npg.fisher_subsample(full, batch)[0] is batch.obs
+    assert natural_gradient.fisher_subsample(full, batch)[0] is batch.obs
     with pytest.raises(ValueError, match="fisher_samples"):
         npg.Config(**{**SMALL, "fisher_samples": -1}).validate(pendulum)

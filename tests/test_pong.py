@@ -51,7 +51,7 @@ def random_games(env: Pong, key: jax.Array, num_envs: int, steps: int) -> dict[s
                 reward=s.reward,
                 terminated=s.terminated,
                 truncated=s.truncated,
-                eval_metric=s.metrics["eval_metric"],
+                task_score=s.metrics["task_score"],
                 hit=s.metrics["hit"],
             )
 
@@ -92,7 +92,7 @@ def test_points_are_counted_once(games):
     steps = np.diff(g["score"], axis=0)
     np.testing.assert_array_equal(steps[..., 0], (r[1:] > 0).astype(np.int32))
     np.testing.assert_array_equal(steps[..., 1], (r[1:] < 0).astype(np.int32))
-    np.testing.assert_array_equal(g["eval_metric"], g["score"][..., 0] - g["score"][..., 1])
+    np.testing.assert_array_equal(g["task_score"], g["score"][..., 0] - g["score"][..., 1])
     # A point serves the ball again from the centre line at the serve's speed.
     point = r != 0
     np.testing.assert_allclose(g["ball"][point][:, 0], 0.5)
@@ -230,7 +230,7 @@ def test_actions():
 def test_registry():
     env = envs.make("pong")
     assert env.discrete and env.action_size == 2 and env.observation_size == 80 * 80
-    assert env.eval_metric_name == "score_difference"
+    assert env.task_score_name == "score_difference"
     state = env.reset(jax.random.PRNGKey(0))
     assert state.obs.shape == (6400,) and state.obs.dtype == jnp.float32
     assert isinstance(env.unwrapped, Pong)

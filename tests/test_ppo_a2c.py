@@ -6,11 +6,12 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 import numpy as np
+import optax
 import pytest
 
 from jaxpg import envs
 from jaxpg import train as train_lib
-from jaxpg.algos import a2c, npg, ppo
+from jaxpg.algos import a2c, actor_critic, core, ppo
 
 # Tiny settings for the checks below: few samples, short evaluation, small compiled programs.
 TINY = dict(num_envs=4, horizon=8, policy_hidden=(8,), value_hidden=(8,), eval_envs=2, eval_horizon=16)
@@ -101,17 +102,43 @@ def test_clip_fraction_and_ratio_at_sampling_params(cartpole):
     """At the sampling parameters the ratio is 1: nothing is clipped, the approximate KL is 0,
     and the PPO and plain policy-gradient losses agree in value and gradient."""
     ts = ppo.init(jax.random.PRNGKey(0), cartpole, TINY_CONFIGS["ppo"])
-    ts, traj, _ = npg.phase_sample(ts)
-    batch = ppo.phase_advantages(ts, traj)
-    joint = ppo.joint_params(ts)
-    loss_and_grad = jax.value_and_grad(ppo.loss, argnums=1, has_aux=True)
-    (clipped, aux), g_clip = loss_and_grad(ts, joint, batch, None, 0.2, None)
-    (plain, _), g_plain = loss_and_grad(ts, joint, batch, None, None, None)
+    ts, traj, _ = core.phase_sample(ts)
+    batch = actor_critic.phase_advantages(ts, traj)
+    joint = actor_critic.joint_params(ts)
+    loss_and_grad = jax.value_and_grad(actor_critic.loss, argnums=1, has_aux=True)
+    (clipped, aux), g_clip = loss_and_grad(ts, joint, batch, 0.2)
+    (plain, _), g_plain = loss_and_grad(ts, joint, batch)
     assert float(aux["clip_fraction"]) == 0.0
     assert abs(float(aux["approx_kl"])) < 1e-6
     np.testing.assert_allclose(float(clipped), float(plain), rtol=1e-6)
     for a, b in zip(jax.tree.leaves(g_clip), jax.tree.leaves(g_plain), strict=True):
         np.testing.assert_allclose(np.asarray(a), np.asarray(b), rtol=1e-5, atol=1e-7)
+
+
+def test_a2c_step_is_the_shared_loss_without_clipping(cartpole):
+    """An A2C update is one step of its optimizer on the shared actor-critic loss with no clipping,
+    whose policy term at the sampling parameters (ratio 1) is ``-E[A]``, and reports that loss's
+    terms."""
+    config = TINY_CONFIGS["a2c"]
+    ts = a2c.init(jax.random.PRNGKey(3), cartpole, config)
+    new, metrics = jax.jit(a2c.update)(ts)
+
+    sampled, traj, _ = core.phase_sample(ts)
+    batch = actor_critic.phase_advantages(sampled, traj)
+    joint = actor_critic.joint_params(sampled)
+    (total, aux), grads = jax.value_and_grad(actor_critic.loss, argnums=1, has_aux=True)(sampled, joint, batch)
+    updates, _ = a2c.optimizer(config).update(grads, sampled.opt_state, joint)
+    expected = optax.apply_updates(joint, updates)
+    for got, want in zip(jax.tree.leaves((new.params, new.value_params)), jax.tree.leaves(expected), strict=True):
+        np.testing.assert_allclose(np.asarray(got), np.asarray(want), rtol=1e-5, atol=1e-6)
+    for name in ("loss", "policy_loss", "value_loss", "entropy"):
+        np.testing.assert_allclose(float(metrics[name]), float({**aux, "loss": total}[name]), rtol=1e-5, err_msg=name)
+    np.testing.assert_allclose(
+        float(aux["policy_loss"]), -float(core.weighted_mean(batch.advantages, batch.weights)), rtol=1e-5, atol=1e-7
+    )
+    assert float(aux["clip_fraction"]) == 0.0
+    moved = jax.tree.map(lambda a, b: bool(jnp.any(a != b)), ts.params, new.params)
+    assert any(jax.tree.leaves(moved))
 
 
 @pytest.mark.parametrize(

@@ -14,7 +14,7 @@ import pytest
 
 from jaxpg import envs
 from jaxpg import train as train_lib
-from jaxpg.algos import common, reinforce, vpg
+from jaxpg.algos import core, reinforce, vpg
 from jaxpg.policies import CategoricalPolicy, GaussianPolicy, StateStdGaussianPolicy, ValueFunction
 from jaxpg.rollout import Trajectory
 
@@ -83,7 +83,7 @@ def numpy_returns(ref, normalization):
 
 
 def env_major(x):
-    """``[T, B, ...] -> [B * T, ...]``, the order of jaxpg's flat batches (``common.flatten_samples``)."""
+    """``[T, B, ...] -> [B * T, ...]``, the order of jaxpg's flat batches (``jaxpg.rollout.flatten_samples``)."""
     return np.swapaxes(np.asarray(x), 0, 1).reshape((-1,) + np.shape(x)[2:])
 
 
@@ -121,7 +121,7 @@ def fake_state(policy, config, value_fn=None, value_params=None):
     return types.SimpleNamespace(
         policy=policy,
         config=config,
-        obs_stats=common.RunningStats.create(OBS),
+        obs_stats=core.RunningStats.create(OBS),
         value_fn=value_fn,
         value_params=value_params,
     )
@@ -211,7 +211,7 @@ def test_presets_build_their_seed_networks(module, name, env_name, policy_type):
     env = envs.make(env_name)
     config = module.Config(**module.PRESETS[name])
     config.validate(env)
-    policy, _ = common.make_networks(env, config)
+    policy, _ = core.make_networks(env, config)
     assert type(policy) is policy_type and policy.hidden == config.policy_hidden
 
 

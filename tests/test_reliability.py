@@ -47,17 +47,17 @@ BAD_VALUES = [
     (["--policy", "bogus"], "argument --policy: invalid choice: 'bogus' (choose from"),
     (["--policy-activation", "nope"], "argument --policy-activation: invalid choice"),
     (["--value-activation", "nope"], "argument --value-activation: invalid choice"),
-    (["--policy-init", "nope"], "argument --policy-init: invalid choice"),
+    (["--network-init", "nope"], "argument --network-init: invalid choice"),
     (["--policy-hidden", "0"], "policy_hidden must be positive"),
     (["--value-hidden", "16", "-3"], "value_hidden must be positive"),
     (["--gamma", "1.5"], "gamma must be in [0, 1]"),
     (["--gamma", "-1"], "gamma must be in [0, 1]"),
     (["--gae-lambda", "5"], "gae_lambda must be in [0, 1]"),
     (["--max-episode-steps", "0"], "--max-episode-steps must be >= 1"),
-    (["--step-size", "0"], "step_size must be > 0"),
-    (["--step-size", "nan"], "step_size must be > 0"),
+    (["--kl-delta", "0"], "kl_delta must be > 0"),
+    (["--kl-delta", "nan"], "kl_delta must be > 0"),
     (["--cg-damping", "-1"], "cg_damping must be >= 0"),
-    (["--value-lr", "0"], "value_lr > 0"),
+    (["--value-lr", "0"], "value_lr must be > 0"),
     (["--value-epochs", "0"], "value_epochs"),
     (["--num-envs", "0"], "num_envs must be >= 1"),
     (["--horizon", "-4"], "horizon must be >= 1"),
@@ -68,7 +68,7 @@ BAD_VALUES = [
     (["--sampling", "sideways"], "argument --sampling: invalid choice"),
     (["--fvp", "exact"], "argument --fvp: invalid choice"),
     (["--algo", "a2c", "--optimizer", "adamw"], "invalid choice: 'adamw' (choose from 'rmsprop', 'adam')"),
-    (["--algo", "trpo", "--step-size", "0.1"], "unrecognized arguments: --step-size"),
+    (["--algo", "trpo", "--kl-delta", "0.1"], "unrecognized arguments: --kl-delta"),
     (["--algo", "reinforce", "--value-hidden", "8"], "unrecognized arguments: --value-hidden"),
     (["--algo", "ppo", "--lr", "0"], "lr must be > 0"),
     (["--algo", "a2c", "--gae-lambda", "2"], "gae_lambda must be in [0, 1]"),
@@ -94,7 +94,7 @@ def test_npg_step_that_overshoots_is_shrunk_or_rejected():
     config = npg.Config(num_envs=8, horizon=32, eval_envs=0, value_batch_size=64, cg_damping=1e-2)
     ts = npg.init(jax.random.PRNGKey(0), env, config)
     update = jax.jit(npg.update)
-    wild = ts.replace(config=dataclasses.replace(config, step_size=1e6))
+    wild = ts.replace(config=dataclasses.replace(config, kl_delta=1e6))
     after, metrics = update(wild)
     assert float(metrics["update_rejected"]) == 1.0 and float(metrics["step_fraction"]) == 0.0
     for a, b in zip(jax.tree.leaves(after.params), jax.tree.leaves(ts.params), strict=True):

@@ -8,7 +8,7 @@ traced on it (``jaxpg.distributed.on_mesh``): sampling and evaluation then run u
 partitioner. Both must give the same metrics up to float reduction order.
 
 Why equal: the sampled actions are those of the unsplit batch bit for bit (each device draws the
-noise of the whole batch and keeps its rows, ``common.sample_rows``; resets use the same split
+noise of the whole batch and keeps its rows, ``core.sampling.sample_rows``; resets use the same split
 keys), and every reduction (advantage normalisation, gradients, Fisher-vector products, value fit,
 metrics) is global, so only the order of float32 summation differs.
 Tolerances: rtol 1e-4 (atol 1e-5) on every metric of the first iteration, rtol 1e-2 on the later
@@ -33,7 +33,7 @@ import pytest
 
 import jaxpg.envs as envs
 from jaxpg import rollout as rollout_lib
-from jaxpg.algos import common, npg
+from jaxpg.algos import core, npg
 from jaxpg.envs.mjx_env import warp_available
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -95,7 +95,7 @@ WARP_SCRIPT = textwrap.dedent(
     import warp
     import jaxpg.envs as envs
     from jaxpg import distributed
-    from jaxpg.algos import common, npg
+    from jaxpg.algos import core, npg
     from jaxpg.distributed import shard_state
 
     warp.config.quiet = True
@@ -107,8 +107,8 @@ WARP_SCRIPT = textwrap.dedent(
     mesh = distributed.env_mesh()
 
     def run(ts):
-        ts, traj, _ = npg.phase_sample(ts)
-        return ts.env_state.obs, traj.obs, traj.rewards, traj.dones, common.evaluate(ts, ts.key)
+        ts, traj, _ = core.phase_sample(ts)
+        return ts.env_state.obs, traj.obs, traj.rewards, traj.dones, core.evaluate(ts, ts.key)
 
     single = jax.jit(run)(ts)
     sharded = jax.jit(distributed.on_mesh(run, mesh))(shard_state(ts, vmap_seeds=False, mesh=mesh))
@@ -189,7 +189,7 @@ def test_episodes_from_split_resets_equal_rollout_episodes(jit):
     env = envs.make("cartpole", max_episode_steps=20)
     config = npg.Config(num_envs=5, horizon=30, value_batch_size=8)
     ts = npg.init(jax.random.PRNGKey(3), env, config)
-    act = common.act_fn(ts)
+    act = core.make_act(ts.policy, ts.obs_stats)
     key = jax.random.PRNGKey(7)
 
     def both(key: jax.Array) -> tuple:

@@ -19,7 +19,7 @@ from jaxpg.algos import npg
 
 ROOT = Path(__file__).resolve().parent.parent
 CONFIG = npg.Config(num_envs=8, horizon=16, eval_envs=2, eval_every=3, eval_horizon=20, value_batch_size=32)
-TRAINING_KEYS = ("return_stochastic", "kl", "value_loss", "grad_norm", "step_size", "env_steps", "entropy")
+TRAINING_KEYS = ("return_stochastic", "kl", "value_loss", "grad_norm", "step_length", "env_steps", "entropy")
 
 
 @pytest.fixture(scope="module")
@@ -116,7 +116,7 @@ def test_hopper_command_line_defaults_hold_from_64_to_65536_envs(num_envs, tmp_p
     # The natural gradient's Fisher-vector products likewise stop growing with the batch.
     assert config.fisher_samples == 16384
     assert config.normalize_value_targets
-    assert config.normalize_observations and config.step_size == npg.PRESETS["hopper"]["step_size"]
+    assert config.normalize_observations and config.kl_delta == npg.PRESETS["hopper"]["kl_delta"]
     # Evaluation costs little: a handful of evaluations, on block boundaries.
     assert plan.run.iterations // config.eval_every <= 2
     assert config.eval_every % plan.run.block_size == 0

@@ -1,5 +1,7 @@
-"""Policy-gradient algorithms. Each module defines ``Config``, ``init(key, env, config)``,
-``update(train_state) -> (train_state, metrics)`` and ``PRESETS`` (named ``Config`` overrides)."""
+"""Policy-gradient algorithms. Each algorithm module defines ``Config``, ``init(key, env, config)``,
+``update(train_state) -> (train_state, metrics)`` and ``PRESETS`` (named ``Config`` overrides),
+built on the algorithm core (``jaxpg.algos.core``) and at most one module its family shares
+(``natural_gradient``: NPG and TRPO; ``actor_critic``: PPO and A2C)."""
 
 from __future__ import annotations
 

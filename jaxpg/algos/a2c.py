@@ -8,10 +8,11 @@
      gamma^(t_max - t) V(s_{t_max}) - V(s_t)``);
   3. one gradient step on ``-E[A log pi(a|s)] + value_coef * E[(V(s) - R)^2]
      - entropy_coef * E[H(pi(.|s))]`` with RMSprop (the paper's choice) or Adam, after clipping
-     the global gradient norm; policy and value share the optimizer (``ppo.gradient_step``);
-  4. reject non-finite updates, update observation statistics (``npg.finish_iteration``).
+     the global gradient norm: the joint actor-critic loss without clipping, policy and value
+     sharing the optimizer (``actor_critic.gradient_step``, shared with PPO);
+  4. reject non-finite updates, update observation statistics (``core.finish_iteration``).
 
-It works with every policy ``common.make_networks`` builds: categorical on a discrete task
+It works with every policy ``core.make_networks`` builds: categorical on a discrete task
 (``cartpole``), Gaussian on a continuous one (``inverted_pendulum``).
 """
 
@@ -23,20 +24,20 @@ from typing import Any, ClassVar
 import jax
 import optax
 
-from jaxpg.algos import common, npg, ppo
-from jaxpg.algos.common import TrainState
+from jaxpg.algos import actor_critic, core
+from jaxpg.algos.core import TrainState
 from jaxpg.envs import Env
 
 
 @dataclasses.dataclass(frozen=True)
-class Config(common.BaseConfig):
+class Config(actor_critic.ActorCriticConfig):
     """A2C hyperparameters (defaults: a quick CPU setting on ``cartpole`` that reaches 500 but does
     not stay there; the ``cartpole`` preset, with scaled rewards, is the tested one that does).
 
     ``horizon`` is ``t_max``; ``optimizer`` is ``"rmsprop"`` (decay ``rmsprop_decay``, epsilon
     ``eps``; the paper's shared-statistics RMSprop becomes ordinary RMSprop in the synchronous
     setting) or ``"adam"`` (epsilon ``eps``); ``max_grad_norm`` 0 turns clipping off. The
-    remaining fields are those of ``ppo.Config``.
+    remaining fields are those of ``actor_critic.ActorCriticConfig``.
     """
 
     FIELD_CHOICES: ClassVar[dict[str, tuple[str, ...]]] = {"optimizer": ("rmsprop", "adam")}
@@ -52,19 +53,15 @@ class Config(common.BaseConfig):
     entropy_coef: float = 0.01
     gae_lambda: float = 1.0
     normalize_advantages: bool = False
-    reward_scaling: float = 1.0
-    value_target: str = "gae"
-    sample_budget: int = 0
 
     def validate(self, env: Env) -> None:
         super().validate(env)
         if self.optimizer not in ("rmsprop", "adam"):
             raise ValueError(f"optimizer must be 'rmsprop' or 'adam', got {self.optimizer!r}")
-        if not self.lr > 0 or self.max_grad_norm < 0:
-            raise ValueError(f"lr must be > 0 and max_grad_norm >= 0, got {self.lr}, {self.max_grad_norm}")
+        if not self.lr > 0:
+            raise ValueError(f"lr must be > 0, got {self.lr}")
         if not 0 <= self.rmsprop_decay < 1:
             raise ValueError(f"rmsprop_decay must be in [0, 1), got {self.rmsprop_decay}")
-        ppo.validate_returns(self)
 
 
 PRESETS: dict[str, dict[str, Any]] = {
@@ -110,29 +107,23 @@ def optimizer(config: Config) -> optax.GradientTransformation:
         step = optax.rmsprop(config.lr, decay=config.rmsprop_decay, eps=config.eps)
     else:
         step = optax.adam(config.lr, eps=config.eps)
-    return optax.chain(ppo.clip_gradients(config.max_grad_norm), step)
+    return optax.chain(core.clip_gradients(config.max_grad_norm), step)
 
 
 def init(key: jax.Array, env: Env, config: Config) -> TrainState:
     """A fresh ``TrainState``: networks, the joint optimizer state, env batch."""
-    return ppo.init_actor_critic(key, env, config, optimizer(config))
+    return actor_critic.init_state(key, env, config, optimizer(config))
 
 
 def update(ts: TrainState) -> tuple[TrainState, dict[str, jax.Array]]:
     """One A2C iteration (module docstring); pure, jittable, vmappable over seeds."""
     old = ts
-    ts, traj, key = npg.phase_sample(ts)
-    batch = ppo.phase_advantages(ts, traj)
-    joint, opt_state, diagnostics = ppo.gradient_step(
-        ts, optimizer(ts.config), ppo.joint_params(ts), ts.opt_state, batch, None, None, None
+    ts, traj, _ = core.phase_sample(ts)
+    batch = actor_critic.phase_advantages(ts, traj)
+    joint, opt_state, diagnostics = actor_critic.gradient_step(
+        ts, optimizer(ts.config), actor_critic.joint_params(ts), ts.opt_state, batch
     )
-    ts = ppo.with_joint_params(ts, joint, opt_state)
-    metrics = {
-        "kl": npg.mean_kl(ts, old.params, ts.params, batch),
-        "entropy": diagnostics["entropy"],
-        "policy_loss": diagnostics["policy_loss"],
-        "value_loss": diagnostics["value_loss"],
-        "grad_norm": diagnostics["grad_norm"],
-        "loss": diagnostics["loss"],
-    }
-    return npg.finish_iteration(old, ts, traj, diagnostics["loss"], metrics)
+    ts = actor_critic.with_joint_params(ts, joint, opt_state)
+    metrics = {name: diagnostics[name] for name in ("entropy", "policy_loss", "value_loss", "grad_norm", "loss")}
+    kl = core.mean_kl(ts, old.params, ts.params, batch)
+    return core.finish_iteration(old, ts, traj, loss=diagnostics["loss"], kl=kl, metrics=metrics)

@@ -2,7 +2,7 @@
 
 One iteration:
   1. sample ``num_envs x horizon`` transitions (by default *episodic*: every env runs one episode
-     of at most ``horizon`` steps; ``npg.phase_sample``);
+     of at most ``horizon`` steps; ``core.phase_sample``);
   2. Monte-Carlo discounted returns ``G_t = sum_k gamma^k r_{t+k}`` within each episode, with no
      bootstrapping, then normalised (``return_normalization``):
        ``"episode"``: by the mean and std of their own episode (Kokoyi's CartPole, MinPy's Pong,
@@ -14,7 +14,7 @@ One iteration:
 
      the means taken over the valid samples of the batch (Williams' eq. for the episodic case,
      with the batch mean in place of a sum over one episode: with Adam the scale does not matter);
-  4. reject non-finite updates, update observation statistics (``npg.finish_iteration``).
+  4. reject non-finite updates, update observation statistics (``core.finish_iteration``).
 
 No value function is learned: ``TrainState.value_params`` is ``{}``. The returns of an episode
 cut by ``horizon`` (or, in continuing sampling, by the end of the batch) are those of the part
@@ -32,8 +32,8 @@ import jax.numpy as jnp
 import optax
 
 from jaxpg import returns
-from jaxpg.algos import common, npg
-from jaxpg.algos.common import TrainState
+from jaxpg.algos import core
+from jaxpg.algos.core import TrainState
 from jaxpg.envs import Env
 from jaxpg.rollout import Trajectory
 
@@ -41,14 +41,13 @@ RETURN_NORMALIZATIONS = ("episode", "batch", "none")
 
 
 @dataclasses.dataclass(frozen=True)
-class Config(common.BaseConfig):
+class Config(core.BaseConfig):
     """REINFORCE hyperparameters (defaults: a quick CPU setting for ``cartpole``).
 
     ``optimizer`` is ``"adam"`` or ``"adamw"`` (decoupled ``weight_decay``; PyTorch's AdamW
     default 0.01) with learning rate ``lr``; ``max_grad_norm`` > 0 clips the global gradient norm
     first (0: off). ``return_normalization`` is one of ``"episode"``, ``"batch"``, ``"none"``
-    (module docstring); ``entropy_coef`` weighs an entropy bonus; ``sample_budget`` > 0 caps the
-    valid samples of episodic sampling (see ``npg.apply_sample_budget``).
+    (module docstring); ``entropy_coef`` weighs an entropy bonus.
     """
 
     num_envs: int = 32
@@ -62,10 +61,9 @@ class Config(common.BaseConfig):
     return_normalization: str = "episode"
     entropy_coef: float = 0.0
     max_grad_norm: float = 0.0
-    sample_budget: int = 0
 
     # REINFORCE has no value function (command lines offer no flag for these).
-    UNUSED_FIELDS: ClassVar[tuple[str, ...]] = ("value_hidden", "value_activation")
+    UNUSED_FIELDS: ClassVar[tuple[str, ...]] = ("value_hidden", "value_activation", "normalize_value_targets")
     FIELD_CHOICES: ClassVar[dict[str, tuple[str, ...]]] = {"optimizer": ("adam", "adamw")}
 
     def validate(self, env: Env) -> None:
@@ -76,15 +74,11 @@ class Config(common.BaseConfig):
             raise ValueError(f"lr must be > 0, got {self.lr}")
         if self.weight_decay < 0 or self.max_grad_norm < 0 or self.entropy_coef < 0:
             raise ValueError("weight_decay, max_grad_norm and entropy_coef must be >= 0")
-        if not 0 <= self.gamma <= 1:
-            raise ValueError(f"gamma must be in [0, 1], got {self.gamma}")
         if self.return_normalization not in RETURN_NORMALIZATIONS:
             raise ValueError(
                 f"return_normalization must be one of {', '.join(RETURN_NORMALIZATIONS)}, "
                 f"got {self.return_normalization!r}"
             )
-        if self.sample_budget < 0:
-            raise ValueError(f"sample_budget must be >= 0, got {self.sample_budget}")
 
 
 PRESETS: dict[str, dict[str, Any]] = {
@@ -99,7 +93,7 @@ PRESETS: dict[str, dict[str, Any]] = {
         policy="state_std_gaussian",
         policy_hidden=(16, 32),
         policy_activation="tanh",
-        policy_init="pytorch",
+        network_init="pytorch",
         optimizer="adamw",
         lr=1e-4,
         weight_decay=0.01,
@@ -114,7 +108,7 @@ PRESETS: dict[str, dict[str, Any]] = {
         gamma=0.99,
         policy_hidden=(128,),
         policy_activation="relu",
-        policy_init="pytorch",
+        network_init="pytorch",
         optimizer="adam",
         lr=1e-2,
         return_normalization="episode",
@@ -128,12 +122,12 @@ def optimizer(config: Config) -> optax.GradientTransformation:
         opt = optax.adamw(config.lr, weight_decay=config.weight_decay)
     else:
         opt = optax.adam(config.lr)
-    return optax.chain(common.clip_gradients(config.max_grad_norm), opt)
+    return optax.chain(core.clip_gradients(config.max_grad_norm), opt)
 
 
 def init(key: jax.Array, env: Env, config: Config) -> TrainState:
     """A fresh ``TrainState``: policy, its optimizer state, env batch; no value function."""
-    ts = common.init_common(key, env, config, opt_init=optimizer(config).init)
+    ts = core.init_state(key, env, config, optimizer=optimizer(config))
     return ts.replace(value_params={}, value_opt_state=())
 
 
@@ -150,16 +144,11 @@ def normalized_returns(traj: Trajectory, gamma: float, normalization: str) -> ja
     return jnp.where(traj.valid > 0, g, 0.0)
 
 
-def flatten(batch: npg.Batch) -> npg.Batch:
-    """``[T, B, ...] -> [B * T, ...]`` on every field (env-major, ``common.flatten_samples``)."""
-    return jax.tree.map(common.flatten_samples, batch)
-
-
-def phase_returns(ts: TrainState, traj: Trajectory) -> npg.Batch:
+def phase_returns(ts: TrainState, traj: Trajectory) -> core.Batch:
     """The flat training batch whose ``advantages`` (and ``value_targets``) are the normalised
     returns; observations normalised with the statistics the batch was sampled with."""
     g = normalized_returns(traj, ts.config.gamma, ts.config.return_normalization)
-    batch = npg.Batch(
+    batch = core.Batch(
         obs=ts.obs_stats.normalize(traj.obs),
         actions=traj.actions,
         log_probs=traj.log_probs,
@@ -167,10 +156,10 @@ def phase_returns(ts: TrainState, traj: Trajectory) -> npg.Batch:
         value_targets=g,
         weights=traj.valid,
     )
-    return flatten(batch)
+    return core.flatten_batch(batch)
 
 
-def loss(ts: TrainState, params: Any, batch: npg.Batch) -> tuple[jax.Array, dict[str, jax.Array]]:
+def loss(ts: TrainState, params: Any, batch: core.Batch) -> tuple[jax.Array, dict[str, jax.Array]]:
     """``-E[A log pi(a|s)] - entropy_coef * E[H]`` over the weighted batch ``[N]``:
     ``(total [], {"policy_loss", "entropy"})``. ``A`` is ``batch.advantages``, held constant."""
     dist = ts.policy.dist(params, batch.obs)
@@ -182,7 +171,7 @@ def loss(ts: TrainState, params: Any, batch: npg.Batch) -> tuple[jax.Array, dict
     return policy_loss - ts.config.entropy_coef * entropy, {"policy_loss": policy_loss, "entropy": entropy}
 
 
-def policy_step(ts: TrainState, batch: npg.Batch) -> tuple[TrainState, dict[str, jax.Array]]:
+def policy_step(ts: TrainState, batch: core.Batch) -> tuple[TrainState, dict[str, jax.Array]]:
     """One optimizer step on ``loss``; returns the new state and the loss diagnostics with
     ``loss`` and the pre-clipping ``grad_norm``."""
     (total, diagnostics), grads = jax.value_and_grad(loss, argnums=1, has_aux=True)(ts, ts.params, batch)
@@ -194,8 +183,8 @@ def policy_step(ts: TrainState, batch: npg.Batch) -> tuple[TrainState, dict[str,
 def update(ts: TrainState) -> tuple[TrainState, dict[str, jax.Array]]:
     """One REINFORCE iteration (module docstring); pure, jittable, vmappable over seeds."""
     old = ts
-    ts, traj, _ = npg.phase_sample(ts)
+    ts, traj, _ = core.phase_sample(ts)
     batch = phase_returns(ts, traj)
     ts, diagnostics = policy_step(ts, batch)
-    metrics = {**diagnostics, "kl": npg.mean_kl(ts, old.params, ts.params, batch)}
-    return npg.finish_iteration(old, ts, traj, diagnostics["loss"], metrics)
+    kl = core.mean_kl(ts, old.params, ts.params, batch)
+    return core.finish_iteration(old, ts, traj, loss=diagnostics["loss"], kl=kl, metrics=diagnostics)

@@ -10,7 +10,7 @@ runs only up to the end of ``t``'s point (Karpathy's ``discount_rewards`` with i
      after the last finished point of each env column have no known return yet and are left out;
   3. one Adam (or AdamW) step on ``-E[G^_t log pi(a_t|s_t)] - entropy_coef * E[H]`` over the
      steps with a known return (``reinforce.policy_step``);
-  4. reject non-finite updates, update observation statistics (``npg.finish_iteration``).
+  4. reject non-finite updates, update observation statistics (``core.finish_iteration``).
 
 The state and optimizer are REINFORCE's (``init`` is ``reinforce.init``); ``Config`` is
 ``reinforce.Config`` with the defaults of ``experiments/pong.py``'s REINFORCE (6400 -> 200 ReLU
@@ -26,8 +26,8 @@ import jax
 import jax.numpy as jnp
 
 from jaxpg import returns
-from jaxpg.algos import npg, reinforce
-from jaxpg.algos.common import TrainState
+from jaxpg.algos import core, reinforce
+from jaxpg.algos.core import TrainState
 from jaxpg.envs import Env
 
 init = reinforce.init
@@ -80,12 +80,12 @@ def update(ts: TrainState) -> tuple[TrainState, dict[str, jax.Array]]:
     """One REINFORCE iteration with per-point returns normalised over the batch (module
     docstring); ``jaxpg.algos.reinforce``'s pieces with ``point_returns`` for its returns."""
     old = ts
-    ts, traj, _ = npg.phase_sample(ts)
+    ts, traj, _ = core.phase_sample(ts)
     g, complete = point_returns(traj.rewards, traj.terminated, traj.truncated, ts.config.gamma)
     weights = traj.valid * complete
     advantages = returns.normalize(g, mask=weights)
-    batch = reinforce.flatten(
-        npg.Batch(
+    batch = core.flatten_batch(
+        core.Batch(
             obs=ts.obs_stats.normalize(traj.obs),
             actions=traj.actions,
             log_probs=traj.log_probs,
@@ -95,9 +95,6 @@ def update(ts: TrainState) -> tuple[TrainState, dict[str, jax.Array]]:
         )
     )
     ts, diagnostics = reinforce.policy_step(ts, batch)
-    metrics = {
-        **diagnostics,
-        "kl": npg.mean_kl(ts, old.params, ts.params, batch),
-        "complete_fraction": jnp.mean(weights),
-    }
-    return npg.finish_iteration(old, ts, traj, diagnostics["loss"], metrics)
+    kl = core.mean_kl(ts, old.params, ts.params, batch)
+    metrics = {**diagnostics, "complete_fraction": jnp.mean(weights)}
+    return core.finish_iteration(old, ts, traj, loss=diagnostics["loss"], kl=kl, metrics=metrics)

@@ -21,7 +21,7 @@ ball's motion that a single frame lacks, at a quarter of a stack's input size.
 
 Actions (``action_set``): ``"updown"`` (default, Karpathy's two: ALE's RIGHT = up and LEFT =
 down), ``"stay"`` (NOOP, up, down) or ``"minimal"`` (ALE's six). An episode is one game to 21
-points; the reward is +1 / -1 per point; ``metrics["eval_metric"]`` is the score difference so far.
+points; the reward is +1 / -1 per point; ``metrics["task_score"]`` is the score difference so far.
 
 How the host games follow jaxpg's episodes: a game that ends restarts at once on the host (ALE's
 same-step autoreset), as ``AutoReset``'s fresh state does on the JAX side; and whenever ``step``
@@ -225,7 +225,7 @@ class AtariPong(Env):
     """
 
     discrete = True
-    eval_metric_name = "score_difference"
+    task_score_name = "score_difference"
     observation_size = SIZE * SIZE
     vmap_seeds = False  # seeds vmapped in one program would share one pool of host games
 
@@ -280,7 +280,7 @@ class AtariPong(Env):
         return obs, reward, terminated
 
     def _metrics(self, score: jax.Array) -> dict[str, jax.Array]:
-        return {"eval_metric": (score[0] - score[1]).astype(jnp.float32)}
+        return {"task_score": (score[0] - score[1]).astype(jnp.float32)}
 
     def _reset(self, key: jax.Array) -> tuple[Any, jax.Array, dict[str, jax.Array]]:
         del key  # the host games are seeded once, by ``seed``

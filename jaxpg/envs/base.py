@@ -40,7 +40,7 @@ class State:
       reward: ``[]`` float32 reward of the step that led here (0 after ``reset``).
       terminated: ``[]`` bool, the task ended (no bootstrapping past it).
       truncated: ``[]`` bool, the time limit ended the episode (bootstrap from ``obs``).
-      metrics: per-step scalars (reward terms, ``eval_metric``, ``nonfinite``, ``invalid_action``,
+      metrics: per-step scalars (reward terms, ``task_score``, ``nonfinite``, ``invalid_action``,
         ``physics_overflow``); same keys always.
       info: bookkeeping that wrappers thread through: ``step`` (int32 step count in the episode),
         ``rng`` (key for the next reset) and whatever wrappers add.
@@ -121,7 +121,8 @@ class Env(abc.ABC):
       discrete: actions are integer scalars in ``[0, action_size)`` rather than float vectors.
       dt: simulated seconds per ``step``.
       max_episode_steps: time limit; reaching it sets ``truncated``.
-      eval_metric_name: what ``metrics["eval_metric"]`` measures (e.g. ``"forward_distance"``).
+      task_score_name: what ``metrics["task_score"]`` measures: the task's own score of an episode
+        so far, beside its return (e.g. ``"forward_distance"``; ``"return"`` where they coincide).
     """
 
     observation_size: int
@@ -129,7 +130,7 @@ class Env(abc.ABC):
     discrete: bool = False
     dt: float
     max_episode_steps: int
-    eval_metric_name: str = "return"
+    task_score_name: str = "return"
     action_low: float = -1.0
     action_high: float = 1.0
 

@@ -6,7 +6,7 @@ integrated with explicit Euler at ``tau = 0.02`` s, with Gymnasium's constants. 
 Actions are discrete: 0 pushes the cart left, 1 right, with a force of 10 N. Reward 1 on every step,
 the terminating one included (v1's default). The episode terminates when ``|x| > 2.4`` or
 ``|theta| > 12`` degrees; 500-step limit. Reset: every state entry uniform in ``[-0.05, 0.05]``.
-The eval metric is the number of steps so far, which at the end of an episode is its return.
+The task score is the number of steps so far, which at the end of an episode is its return.
 
 An action is an integer scalar; a float or a non-scalar raises ``ValueError`` when ``step`` is
 traced. An integer outside ``{0, 1}`` (e.g. 7 or -1) is *not* a push in either direction: as in
@@ -41,7 +41,7 @@ class CartPole(Env):
     discrete = True
     action_size = 2
     observation_size = 4
-    eval_metric_name = "steps"
+    task_score_name = "steps"
 
     gravity = 9.8
     masscart = 1.0
@@ -83,12 +83,12 @@ class CartPole(Env):
     def _reset(self, key: jax.Array) -> tuple[Any, jax.Array, dict[str, jax.Array]]:
         b = self.reset_bound
         state = jax.random.uniform(key, (4,), minval=-b, maxval=b)
-        return CartPoleData(state=state), state, {"eval_metric": jnp.zeros((), jnp.float32)}
+        return CartPoleData(state=state), state, {"task_score": jnp.zeros((), jnp.float32)}
 
     def _step(self, state: State, action: jax.Array) -> tuple[Any, jax.Array, jax.Array, jax.Array, dict]:
         new = self.dynamics(state.data.state, action)
         x, theta = new[0], new[2]
         terminated = (jnp.abs(x) > self.x_threshold) | (jnp.abs(theta) > self.theta_threshold)
         reward = jnp.ones((), jnp.float32)
-        metrics = {"eval_metric": state.info["step"].astype(jnp.float32) + 1.0}
+        metrics = {"task_score": state.info["step"].astype(jnp.float32) + 1.0}
         return CartPoleData(state=new), new, reward, terminated, metrics

@@ -5,7 +5,7 @@ Observation ``[11]``: ``qpos[1:]`` (torso height, torso angle, thigh, leg, foot 
 (gear 200). Reward: forward velocity of the torso + 1 while healthy - 1e-3 * |action|^2.
 Healthy: ``z > 0.7``, ``|angle| < 0.2`` and every entry of ``(qpos, qvel)[2:]`` inside (-100, 100);
 an unhealthy state terminates the episode. Reset noise: uniform +-5e-3 on qpos and qvel.
-Frame skip 4 (dt 0.008 s), 1000-step limit. The eval metric is the forward distance ``qpos[0]``.
+Frame skip 4 (dt 0.008 s), 1000-step limit. The task score is the forward distance ``qpos[0]``.
 """
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ from jaxpg.envs.mjx_env import Fidelity, Impl, MjxEnv
 class Hopper(MjxEnv):
     """MJX Hopper; see the module docstring for the task definition."""
 
-    eval_metric_name = "forward_distance"
+    task_score_name = "forward_distance"
 
     def __init__(
         self,
@@ -78,7 +78,7 @@ class Hopper(MjxEnv):
             "reward_forward": zero,
             "reward_ctrl": zero,
             "reward_survive": zero,
-            "eval_metric": qpos[0],
+            "task_score": qpos[0],
         }
         return data, self.observation(qpos, qvel), metrics
 
@@ -95,6 +95,6 @@ class Hopper(MjxEnv):
             "reward_forward": forward,
             "reward_ctrl": -ctrl_cost,
             "reward_survive": survive,
-            "eval_metric": data.qpos[0],
+            "task_score": data.qpos[0],
         }
         return data, self.observation(data.qpos, data.qvel), reward, ~healthy, metrics

@@ -7,7 +7,7 @@ rail limit's force on the cart). Action ``[1]`` in ``[-1, 1]``: the force on the
 With ``(x, y)`` the tip site's position (horizontal, height) and ``v1, v2`` the hinge velocities,
 the reward is ``10 * alive - (0.01 x^2 + (y - 2)^2) - (1e-3 v1^2 + 5e-3 v2^2)``; the episode
 terminates, with ``alive = 0``, once ``y <= 1``. Reset noise: uniform +-0.1 on qpos, normal with
-standard deviation 0.1 on qvel. Frame skip 5 (dt 0.05 s), 1000-step limit. The eval metric is the
+standard deviation 0.1 on qvel. Frame skip 5 (dt 0.05 s), 1000-step limit. The task score is the
 tip height ``y``.
 
 The tip position and constraint force are those MuJoCo leaves in ``data`` after the step, exactly as
@@ -30,7 +30,7 @@ from jaxpg.envs.mjx_env import Fidelity, Impl, MjxEnv
 class InvertedDoublePendulum(MjxEnv):
     """MJX InvertedDoublePendulum; see the module docstring for the task definition."""
 
-    eval_metric_name = "tip_height"
+    task_score_name = "tip_height"
 
     def __init__(
         self,
@@ -81,7 +81,7 @@ class InvertedDoublePendulum(MjxEnv):
             "reward_survive": alive,
             "distance_penalty": -distance_penalty,
             "velocity_penalty": -velocity_penalty,
-            "eval_metric": y,
+            "task_score": y,
         }
         return alive - distance_penalty - velocity_penalty, terminated, terms
 
@@ -94,7 +94,7 @@ class InvertedDoublePendulum(MjxEnv):
         data = self.physics_state(qpos, qvel, forward=True)
         _, _, terms = self.reward(data)
         zero = jnp.zeros((), jnp.float32)
-        metrics = {k: zero for k in terms} | {"eval_metric": terms["eval_metric"].astype(jnp.float32)}
+        metrics = {k: zero for k in terms} | {"task_score": terms["task_score"].astype(jnp.float32)}
         return data, self.observation(data), metrics
 
     def _step(self, state: State, action: jax.Array) -> tuple[Any, jax.Array, jax.Array, jax.Array, dict]:

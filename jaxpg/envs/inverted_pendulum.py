@@ -4,7 +4,7 @@ Observation ``[4]``: ``qpos`` (cart position, pole angle) then ``qvel`` (their v
 Action ``[1]`` in ``[-3, 3]``: the force on the cart (gear 100). Reward: 1 while the pole is upright
 (``|angle| <= 0.2``), 0 on the step that tips it over, which terminates the episode (v5 gives no
 reward on that step; v4 did). Reset noise: uniform +-0.01 on qpos and qvel. Frame skip 2
-(dt 0.04 s), 1000-step limit. The eval metric is the number of upright steps so far, which at the
+(dt 0.04 s), 1000-step limit. The task score is the number of upright steps so far, which at the
 end of an episode equals its return (1000 for a perfect episode).
 """
 
@@ -22,7 +22,7 @@ from jaxpg.envs.mjx_env import Fidelity, Impl, MjxEnv
 class InvertedPendulum(MjxEnv):
     """MJX InvertedPendulum; see the module docstring for the task definition."""
 
-    eval_metric_name = "upright_steps"
+    task_score_name = "upright_steps"
     action_low = -3.0
     action_high = 3.0
 
@@ -57,7 +57,7 @@ class InvertedPendulum(MjxEnv):
         s = self.reset_noise_scale
         qpos = self.init_qpos + jax.random.uniform(kq, (self.nq,), minval=-s, maxval=s)
         qvel = self.init_qvel + jax.random.uniform(kv, (self.nv,), minval=-s, maxval=s)
-        metrics = {"reward_survive": jnp.zeros((), jnp.float32), "eval_metric": jnp.zeros((), jnp.float32)}
+        metrics = {"reward_survive": jnp.zeros((), jnp.float32), "task_score": jnp.zeros((), jnp.float32)}
         return self.physics_state(qpos, qvel), self.observation(qpos, qvel), metrics
 
     def _step(self, state: State, action: jax.Array) -> tuple[Any, jax.Array, jax.Array, jax.Array, dict]:
@@ -67,5 +67,5 @@ class InvertedPendulum(MjxEnv):
         terminated = jnp.abs(obs[1]) > self.max_angle
         reward = (~terminated).astype(jnp.float32)
         upright_steps = state.info["step"].astype(jnp.float32) + reward
-        metrics = {"reward_survive": reward, "eval_metric": upright_steps}
+        metrics = {"reward_survive": reward, "task_score": upright_steps}
         return data, obs, reward, terminated, metrics

@@ -21,7 +21,7 @@ paddle is on the right, a scripted opponent's on the left. Every step:
      centre line (random height in ``[0.25, 0.75]``, random side, angle within
      ``serve_angle`` of the horizontal, speed ``ball_speed``). Paddles stay where they are.
 The game *terminates* when either side reaches ``winning_score`` (21) points and is *truncated*
-at ``max_episode_steps``. ``metrics["eval_metric"]`` is the score difference (agent minus
+at ``max_episode_steps``. ``metrics["task_score"]`` is the score difference (agent minus
 opponent) so far: at the end of a game, its final score difference. ``metrics["hit"]`` is 1 on the
 steps where the agent's paddle returned the ball.
 
@@ -104,7 +104,7 @@ class Pong(Env):
     """
 
     discrete = True
-    eval_metric_name = "score_difference"
+    task_score_name = "score_difference"
     dt = 1.0  # one step; there is no physical time unit
 
     # Distance of each paddle's outer side from its edge of the court.
@@ -256,7 +256,7 @@ class Pong(Env):
 
     def _metrics(self, data: PongData, hit: jax.Array) -> dict[str, jax.Array]:
         return {
-            "eval_metric": (data.score[0] - data.score[1]).astype(jnp.float32),
+            "task_score": (data.score[0] - data.score[1]).astype(jnp.float32),
             "hit": hit.astype(jnp.float32),
         }
 

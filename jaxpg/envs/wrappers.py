@@ -29,7 +29,7 @@ class Wrapper(Env):
 
     # `Env` gives these class-level defaults, which `__getattr__` would never see past.
     discrete = property(lambda self: self.env.discrete)
-    eval_metric_name = property(lambda self: self.env.eval_metric_name)
+    task_score_name = property(lambda self: self.env.task_score_name)
     action_low = property(lambda self: self.env.action_low)
     action_high = property(lambda self: self.env.action_high)
     name = property(lambda self: self.env.name)
@@ -76,7 +76,7 @@ class EpisodeStats(Wrapper):
     Adds to ``metrics`` at every step (meaningful where ``done``):
       ``episode_return``: sum of rewards of the episode that just ended;
       ``episode_length``: its number of steps;
-      ``episode_eval_metric``: the task's ``eval_metric`` at its last step;
+      ``episode_task_score``: the task's ``task_score`` at its last step;
       ``episode_done``: 1.0 where an episode ended at this step, else 0.0.
     Averages over ended episodes are ``sum(x * episode_done) / sum(episode_done)``.
     """
@@ -89,7 +89,7 @@ class EpisodeStats(Wrapper):
             **state.metrics,
             "episode_return": zero,
             "episode_length": zero,
-            "episode_eval_metric": zero,
+            "episode_task_score": zero,
             "episode_done": zero,
         }
         return state.replace(info=info, metrics=metrics)
@@ -103,7 +103,7 @@ class EpisodeStats(Wrapper):
             **state.metrics,
             "episode_return": ep_return,
             "episode_length": ep_length.astype(jnp.float32),
-            "episode_eval_metric": state.metrics["eval_metric"].astype(jnp.float32),
+            "episode_task_score": state.metrics["task_score"].astype(jnp.float32),
             "episode_done": done.astype(jnp.float32),
         }
         info = {

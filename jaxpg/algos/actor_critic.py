@@ -1,0 +1,150 @@
+"""What PPO and A2C share: policy and value trained together, by one first-order optimizer, on
+one loss
+
+    L = -E[surrogate] + value_coef * E[(V(s) - target)^2] - entropy_coef * E[H(pi(.|s))],
+
+whose surrogate is the likelihood ratio times the advantage, ``r A`` with
+``r = pi(a|s) / pi_old(a|s)`` (A2C: its gradient at ``r = 1`` is the policy gradient
+``E[A grad log pi]``), or PPO's clipped ``min(r A, clip(r, 1 - eps, 1 + eps) A)``.
+
+The optimizer sees ``{"policy": params, "value": value_params}`` (``joint_params``); its state
+lives in ``TrainState.opt_state``, and the parameters stay in ``params`` / ``value_params`` as
+for every algorithm. The value network predicts returns as they are: the joint loss does not
+standardise its targets (``normalize_value_targets`` is not a setting of these algorithms).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any, ClassVar
+
+import jax
+import jax.numpy as jnp
+import optax
+
+from jaxpg import value as value_lib
+from jaxpg.algos import core
+from jaxpg.algos.core import TrainState
+from jaxpg.envs import Env
+from jaxpg.rollout import Trajectory
+
+
+@dataclasses.dataclass(frozen=True)
+class ActorCriticConfig(core.GAEConfig):
+    """The fields of the joint loss and its advantages, besides GAE's (``core.GAEConfig``).
+
+    Rewards are multiplied by ``reward_scaling`` before advantages and value targets;
+    ``value_coef`` and ``entropy_coef`` weigh the value loss and the entropy bonus;
+    ``max_grad_norm`` clips the global norm of the joint gradient (0: no clipping).
+    """
+
+    value_coef: float = 0.5
+    entropy_coef: float = 0.0
+    max_grad_norm: float = 0.5
+    reward_scaling: float = 1.0
+
+    UNUSED_FIELDS: ClassVar[tuple[str, ...]] = ("normalize_value_targets",)
+
+    def validate(self, env: Env) -> None:
+        super().validate(env)
+        if self.max_grad_norm < 0:
+            raise ValueError(f"max_grad_norm must be >= 0 (0: no clipping), got {self.max_grad_norm}")
+
+
+def joint_params(ts: TrainState) -> dict[str, Any]:
+    """The parameters the joint optimizer sees: ``{"policy": params, "value": value_params}``."""
+    return {"policy": ts.params, "value": ts.value_params}
+
+
+def with_joint_params(ts: TrainState, joint: dict[str, Any], opt_state: Any) -> TrainState:
+    """``ts`` with ``joint``'s parameters stored back in their usual places."""
+    return ts.replace(params=joint["policy"], value_params=joint["value"], opt_state=opt_state)
+
+
+def init_state(
+    key: jax.Array, env: Env, config: ActorCriticConfig, optimizer: optax.GradientTransformation
+) -> TrainState:
+    """``core.init_state`` plus ``optimizer``'s state over the joint parameters."""
+    ts = core.init_state(key, env, config)
+    return ts.replace(opt_state=optimizer.init(joint_params(ts)))
+
+
+def phase_advantages(ts: TrainState, traj: Trajectory) -> core.Batch:
+    """``core.phase_advantages`` on rewards multiplied by ``config.reward_scaling``."""
+    scaled = traj.replace(rewards=traj.rewards * ts.config.reward_scaling)
+    return core.phase_advantages(ts, scaled)
+
+
+def loss(
+    ts: TrainState,
+    joint: dict[str, Any],
+    batch: core.Batch,
+    clip_eps: float = 0.0,
+    value_clip_eps: float = 0.0,
+    old_values: jax.Array | None = None,
+) -> tuple[jax.Array, dict[str, jax.Array]]:
+    """The joint loss (module docstring) on ``batch`` (``[n]`` samples): ``(total [], diagnostics)``.
+
+    Policy term: with ``clip_eps`` > 0 PPO's clipped surrogate ``-E[min(r A, clip(r, 1 -+ eps)
+    A)]``, with ``clip_eps`` 0 the plain ``-E[r A]`` (A2C), where
+    ``r = exp(log pi(a|s) - log pi_old(a|s))``. Value term: ``E[(V(s) - target)^2]``; with
+    ``value_clip_eps`` > 0 the larger of that error and the error of
+    ``old_values + clip(V(s) - old_values, -+ value_clip_eps)`` (PPO2's value clipping;
+    ``old_values [n]`` are the predictions at sampling time). Entropy term: ``E[H(pi(.|s))]``.
+    ``ts.config`` supplies ``value_coef`` and ``entropy_coef``; means are weighted by
+    ``batch.weights``. ``diagnostics``: ``policy_loss``, ``value_loss``, ``entropy``,
+    ``approx_kl`` and ``clip_fraction``.
+    """
+    config = ts.config
+    w = batch.weights
+    dist = ts.policy.dist(joint["policy"], batch.obs)
+    log_ratio = ts.policy.dist_log_prob(dist, batch.actions) - batch.log_probs
+    ratio = jnp.exp(log_ratio)
+    if clip_eps > 0:
+        surrogate = jnp.minimum(
+            ratio * batch.advantages, jnp.clip(ratio, 1.0 - clip_eps, 1.0 + clip_eps) * batch.advantages
+        )
+        clipped = (jnp.abs(ratio - 1.0) > clip_eps).astype(ratio.dtype)
+    else:
+        surrogate = ratio * batch.advantages
+        clipped = jnp.zeros_like(ratio)
+    policy_loss = -core.weighted_mean(surrogate, w)
+    if value_clip_eps > 0:
+        values = ts.value_fn.apply(joint["value"], batch.obs)
+        values_clipped = old_values + jnp.clip(values - old_values, -value_clip_eps, value_clip_eps)
+        targets = batch.value_targets
+        err = jnp.maximum(jnp.square(values - targets), jnp.square(values_clipped - targets))
+        value_loss = core.weighted_mean(err, w)
+    else:
+        value_loss = value_lib.value_loss(ts.value_fn, joint["value"], batch.obs, batch.value_targets, w)
+    entropy = core.weighted_mean(ts.policy.dist_entropy(dist), w)
+    total = policy_loss + config.value_coef * value_loss - config.entropy_coef * entropy
+    diagnostics = {
+        "policy_loss": policy_loss,
+        "value_loss": value_loss,
+        "entropy": entropy,
+        # Schulman's low-variance estimator of KL(pi_old || pi): E[(r - 1) - log r].
+        "approx_kl": core.weighted_mean((ratio - 1.0) - log_ratio, w),
+        "clip_fraction": core.weighted_mean(clipped, w),
+    }
+    return total, diagnostics
+
+
+def gradient_step(
+    ts: TrainState,
+    optimizer: optax.GradientTransformation,
+    joint: dict[str, Any],
+    opt_state: Any,
+    batch: core.Batch,
+    clip_eps: float = 0.0,
+    value_clip_eps: float = 0.0,
+    old_values: jax.Array | None = None,
+) -> tuple[dict[str, Any], Any, dict[str, jax.Array]]:
+    """One ``optimizer`` step on ``loss`` (the clipping arguments as there: PPO's; A2C leaves
+    them off). Returns the new joint parameters, optimizer state and the loss diagnostics with
+    ``loss`` and the pre-clipping ``grad_norm``."""
+    grad_fn = jax.value_and_grad(loss, argnums=1, has_aux=True)
+    (total, diagnostics), grads = grad_fn(ts, joint, batch, clip_eps, value_clip_eps, old_values)
+    updates, opt_state = optimizer.update(grads, opt_state, joint)
+    joint = optax.apply_updates(joint, updates)
+    return joint, opt_state, {**diagnostics, "loss": total, "grad_norm": optax.tree.norm(grads)}

@@ -1,0 +1,202 @@
+"""The configuration fields the core reads, in three frozen dataclasses that algorithms extend.
+
+``BaseConfig`` holds what every algorithm has (sampling, networks, evaluation, the trust-region
+guard); ``GAEConfig`` adds what ``core.phase_advantages`` reads (NPG, TRPO, PPO, A2C);
+``ValueFitConfig`` adds what ``core.phase_value_fit`` reads (NPG, TRPO, VPG). An algorithm's
+``Config`` extends one or both and adds its own fields; the core reads every field it needs as an
+attribute, never with a fallback.
+
+Two class attributes describe a ``Config`` to the command line and to saved runs:
+``UNUSED_FIELDS`` names the fields the algorithm ignores (no flag; ``validate`` refuses a value
+other than the default), and ``OLD_FIELD_NAMES`` maps the names that configs saved by earlier
+versions used to the current ones (``None``: a field that was never used and is gone), so that
+old run directories still load (``jaxpg.runlog.config_from_dict``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import Any, ClassVar
+
+from jaxpg.envs import Env
+
+POLICY_NAMES = ("gaussian", "state_std_gaussian")  # categorical is implied by a discrete env
+
+
+@dataclasses.dataclass(frozen=True)
+class BaseConfig:
+    """Fields common to all algorithms.
+
+    Sampling: ``num_envs`` parallel envs each run ``horizon`` steps per iteration, so an
+    iteration holds ``num_envs * horizon`` samples. ``sampling="continuing"`` carries the env
+    state across iterations with automatic resets (Brax / PureJaxRL); ``"episodic"`` resets all
+    envs every iteration and masks steps after each episode's end (LyceumAI / mjrl), and
+    ``sample_budget`` > 0 then keeps only the first that many valid samples, env by env (as
+    LyceumAI's sampler fills its budget).
+    Networks: the policy (``policy``, ``policy_hidden``, ``policy_activation``, ``log_std_init``)
+    and the value network (``value_hidden``, ``value_activation``), both initialised by the
+    scheme ``network_init``. ``normalize_value_targets`` makes the value network predict targets
+    standardised by their running statistics (``TrainState.value_stats``), which the core keeps
+    (``core.phase_value_fit``) and undoes (``core.value_predictions``).
+    Evaluation (``jaxpg.train``, between compiled training calls, never inside ``update``): after
+    every ``eval_every``-th iteration and after the last one, ``eval_envs`` episodes of the mean
+    (mode) policy of up to ``eval_horizon`` steps (0: the env's limit); ``eval_envs=0`` turns it off.
+    Trust-region guard: an update whose mean KL(old || new) over its batch exceeds
+    ``max_update_kl`` is rolled back and counted in ``update_rejected`` (NPG first shrinks its
+    step, see ``npg.update``); healthy updates move the policy by 0.001-0.1 nats. 0 turns it off.
+    """
+
+    num_envs: int = 64
+    horizon: int = 128
+    sampling: str = "continuing"
+    sample_budget: int = 0
+    gamma: float = 0.99
+    normalize_observations: bool = False
+    policy: str = "gaussian"  # gaussian | state_std_gaussian (categorical is implied by a discrete env)
+    policy_hidden: tuple[int, ...] = (64, 64)
+    policy_activation: str = "tanh"
+    network_init: str = "glorot_uniform"
+    log_std_init: float = 0.0
+    value_hidden: tuple[int, ...] = (64, 64)
+    value_activation: str = "tanh"
+    normalize_value_targets: bool = False
+    eval_envs: int = 8
+    eval_every: int = 10
+    eval_horizon: int = 0
+    max_update_kl: float = 1.0
+
+    UNUSED_FIELDS: ClassVar[tuple[str, ...]] = ()
+    OLD_FIELD_NAMES: ClassVar[dict[str, str | None]] = {"policy_init": "network_init"}
+
+    @property
+    def samples_per_iteration(self) -> int:
+        return self.num_envs * self.horizon
+
+    def validate(self, env: Env) -> None:
+        """Raise ``ValueError`` with one clear line for impossible settings (every field checked)."""
+        from jaxpg.networks import ACTIVATIONS, KERNEL_INITS
+
+        for name in self.UNUSED_FIELDS:
+            if getattr(self, name) != _default(type(self), name):
+                raise ValueError(f"{type(self).__module__}.Config does not use {name}; leave it at its default")
+        if self.num_envs < 1:
+            raise ValueError(f"num_envs must be >= 1, got {self.num_envs}")
+        if self.horizon < 1:
+            raise ValueError(f"horizon must be >= 1, got {self.horizon}")
+        if self.sampling not in ("continuing", "episodic"):
+            raise ValueError(f"sampling must be 'continuing' or 'episodic', got {self.sampling!r}")
+        if self.sample_budget < 0:
+            raise ValueError(f"sample_budget must be >= 0, got {self.sample_budget}")
+        if not 0 <= self.gamma <= 1:
+            raise ValueError(f"gamma must be in [0, 1], got {self.gamma}")
+        if self.policy not in POLICY_NAMES:
+            raise ValueError(f"unknown policy {self.policy!r}; expected one of {', '.join(POLICY_NAMES)}")
+        for name in ("policy_activation", "value_activation"):
+            if getattr(self, name) not in ACTIVATIONS:
+                raise ValueError(f"unknown {name} {getattr(self, name)!r}; expected one of {', '.join(ACTIVATIONS)}")
+        if self.network_init not in KERNEL_INITS:
+            raise ValueError(f"unknown network_init {self.network_init!r}; expected one of {', '.join(KERNEL_INITS)}")
+        for name in ("policy_hidden", "value_hidden"):
+            if any(int(size) < 1 for size in getattr(self, name)):
+                raise ValueError(f"{name} must be positive layer sizes, got {' '.join(map(str, getattr(self, name)))}")
+        if not math.isfinite(self.log_std_init):
+            raise ValueError(f"log_std_init must be finite, got {self.log_std_init}")
+        if self.eval_envs < 0 or self.eval_every < 1 or self.eval_horizon < 0:
+            raise ValueError(
+                f"eval_envs and eval_horizon must be >= 0 and eval_every >= 1, got "
+                f"{self.eval_envs}, {self.eval_horizon}, {self.eval_every}"
+            )
+        if not self.max_update_kl >= 0:
+            raise ValueError(f"max_update_kl must be >= 0 (0: no check), got {self.max_update_kl}")
+
+
+def _default(config_cls: type, name: str) -> Any:
+    """The default value of ``config_cls``'s field ``name``."""
+    field = next(f for f in dataclasses.fields(config_cls) if f.name == name)
+    return field.default if field.default is not dataclasses.MISSING else field.default_factory()
+
+
+@dataclasses.dataclass(frozen=True)
+class GAEConfig(BaseConfig):
+    """Fields of advantages by GAE from the value function (``core.phase_advantages``).
+
+    ``gae_lambda`` is GAE's lambda (1: Monte-Carlo advantages, 0: one-step TD errors);
+    ``value_target`` is what the value network fits: ``"gae"`` (the lambda-returns) or
+    ``"returns"`` (discounted returns, as LyceumAI fits); ``normalize_advantages`` standardises
+    the advantages of each batch over its valid samples.
+    """
+
+    gae_lambda: float = 0.95
+    normalize_advantages: bool = True
+    value_target: str = "gae"
+
+    def validate(self, env: Env) -> None:
+        super().validate(env)
+        if not 0 <= self.gae_lambda <= 1:
+            raise ValueError(f"gae_lambda must be in [0, 1], got {self.gae_lambda}")
+        if self.value_target not in ("gae", "returns"):
+            raise ValueError(f"value_target must be 'gae' or 'returns', got {self.value_target!r}")
+
+
+@dataclasses.dataclass(frozen=True)
+class ValueFitConfig(BaseConfig):
+    """Fields of the value fit by minibatch regression (``core.phase_value_fit``).
+
+    ``value_epochs`` passes over the batch, each in minibatches of ``value_minibatch_size``
+    samples, with Adam at ``value_fit_lr``. ``value_minibatches`` > 0 cuts each epoch into that
+    many minibatches whatever the batch size (the fit then takes the same number of steps at any
+    ``num_envs`` and ``horizon``); otherwise minibatches hold ``value_batch_size`` samples (0: the
+    whole batch). ``value_epoch_samples`` > 0 caps the samples one epoch visits (minibatches drawn
+    with replacement from the batch when it holds more), so that the fit costs the same at any
+    larger batch.
+    """
+
+    value_lr: float = 1e-3
+    value_epochs: int = 3
+    value_batch_size: int = 64
+    value_minibatches: int = 0
+    value_epoch_samples: int = 0
+
+    @property
+    def value_samples_per_epoch(self) -> int:
+        """Samples one value epoch visits: the iteration's, or ``value_epoch_samples`` if fewer."""
+        if self.value_epoch_samples > 0:
+            return min(self.value_epoch_samples, self.samples_per_iteration)
+        return self.samples_per_iteration
+
+    @property
+    def value_minibatch_size(self) -> int:
+        """Samples per value-fit minibatch (``value_minibatches`` wins over ``value_batch_size``)."""
+        if self.value_minibatches > 0:
+            return max(1, self.value_samples_per_epoch // self.value_minibatches)
+        return self.value_batch_size or self.samples_per_iteration
+
+    @property
+    def value_fit_lr(self) -> float:
+        """The learning rate of the value fit's Adam: ``value_lr``."""
+        return self.value_lr
+
+    def validate(self, env: Env) -> None:
+        super().validate(env)
+        if not self.value_fit_lr > 0:
+            raise ValueError(f"value_lr must be > 0 (the value fit's learning rate), got {self.value_lr}")
+        if self.value_epochs < 1 or self.value_batch_size < 0:
+            raise ValueError(
+                f"value_epochs must be >= 1 and value_batch_size >= 0, got {self.value_epochs}, {self.value_batch_size}"
+            )
+        if self.value_minibatches < 0 or self.value_minibatches > self.samples_per_iteration:
+            raise ValueError(
+                f"value_minibatches must be in [0, {self.samples_per_iteration}] (the samples of an iteration), "
+                f"got {self.value_minibatches}"
+            )
+        if self.value_epoch_samples < 0 or 0 < self.value_epoch_samples < self.value_minibatches:
+            raise ValueError(
+                f"value_epoch_samples must be 0 (all) or at least value_minibatches ({self.value_minibatches}), "
+                f"got {self.value_epoch_samples}"
+            )
+        if self.value_minibatches == 0 and self.value_batch_size > self.samples_per_iteration:
+            raise ValueError(
+                f"value_batch_size {self.value_batch_size} exceeds the {self.samples_per_iteration} samples "
+                f"of an iteration (num_envs {self.num_envs} x horizon {self.horizon})"
+            )

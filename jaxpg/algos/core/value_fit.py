@@ -1,0 +1,65 @@
+"""The value fit every algorithm with a separately fitted value function uses (NPG, TRPO, VPG):
+minibatch Adam on the batch's value targets (``jaxpg.value.fit_value``), optionally on targets
+standardised by running statistics whose moves the output layer absorbs (PopArt's "preserve
+outputs", van Hasselt et al. 2016)."""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+import optax
+
+from jaxpg import value as value_lib
+from jaxpg.algos.core.batch import Batch
+from jaxpg.algos.core.config import ValueFitConfig
+from jaxpg.algos.core.state import TrainState
+
+
+def value_optimizer(config: ValueFitConfig) -> optax.GradientTransformation:
+    """Adam at ``config.value_fit_lr``: the optimizer of ``phase_value_fit``, whose state is
+    ``TrainState.value_opt_state``."""
+    return optax.adam(config.value_fit_lr)
+
+
+def absorb_value_targets(ts: TrainState, batch: Batch) -> TrainState:
+    """``ts`` with the value-target statistics moved by ``batch.value_targets [N]`` (weighted by
+    ``batch.weights``) and the value network's output layer rescaled so that its predictions in
+    return units stay the same (``value.preserve_outputs``; not before the first batch, when the
+    untrained network's outputs carry nothing worth keeping)."""
+    stats = ts.value_stats.update(batch.value_targets[:, None], batch.weights)
+    old = ts.value_stats
+    preserved = value_lib.preserve_outputs(ts.value_params, old.mean[0], old.std[0], stats.mean[0], stats.std[0])
+    seen = old.count > 0
+    value_params = jax.tree.map(lambda p, q: jnp.where(seen, p, q), preserved, ts.value_params)
+    return ts.replace(value_params=value_params, value_stats=stats)
+
+
+def phase_value_fit(ts: TrainState, batch: Batch, key: jax.Array) -> tuple[TrainState, jax.Array]:
+    """Fit the value network to ``batch.value_targets``: ``config.value_epochs`` passes of
+    minibatch Adam (``value_optimizer``) on the weighted mean squared error, each epoch over at
+    most ``config.value_epoch_samples`` samples (when > 0).
+
+    With ``normalize_value_targets`` the statistics first absorb this batch
+    (``absorb_value_targets``) and the network is fitted to the standardised targets; the loss is
+    then in standardised units. Returns the state with the new value parameters, optimizer state
+    and statistics, and the loss ``[]`` averaged over the minibatch steps.
+    """
+    config = ts.config
+    targets = batch.value_targets
+    if config.normalize_value_targets:
+        ts = absorb_value_targets(ts, batch)
+        targets = (targets - ts.value_stats.mean[0]) / ts.value_stats.std[0]
+    value_params, value_opt_state, loss = value_lib.fit_value(
+        ts.value_fn,
+        ts.value_params,
+        ts.value_opt_state,
+        value_optimizer(config),
+        batch.obs,
+        targets,
+        key,
+        epochs=config.value_epochs,
+        batch_size=config.value_minibatch_size,
+        weights=batch.weights,
+        samples_per_epoch=config.value_epoch_samples,
+    )
+    return ts.replace(value_params=value_params, value_opt_state=value_opt_state), loss

@@ -29,6 +29,7 @@ from __future__ import annotations
 import sys
 from typing import Any
 
+from jaxpg.algos import a2c
 from jaxpg.cli import Experiment, main
 
 # The seed's network: one hidden layer of 200 ReLU units.
@@ -42,21 +43,7 @@ EXPERIMENT = Experiment(
     log_every=100,
     checkpoint_every=1000,
     config={
-        "a2c": dict(
-            **SEED_NETWORK,
-            value_hidden=(200,),
-            value_activation="relu",
-            num_envs=64,
-            horizon=8,
-            optimizer="adam",
-            lr=1e-3,
-            gamma=0.99,
-            gae_lambda=0.95,
-            entropy_coef=0.01,
-            value_coef=0.5,
-            max_grad_norm=0.5,
-            eval_envs=0,
-        ),
+        "a2c": dict(**a2c.PRESETS["pong"], num_envs=64),
         "reinforce_points": dict(**SEED_NETWORK, num_envs=64, horizon=256, lr=1e-3, gamma=0.99, eval_envs=0),
         "reinforce": dict(
             **SEED_NETWORK, num_envs=64, horizon=256, sampling="continuing", return_normalization="batch", eval_envs=0

@@ -65,23 +65,8 @@ from jaxpg.envs.pong import FrameDifference, Pong
 # The seed's network: one hidden layer of 200 ReLU units.
 SEED_NETWORK: dict[str, Any] = dict(policy_hidden=(200,), policy_activation="relu")
 
-# A2C on Pong: t_max 8, Adam, GAE lambda 0.95, entropy bonus 0.01, value network like the policy's.
-# lr 1e-3 suits small batches (32 envs on a CPU: tests/test_pong.py; 2e-3 did worse there); with
-# 1024 or more envs on a GPU, 2e-3 reached a running reward of 10 sooner (BENCHMARKS.md, section J).
-A2C_DEFAULTS: dict[str, Any] = dict(
-    **SEED_NETWORK,
-    value_hidden=(200,),
-    value_activation="relu",
-    horizon=8,
-    optimizer="adam",
-    lr=1e-3,
-    gamma=0.99,
-    gae_lambda=0.95,
-    entropy_coef=0.01,
-    value_coef=0.5,
-    max_grad_norm=0.5,
-    eval_envs=0,
-)
+# A2C on Pong: the library's recipe (``a2c.PRESETS["pong"]``, shared with experiments/atari_pong.py).
+A2C_DEFAULTS: dict[str, Any] = a2c.PRESETS["pong"]
 
 # REINFORCE on Pong: continuing sampling, one Adam step per 256 steps of every env, gamma 0.99.
 REINFORCE_DEFAULTS: dict[str, Any] = dict(

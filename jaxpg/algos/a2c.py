@@ -65,6 +65,25 @@ class Config(actor_critic.ActorCriticConfig):
 
 
 PRESETS: dict[str, dict[str, Any]] = {
+    # Pong from 80x80 difference frames (jaxpg's pong and ALE's atari_pong): the seed's network,
+    # 6400 -> 200 (ReLU), and a value network like it; t_max 8, Adam, GAE lambda 0.95, entropy
+    # bonus 0.01. lr 1e-3 suits small batches (32 envs on a CPU; 2e-3 did worse there); with 1024
+    # or more envs on a GPU, 2e-3 reached a running reward of 10 sooner (BENCHMARKS.md, section J).
+    "pong": dict(
+        policy_hidden=(200,),
+        policy_activation="relu",
+        value_hidden=(200,),
+        value_activation="relu",
+        horizon=8,
+        optimizer="adam",
+        lr=1e-3,
+        gamma=0.99,
+        gae_lambda=0.95,
+        entropy_coef=0.01,
+        value_coef=0.5,
+        max_grad_norm=0.5,
+        eval_envs=0,
+    ),
     # MinPy's parallel A2C: n actors in lock-step, t_max 5, RMSprop, entropy bonus.
     "minpy": dict(
         num_envs=16,

@@ -92,16 +92,16 @@ def compiled_evaluate(evaluate: EvaluateFn, seeds: bool) -> Callable:
 
 
 class _EarlyCompile:
-    """Compiles a jitted function for one example's shapes and shardings on a background thread.
+    """Compiles a jitted function for given shapes and shardings (``jax.ShapeDtypeStruct``s) on a
+    background thread.
 
     Calling it waits for the compilation and runs the compiled program; it falls back to the jitted
     function itself if the compilation failed (whose call then raises the error where it is seen)
-    or the arguments do not fit the example.
+    or the arguments do not fit the shapes.
     """
 
-    def __init__(self, jitted: Callable, example: Any) -> None:
+    def __init__(self, jitted: Callable, specs: Any) -> None:
         self._jitted = jitted
-        specs = jax.tree.map(lambda x: jax.ShapeDtypeStruct(x.shape, x.dtype, sharding=x.sharding), example)
         self._compiled: Callable | None = None
         self._thread = threading.Thread(target=self._compile, args=(specs,), daemon=True)
         self._thread.start()
@@ -125,6 +125,20 @@ class _EarlyCompile:
             except TypeError:  # other shapes or shardings than the example's: compile them the usual way
                 pass
         return self._jitted(*args)
+
+
+@functools.lru_cache(maxsize=32)
+def _early_compile(jitted: Callable, spec_leaves: tuple, treedef: Any) -> _EarlyCompile:
+    return _EarlyCompile(jitted, jax.tree.unflatten(treedef, spec_leaves))
+
+
+def early_evaluator(evaluate: EvaluateFn, seeds: bool, example: TrainState) -> Callable:
+    """``compiled_evaluate(evaluate, seeds)`` compiled for ``example``'s shapes and shardings on a
+    background thread, once per process (a later ``train`` call, e.g. a resumed run's next segment,
+    reuses the program). Calling the result waits for the compilation."""
+    specs = jax.tree.map(lambda x: jax.ShapeDtypeStruct(x.shape, x.dtype, sharding=x.sharding), example)
+    leaves, treedef = jax.tree.flatten(specs)
+    return _early_compile(compiled_evaluate(evaluate, seeds), tuple(leaves), treedef)
 
 
 def _chunk_sizes(total: int, per_call: int) -> list[int]:
@@ -209,7 +223,7 @@ def train(
     # the block's outputs are, so the second block reuses the first block's compilation.
     train_state = _private_copy(train_state)
     start = int(np.max(jax.device_get(train_state.iteration)))
-    evaluator: _EarlyCompile | None = None
+    evaluator: Any = None
     done = 0
     try:
         while done < num_iterations:
@@ -219,7 +233,7 @@ def train(
             for size in _calls(first, n, iterations_per_call or block_size, eval_every):
                 train_state, chunk = compiled_block(update, size, seeds)(train_state)
                 if evaluator is None and (eval_every or final_eval):
-                    evaluator = _EarlyCompile(compiled_evaluate(evaluate, seeds), train_state)
+                    evaluator = early_evaluator(evaluate, seeds, train_state)
                 chunks.append(chunk)
                 position += size
                 is_last = done + n == num_iterations and position == first + n

@@ -72,8 +72,9 @@ def test_train_evaluates_between_calls_at_its_cadence_and_at_the_end(state):
 
 def test_evaluation_program_is_compiled_once_ahead_and_used_at_every_evaluation(state):
     """``train`` compiles the evaluation on a background thread after its first call and runs that
-    program at each evaluation: the evaluation is traced once (a fallback to the jitted function,
-    e.g. because the state's shapes or shardings differ from the example's, would trace it again)."""
+    program at each evaluation, and in later ``train`` calls: the evaluation is traced once (a
+    fallback to the jitted function, e.g. because the state's shapes or shardings differ from the
+    example's, would trace it again)."""
     traced_on = []
 
     def counting_evaluate(ts):
@@ -83,6 +84,8 @@ def test_evaluation_program_is_compiled_once_ahead_and_used_at_every_evaluation(
     _, metrics = run(state, 7, block_size=7, evaluate=counting_evaluate)
     np.testing.assert_array_equal(np.flatnonzero(metrics["evaluated"]) + 1, [3, 6, 7])
     assert len(traced_on) == 1 and traced_on[0] is not threading.main_thread()
+    run(state, 4, block_size=4, evaluate=counting_evaluate)  # a later call reuses the program
+    assert len(traced_on) == 1
     _, plain = run(state, 7, block_size=7)
     np.testing.assert_array_equal(metrics["return_mean_policy"], plain["return_mean_policy"])
 

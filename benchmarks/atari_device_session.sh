@@ -12,6 +12,9 @@
 #   bash benchmarks/atari_device_session.sh a2c       # A2C, 64 envs, 9 minutes of training, then ALE/Pong-v5
 #   bash benchmarks/atari_device_session.sh a2c 256   # the same with 256 envs
 #   bash benchmarks/atari_device_session.sh reinforce # reinforce_points, 64 envs, 9 minutes, then ALE/Pong-v5
+#   bash benchmarks/atari_device_session.sh reinforce 32 460 --conv-torso nature ...   # with more flags
+#   bash benchmarks/atari_device_session.sh ppo [SECONDS]      # PPO with the Nature CNN (preset), 16 envs
+#   bash benchmarks/atari_device_session.sh a2c_cnn [SECONDS [ENVS [flags]]]  # A2C, Nature CNN (--preset atari)
 #   bash benchmarks/atari_device_session.sh envs      # MinPy's comparison on the ROM: 1 2 4 16 64 envs, 100 s each
 #
 # Runs go to runs/atari-*; logs to $OUT (default: benchmarks/results/latest). A training stage
@@ -28,16 +31,19 @@ fi
 nvidia-smi --query-gpu=name,memory.total,driver_version --format=csv,noheader > "$OUT/gpu.txt" 2>&1
 nproc > "$OUT/cores.txt"
 
-train_and_evaluate() {  # algo num_envs seconds
-  local run=runs/atari-$1-$2
+train_and_evaluate() {  # algo num_envs seconds [more flags of experiments/atari_pong.py]
+  local algo=$1 envs=$2 seconds=$3
+  shift 3
+  local run=runs/atari-$algo-$envs
   rm -rf "$run"
-  timeout "$3" $py experiments/atari_pong.py --algo "$1" --num-envs "$2" --iterations 1000000 \
-    --log-every 50 --checkpoint-every 250 --run-dir "$run" --no-progress 2>&1 | tee "$OUT/atari-$1-$2.log" \
+  timeout "$seconds" $py experiments/atari_pong.py --algo "$algo" --num-envs "$envs" --iterations 1000000 \
+    --log-every 50 --checkpoint-every 250 --run-dir "$run" --no-progress "$@" 2>&1 | tee "$OUT/atari-$algo-$envs.log" \
     | grep -v "A.L.E\|Stella"
-  cp "$run/metrics.jsonl" "$OUT/atari-$1-$2.metrics.jsonl"
+
+  cp "$run/metrics.jsonl" "$OUT/atari-$algo-$envs.metrics.jsonl"
   for sticky in --sticky --no-sticky; do
-    timeout 120 $py -m jaxpg.evaluate "$run" --ale --episodes 10 $sticky 2>&1 | grep -v "A.L.E\|Stella" \
-      | tee -a "$OUT/atari-$1-$2.eval.txt"
+    timeout 60 $py -m jaxpg.evaluate "$run" --ale --episodes 10 $sticky 2>&1 | grep -v "A.L.E\|Stella" \
+      | tee -a "$OUT/atari-$algo-$envs.eval.txt"
   done
 }
 
@@ -50,8 +56,14 @@ fps)
 a2c)
   train_and_evaluate a2c "${2:-64}" 540
   ;;
-reinforce)
-  train_and_evaluate reinforce_points "${2:-64}" 540
+reinforce)  # [ENVS [SECONDS [more flags]]]
+  train_and_evaluate reinforce_points "${2:-64}" "${3:-540}" "${@:4}"
+  ;;
+ppo)  # the preset's 2500 iterations, or the time limit
+  train_and_evaluate ppo 16 "${2:-460}" --iterations 2500 --checkpoint-every 100
+  ;;
+a2c_cnn)  # [SECONDS [ENVS [more flags]]]
+  train_and_evaluate a2c "${3:-16}" "${2:-460}" --preset atari --checkpoint-every 2000 --log-every 500 "${@:4}"
   ;;
 envs)
   rm -rf runs/atari-envs
@@ -60,7 +72,7 @@ envs)
   cp runs/atari-envs/pong_envs.png runs/atari-envs/metrics.jsonl "$OUT/" 2>/dev/null
   ;;
 *)
-  echo "usage: bash $0 fps|a2c [ENVS]|reinforce [ENVS]|envs"
+  echo "usage: bash $0 fps|a2c [ENVS]|reinforce [ENVS]|ppo [SECONDS]|a2c_cnn [SECONDS]|envs"
   exit 2
   ;;
 esac

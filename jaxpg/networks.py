@@ -11,6 +11,11 @@ pytree. The initialisers cover the schemes of the systems jaxpg reproduces:
 * ``"orthogonal"`` (Saxe et al., 2014), the PPO/Brax convention: ``W`` a (semi-)orthogonal matrix
   times ``kernel_scale``; as a bias initialiser it means zeros.
 * ``"zeros"``.
+
+``ConvTorso`` is the convolutional front of a network on image observations (the Atari networks of
+Mnih et al.): flat observations are reshaped to images, convolved, and flattened again, so the
+MLP that follows sees ``[..., features]`` like any other input. Its kernels are initialised by the
+same schemes, on the ``[kernel * kernel * in_channels, out_channels]`` matrix of each layer.
 """
 
 from __future__ import annotations
@@ -154,3 +159,89 @@ class MLP:
 
 
 _jit_init = jax.jit(MLP._init, static_argnums=(0, 2))
+
+
+# The convolutional torsos of the Atari literature, as (out_channels, kernel, stride) per layer, each
+# followed by a ReLU: Mnih et al. (2013)'s two layers, and the "Nature" network of Mnih et al.
+# (2015) that A2C, PPO and most Atari baselines use.
+CONV_TORSOS: dict[str, tuple[tuple[int, int, int], ...]] = {
+    "none": (),
+    "mnih2013": ((16, 8, 4), (32, 4, 2)),
+    "nature": ((32, 8, 4), (64, 4, 2), (64, 3, 1)),
+}
+
+
+@dataclasses.dataclass(frozen=True)
+class ConvTorso:
+    """Convolutions ``x [..., H * W * C] -> [..., features]``: the flat input is read as an
+    ``[H, W, C]`` image (row-major, channels last), each layer is a VALID convolution with a stride,
+    then a ReLU, and the last feature map is flattened. Hashable, like ``MLP``.
+
+    Attributes:
+      image_shape: ``(H, W, C)`` of one observation.
+      layers: ``(out_channels, kernel, stride)`` per layer (see ``CONV_TORSOS``).
+      kernel_init, kernel_scale: as ``MLP``'s, on each kernel seen as a
+        ``[kernel * kernel * in_channels, out_channels]`` matrix; biases start at zero.
+    """
+
+    image_shape: tuple[int, int, int]
+    layers: tuple[tuple[int, int, int], ...]
+    kernel_init: str = "orthogonal"
+    kernel_scale: float = math.sqrt(2.0)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "image_shape", tuple(int(n) for n in self.image_shape))
+        object.__setattr__(self, "layers", tuple(tuple(int(n) for n in layer) for layer in self.layers))
+        if len(self.image_shape) != 3 or min(self.image_shape) < 1:
+            raise ValueError(f"image_shape must be (height, width, channels), got {self.image_shape}")
+        if not self.layers or any(len(layer) != 3 or min(layer) < 1 for layer in self.layers):
+            raise ValueError(f"layers must be non-empty (out_channels, kernel, stride) triples, got {self.layers}")
+        if self.kernel_init not in KERNEL_INITS:
+            raise ValueError(f"unknown kernel_init {self.kernel_init!r}; expected one of {', '.join(KERNEL_INITS)}")
+        self.feature_map_shapes()  # raises for an image too small for the layers
+
+    def feature_map_shapes(self) -> list[tuple[int, int, int]]:
+        """``(height, width, channels)`` after each layer."""
+        h, w, _ = self.image_shape
+        shapes = []
+        for channels, kernel, stride in self.layers:
+            h, w = (h - kernel) // stride + 1, (w - kernel) // stride + 1
+            if h < 1 or w < 1:
+                raise ValueError(f"a {self.image_shape[0]}x{self.image_shape[1]} image is too small for {self.layers}")
+            shapes.append((h, w, channels))
+        return shapes
+
+    @property
+    def in_size(self) -> int:
+        """Length of a flat observation, ``H * W * C``."""
+        return math.prod(self.image_shape)
+
+    @property
+    def out_size(self) -> int:
+        """Length of the flattened last feature map."""
+        return math.prod(self.feature_map_shapes()[-1])
+
+    def init(self, key: jax.Array) -> Params:
+        """A list of ``{"w": [kernel, kernel, in_channels, out_channels], "b": [out_channels]}``."""
+        params = []
+        in_channels = self.image_shape[2]
+        for layer_key, (channels, kernel, _) in zip(jax.random.split(key, len(self.layers)), self.layers, strict=True):
+            k_unif, k_normal = jax.random.split(layer_key)
+            fan_in = kernel * kernel * in_channels
+            unif = jax.random.uniform(k_unif, (fan_in, channels), jnp.float32, -1.0, 1.0)
+            normal = jax.random.normal(k_normal, (fan_in * channels,), jnp.float32)
+            w = _kernel(unif, normal, self.kernel_init, self.kernel_scale)
+            params.append({"w": w.reshape(kernel, kernel, in_channels, channels), "b": jnp.zeros((channels,))})
+            in_channels = channels
+        return params
+
+    def apply(self, params: Params, x: jax.Array) -> jax.Array:
+        """``x: [..., H * W * C] -> [..., out_size]``, a ReLU after every layer."""
+        batch_shape = x.shape[:-1]
+        h = jnp.reshape(jnp.asarray(x, jnp.float32), (-1, *self.image_shape))
+        for layer, (_, _, stride) in zip(params, self.layers, strict=True):
+            h = jax.lax.conv_general_dilated(
+                h, layer["w"], (stride, stride), "VALID", dimension_numbers=("NHWC", "HWIO", "NHWC")
+            )
+            h = jax.nn.relu(h + layer["b"])
+        return jnp.reshape(h, (*batch_shape, self.out_size))

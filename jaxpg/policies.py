@@ -23,7 +23,7 @@ import jax
 import jax.numpy as jnp
 
 from jaxpg import distributions as D
-from jaxpg.networks import MLP, activation_fn
+from jaxpg.networks import MLP, ConvTorso, activation_fn
 
 Params = Any
 
@@ -204,7 +204,10 @@ class CategoricalPolicy(Policy):
     """``pi(a|s) = softmax(f_theta(s))_a`` with an MLP ``f`` (Kokoyi's CartPole policy,
     ``4 -> 128 (ReLU) -> 2``). Actions are int32 indices in ``[0, num_actions)``.
 
-    Params: MLP params. ``dist`` returns ``{"logits": [..., K]}``.
+    With ``conv`` (a ``ConvTorso``, for image observations), ``f`` is the MLP after the torso.
+
+    Params: MLP params, or ``{"conv": ConvTorso params, "mlp": MLP params}`` with ``conv``.
+    ``dist`` returns ``{"logits": [..., K]}``.
     """
 
     discrete: ClassVar[bool] = True
@@ -216,6 +219,7 @@ class CategoricalPolicy(Policy):
     bias_init: str = "glorot_uniform"
     final_kernel_scale: float | None = None
     kernel_scale: float = 1.0
+    conv: ConvTorso | None = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "hidden", tuple(self.hidden))
@@ -238,11 +242,11 @@ class CategoricalPolicy(Policy):
         )
 
     def init(self, key: jax.Array, obs_size: int) -> Params:
-        return self.logits_net.init(key, obs_size)
+        return _init_with_torso(self.conv, self.logits_net, key, obs_size)
 
     def dist(self, params: Params, obs: jax.Array) -> D.Dist:
         """``obs [..., obs_dim] -> {"logits": [..., K]}``."""
-        return {"logits": self.logits_net.apply(params, obs)}
+        return {"logits": _apply_with_torso(self.conv, self.logits_net, params, obs)}
 
     def dist_sample(self, dist: D.Dist, key: jax.Array) -> jax.Array:
         return D.categorical_sample(dist, key)
@@ -266,7 +270,8 @@ class CategoricalPolicy(Policy):
 @dataclasses.dataclass(frozen=True)
 class ValueFunction:
     """State-value baseline ``V_phi(s)``: an MLP ``obs -> hidden -> 1`` with the last axis dropped
-    (LyceumAI: ``obs -> 128 -> 128 -> 1``, ReLU, Glorot-uniform).
+    (LyceumAI: ``obs -> 128 -> 128 -> 1``, ReLU, Glorot-uniform); with ``conv``, the MLP follows
+    a ``ConvTorso`` (params ``{"conv": ..., "mlp": ...}``, as ``CategoricalPolicy``'s).
     """
 
     hidden: tuple[int, ...] = (128, 128)
@@ -275,6 +280,7 @@ class ValueFunction:
     bias_init: str = "glorot_uniform"
     final_kernel_scale: float | None = None
     kernel_scale: float = 1.0
+    conv: ConvTorso | None = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "hidden", tuple(self.hidden))
@@ -292,11 +298,29 @@ class ValueFunction:
         )
 
     def init(self, key: jax.Array, obs_size: int) -> Params:
-        return self.net.init(key, obs_size)
+        return _init_with_torso(self.conv, self.net, key, obs_size)
 
     def apply(self, params: Params, obs: jax.Array) -> jax.Array:
         """``obs [..., obs_dim] -> V(obs) [...]``."""
-        return self.net.apply(params, obs)[..., 0]
+        return _apply_with_torso(self.conv, self.net, params, obs)[..., 0]
+
+
+def _init_with_torso(conv: ConvTorso | None, mlp: MLP, key: jax.Array, obs_size: int) -> Params:
+    """``mlp``'s params for ``[..., obs_size]`` inputs, or with ``conv``
+    ``{"conv": torso params, "mlp": params for the torso's features}``."""
+    if conv is None:
+        return mlp.init(key, obs_size)
+    if conv.in_size != obs_size:
+        raise ValueError(f"the conv torso reads {conv.image_shape} images ({conv.in_size} values), not {obs_size}")
+    k_conv, k_mlp = jax.random.split(key)
+    return {"conv": conv.init(k_conv), "mlp": mlp.init(k_mlp, conv.out_size)}
+
+
+def _apply_with_torso(conv: ConvTorso | None, mlp: MLP, params: Params, obs: jax.Array) -> jax.Array:
+    """``obs [..., obs_dim] -> [..., out]`` through the torso (if any), then ``mlp``."""
+    if conv is None:
+        return mlp.apply(params, obs)
+    return mlp.apply(params["mlp"], conv.apply(params["conv"], obs))
 
 
 POLICIES: dict[str, type[Policy]] = {

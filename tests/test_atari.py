@@ -176,7 +176,14 @@ def load_experiment():
 
 
 @pytest.mark.parametrize(
-    "algo, flags", [("a2c", ["--horizon", "8", "--value-hidden", "8"]), ("reinforce_points", ["--horizon", "32"])]
+    "algo, flags",
+    [
+        ("a2c", ["--horizon", "8", "--value-hidden", "8"]),
+        ("reinforce_points", ["--horizon", "32"]),
+        # PPO's Atari preset with a small convolutional torso: the conv parameters go through the
+        # checkpoint and load_policy to the evaluation on ALE.
+        ("ppo", ["--horizon", "8", "--value-hidden", "8", "--num-minibatches", "2", "--conv-torso", "mnih2013"]),
+    ],
 )
 def test_short_training_run_and_evaluation_on_ale(algo, flags, tmp_path, capsys):
     """Two iterations of a tiny network on 2 games, then its policy plays ALE/Pong-v5."""

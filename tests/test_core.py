@@ -24,6 +24,7 @@ import pytest
 
 from jaxpg import algos, envs
 from jaxpg.algos import core, npg, reinforce, trpo, vpg
+from jaxpg.envs.cartpole import CartPole
 from jaxpg.rollout import Trajectory
 
 # The jaxpg.algos modules each module may import (besides jaxpg's non-algorithm modules).
@@ -224,6 +225,23 @@ def test_unused_fields_are_refused_unless_default():
         config_cls = algos.get(name).Config
         assert set(config_cls.UNUSED_FIELDS) <= {f.name for f in dataclasses.fields(config_cls)}, name
         assert issubclass(config_cls, core.BaseConfig), name
+
+
+def test_conv_torso_needs_image_observations():
+    """A conv torso is refused with one line on a task without images, and built on one with them."""
+    cartpole = envs.make("cartpole")
+    with pytest.raises(ValueError, match="needs a discrete task with image observations; cartpole has none"):
+        algos.get("ppo").Config(num_envs=2, horizon=8, conv_torso="nature").validate(cartpole)
+    with pytest.raises(ValueError, match="unknown conv_torso 'resnet'"):
+        algos.get("ppo").Config(num_envs=2, horizon=8, conv_torso="resnet").validate(cartpole)
+
+    class ImageCartpole(CartPole):
+        image_shape = (2, 2, 1)  # cartpole's 4 values read as a 2x2 image
+
+    config = algos.get("a2c").Config(num_envs=2, horizon=8, conv_torso="mnih2013")
+    config.validate(ImageCartpole())
+    with pytest.raises(ValueError, match="a 2x2 image is too small"):  # the env's image reaches the torso
+        core.make_networks(ImageCartpole(), config)
 
 
 def test_trpo_has_no_npg_step_and_npg_names_its_delta():

@@ -13,7 +13,7 @@ from jax.flatten_util import ravel_pytree
 from scipy import integrate, special, stats
 
 from jaxpg import distributions as D
-from jaxpg.networks import MLP
+from jaxpg.networks import CONV_TORSOS, MLP, ConvTorso
 from jaxpg.policies import (
     CategoricalPolicy,
     GaussianPolicy,
@@ -270,3 +270,64 @@ def test_value_function_and_make_policy():
         make_policy("categorical", 2, False)
     with pytest.raises(ValueError):
         make_policy("beta", 2, False)
+
+
+def _conv_reference(x: np.ndarray, w: np.ndarray, b: np.ndarray, stride: int) -> np.ndarray:
+    """A VALID strided convolution by loops: ``x [H, W, C]``, ``w [k, k, C, O]`` -> ``[H', W', O]``."""
+    k = w.shape[0]
+    rows, cols = (x.shape[0] - k) // stride + 1, (x.shape[1] - k) // stride + 1
+    out = np.zeros((rows, cols, w.shape[3]))
+    for i in range(rows):
+        for j in range(cols):
+            patch = x[i * stride : i * stride + k, j * stride : j * stride + k, :]
+            out[i, j] = np.tensordot(patch, w, axes=([0, 1, 2], [0, 1, 2])) + b
+    return out
+
+
+def test_conv_torso_matches_a_loop_convolution():
+    """Flat ``[..., H*W*C]`` inputs read row-major, channels last; ReLU after every layer."""
+    torso = ConvTorso((11, 9, 2), ((3, 3, 2), (4, 2, 1)))
+    assert torso.feature_map_shapes() == [(5, 4, 3), (4, 3, 4)] and torso.out_size == 48 and torso.in_size == 198
+    params = torso.init(jax.random.PRNGKey(0))
+    params = [dict(layer, b=jnp.linspace(-0.3, 0.3, layer["b"].shape[0])) for layer in params]  # nonzero biases
+    x = np.asarray(jax.random.normal(jax.random.PRNGKey(1), (2, 3, 198)))
+    got = np.asarray(torso.apply(params, x))
+    assert got.shape == (2, 3, 48)
+    for idx in np.ndindex(2, 3):
+        h = x[idx].reshape(11, 9, 2)
+        for layer, (_, _, stride) in zip(params, torso.layers, strict=True):
+            h = np.maximum(_conv_reference(h, np.asarray(layer["w"]), np.asarray(layer["b"]), stride), 0.0)
+        np.testing.assert_allclose(got[idx], h.reshape(-1), rtol=1e-4, atol=1e-5)
+
+
+def test_conv_torso_init_and_validation():
+    torso = ConvTorso((80, 80, 1), CONV_TORSOS["nature"])
+    assert torso.feature_map_shapes() == [(19, 19, 32), (8, 8, 64), (6, 6, 64)] and torso.out_size == 2304
+    params = torso.init(jax.random.PRNGKey(3))
+    assert [layer["w"].shape for layer in params] == [(8, 8, 1, 32), (4, 4, 32, 64), (3, 3, 64, 64)]
+    # Orthogonal kernels with the ReLU gain: each [k*k*in, out] matrix has orthogonal columns of norm sqrt(2).
+    w = np.asarray(params[1]["w"]).reshape(-1, 64)
+    np.testing.assert_allclose(w.T @ w, 2.0 * np.eye(64), atol=1e-4)
+    assert all(float(jnp.abs(layer["b"]).max()) == 0.0 for layer in params)
+    with pytest.raises(ValueError, match="too small"):
+        ConvTorso((20, 20, 1), CONV_TORSOS["nature"])
+    with pytest.raises(ValueError, match="triples"):
+        ConvTorso((20, 20, 1), ((8, 4),))
+    assert hash(torso) == hash(ConvTorso((80, 80, 1), CONV_TORSOS["nature"]))
+
+
+def test_policy_and_value_function_with_a_conv_torso():
+    """The torso's features feed the MLP; params are ``{"conv", "mlp"}``; shapes as without it."""
+    torso = ConvTorso((12, 12, 1), CONV_TORSOS["mnih2013"][:1])
+    policy = CategoricalPolicy(num_actions=3, hidden=(5,), conv=torso)
+    value_fn = ValueFunction(hidden=(4,), conv=torso)
+    params = policy.init(jax.random.PRNGKey(0), 144)
+    value_params = value_fn.init(jax.random.PRNGKey(1), 144)
+    assert set(params) == {"conv", "mlp"} and params["mlp"][0]["w"].shape == (torso.out_size, 5)
+    obs = jax.random.normal(jax.random.PRNGKey(2), (7, 2, 144))
+    logits = policy.dist(params, obs)["logits"]
+    features = torso.apply(params["conv"], obs)
+    np.testing.assert_allclose(logits, policy.logits_net.apply(params["mlp"], features), rtol=1e-6)
+    assert logits.shape == (7, 2, 3) and value_fn.apply(value_params, obs).shape == (7, 2)
+    with pytest.raises(ValueError, match="reads"):
+        policy.init(jax.random.PRNGKey(0), 100)

@@ -8,7 +8,7 @@ algorithms (``optimizer``), the algorithm's ``Config.FIELD_CHOICES`` says which.
 
 from __future__ import annotations
 
-from jaxpg.networks import ACTIVATIONS, KERNEL_INITS
+from jaxpg.networks import ACTIVATIONS, CONV_TORSOS, KERNEL_INITS
 
 FIELD_HELP: dict[str, str] = {
     # sampling and evaluation (every algorithm)
@@ -28,6 +28,8 @@ FIELD_HELP: dict[str, str] = {
     "policy_hidden": "hidden layer sizes of the policy network",
     "policy_activation": "activation of the hidden layers of the policy network",
     "network_init": "initialisation of the weights and biases of the policy and value networks",
+    "conv_torso": "convolutions before the hidden layers of both networks, on a task with image observations: "
+    "mnih2013 (16 8x8/4, 32 4x4/2) or nature (32 8x8/4, 64 4x4/2, 64 3x3/1)",
     "log_std_init": "initial log standard deviation of a Gaussian policy",
     "value_hidden": "hidden layer sizes of the value network",
     "value_activation": "activation of the hidden layers of the value network",
@@ -81,6 +83,7 @@ FIELD_CHOICES: dict[str, tuple[str, ...]] = {
     "policy_activation": tuple(ACTIVATIONS),
     "value_activation": tuple(ACTIVATIONS),
     "network_init": KERNEL_INITS,
+    "conv_torso": tuple(CONV_TORSOS),
     "fvp": ("gauss_newton", "kl_hessian"),
     "value_target": ("gae", "returns"),
     "return_normalization": ("episode", "batch", "none"),

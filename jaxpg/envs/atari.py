@@ -227,6 +227,7 @@ class AtariPong(Env):
     discrete = True
     task_score_name = "score_difference"
     observation_size = SIZE * SIZE
+    image_shape = (SIZE, SIZE, 1)
     vmap_seeds = False  # seeds vmapped in one program would share one pool of host games
 
     def __init__(

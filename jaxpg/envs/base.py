@@ -123,6 +123,8 @@ class Env(abc.ABC):
       max_episode_steps: time limit; reaching it sets ``truncated``.
       task_score_name: what ``metrics["task_score"]`` measures: the task's own score of an episode
         so far, beside its return (e.g. ``"forward_distance"``; ``"return"`` where they coincide).
+      image_shape: ``(height, width, channels)`` when ``obs`` is a flattened image (row-major,
+        channels last), which a convolutional network may read; ``None`` otherwise.
     """
 
     observation_size: int
@@ -131,6 +133,7 @@ class Env(abc.ABC):
     dt: float
     max_episode_steps: int
     task_score_name: str = "return"
+    image_shape: tuple[int, int, int] | None = None
     action_low: float = -1.0
     action_high: float = 1.0
 

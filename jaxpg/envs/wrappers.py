@@ -30,6 +30,7 @@ class Wrapper(Env):
     # `Env` gives these class-level defaults, which `__getattr__` would never see past.
     discrete = property(lambda self: self.env.discrete)
     task_score_name = property(lambda self: self.env.task_score_name)
+    image_shape = property(lambda self: self.env.image_shape)
     action_low = property(lambda self: self.env.action_low)
     action_high = property(lambda self: self.env.action_high)
     name = property(lambda self: self.env.name)

@@ -36,7 +36,9 @@ class BaseConfig:
     LyceumAI's sampler fills its budget).
     Networks: the policy (``policy``, ``policy_hidden``, ``policy_activation``, ``log_std_init``)
     and the value network (``value_hidden``, ``value_activation``), both initialised by the
-    scheme ``network_init``. ``normalize_value_targets`` makes the value network predict targets
+    scheme ``network_init``. On a task whose observations are images (``Env.image_shape``),
+    ``conv_torso`` (``networks.CONV_TORSOS``) puts convolutions before the hidden layers of both
+    networks (each network has its own). ``normalize_value_targets`` makes the value network predict targets
     standardised by their running statistics (``TrainState.value_stats``), which the core keeps
     (``core.phase_value_fit``) and undoes (``core.value_predictions``).
     Evaluation (``jaxpg.train``, between compiled training calls, never inside ``update``): after
@@ -57,6 +59,7 @@ class BaseConfig:
     policy_hidden: tuple[int, ...] = (64, 64)
     policy_activation: str = "tanh"
     network_init: str = "glorot_uniform"
+    conv_torso: str = "none"
     log_std_init: float = 0.0
     value_hidden: tuple[int, ...] = (64, 64)
     value_activation: str = "tanh"
@@ -75,7 +78,7 @@ class BaseConfig:
 
     def validate(self, env: Env) -> None:
         """Raise ``ValueError`` with one clear line for impossible settings (every field checked)."""
-        from jaxpg.networks import ACTIVATIONS, KERNEL_INITS
+        from jaxpg.networks import ACTIVATIONS, CONV_TORSOS, KERNEL_INITS
 
         for name in self.UNUSED_FIELDS:
             if getattr(self, name) != _default(type(self), name):
@@ -97,6 +100,12 @@ class BaseConfig:
                 raise ValueError(f"unknown {name} {getattr(self, name)!r}; expected one of {', '.join(ACTIVATIONS)}")
         if self.network_init not in KERNEL_INITS:
             raise ValueError(f"unknown network_init {self.network_init!r}; expected one of {', '.join(KERNEL_INITS)}")
+        if self.conv_torso not in CONV_TORSOS:
+            raise ValueError(f"unknown conv_torso {self.conv_torso!r}; expected one of {', '.join(CONV_TORSOS)}")
+        if self.conv_torso != "none" and (env.image_shape is None or not env.discrete):
+            raise ValueError(
+                f"conv_torso {self.conv_torso!r} needs a discrete task with image observations; {env.name} has none"
+            )
         for name in ("policy_hidden", "value_hidden"):
             if any(int(size) < 1 for size in getattr(self, name)):
                 raise ValueError(f"{name} must be positive layer sizes, got {' '.join(map(str, getattr(self, name)))}")

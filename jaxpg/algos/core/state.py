@@ -17,6 +17,7 @@ from flax import struct
 from jaxpg import rollout as rollout_lib
 from jaxpg.algos.core.config import BaseConfig
 from jaxpg.envs import AutoReset, Env, State
+from jaxpg.networks import CONV_TORSOS, ConvTorso
 from jaxpg.policies import ValueFunction, make_policy
 
 
@@ -97,14 +98,21 @@ class TrainState:
 
 def make_networks(env: Env, config: BaseConfig) -> tuple[Any, ValueFunction]:
     """The policy named by ``config`` (categorical for a discrete env) and the value function,
-    both initialised by ``config.network_init``."""
+    both initialised by ``config.network_init``, each with its own ``config.conv_torso`` if any
+    (orthogonal kernels get the ReLU gain sqrt(2) there)."""
     name = "categorical" if env.discrete else config.policy
+    conv = None
+    if config.conv_torso != "none":
+        gain = 2.0**0.5 if config.network_init == "orthogonal" else 1.0
+        conv = ConvTorso(env.image_shape, CONV_TORSOS[config.conv_torso], config.network_init, gain)
     layers = dict(
         hidden=tuple(config.policy_hidden),
         activation=config.policy_activation,
         kernel_init=config.network_init,
         bias_init=config.network_init,
     )
+    if conv is not None:
+        layers["conv"] = conv
     if name == "gaussian":
         layers["log_std_init"] = config.log_std_init
     policy = make_policy(name, env.action_size, env.discrete, **layers)
@@ -113,6 +121,7 @@ def make_networks(env: Env, config: BaseConfig) -> tuple[Any, ValueFunction]:
         activation=config.value_activation,
         kernel_init=config.network_init,
         bias_init=config.network_init,
+        conv=conv,
     )
     return policy, value_fn
 

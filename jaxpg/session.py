@@ -160,6 +160,10 @@ class _Callbacks:
         return self.wall_offset + (now - self.t_start)
 
     def __call__(self, ts: Any, metrics: dict[str, np.ndarray], first: int) -> None:
+        if self.interrupts is not None and self.interrupts.at_once:
+            # A stop at once that was swallowed (raised inside a garbage-collection callback,
+            # which Python ignores) takes effect here, before anything of this block is written.
+            raise _StopAtOnce
         if self.interrupts is not None:
             self.interrupts.graceful = True  # a call has finished: from now on interrupts checkpoint first
         now = time.perf_counter()
@@ -383,6 +387,17 @@ class _Stop(Exception):
         self.signum = signum
 
 
+class _StopAtOnce(KeyboardInterrupt):
+    """The ``KeyboardInterrupt`` that ``_Interrupts`` raises to stop at once.
+
+    A subclass, not ``KeyboardInterrupt`` itself: CPython remembers a bare ``KeyboardInterrupt``
+    that passes through code run by its C API (``PyRun_*``, as some imports are), and at exit
+    then kills the process by SIGINT (status -2) even though the run caught the interrupt and
+    returned 130. It compares the exception's exact type, so a subclass leaves the exit status
+    to the run.
+    """
+
+
 class _Interrupts:
     """SIGINT and SIGTERM. Once the first compiled call has finished (``graceful``), the first
     signal asks to stop after the current call (``requested``) and a second SIGINT stops at once;
@@ -393,6 +408,7 @@ class _Interrupts:
     def __init__(self) -> None:
         self.requested: int | None = None
         self.graceful = False
+        self.at_once = False  # a stop at once was raised (it may have been swallowed or wrapped)
         self.previous: dict[int, Any] = {}
 
     def __enter__(self) -> _Interrupts:
@@ -401,18 +417,44 @@ class _Interrupts:
         if jax.process_count() == 1:
             for signum in (signal.SIGINT, signal.SIGTERM):
                 self.previous[signum] = signal.signal(signum, self._handle)
+        self.previous_unraisablehook = sys.unraisablehook
+        sys.unraisablehook = self._unraisable
         return self
+
+    def _unraisable(self, report: Any) -> None:
+        """Python's report of an exception it could not raise (one raised in a garbage-collection
+        callback): silent for a stop at once, which the next callback raises again."""
+        if not isinstance(report.exc_value, _StopAtOnce):
+            self.previous_unraisablehook(report)
 
     def _handle(self, signum: int, frame: Any) -> None:
         at_once = not self.graceful or (self.requested is not None and signum == signal.SIGINT)
         self.requested = signum if self.requested is None else self.requested
         if at_once:
             self.requested = signum
-            raise KeyboardInterrupt
+            self.at_once = True
+            raise _StopAtOnce
+
+    @contextlib.contextmanager
+    def attributed(self) -> Any:
+        """Any exception raised after a stop at once becomes ``_StopAtOnce``.
+
+        The handler raises wherever the main thread is, so its exception can come back wrapped (a
+        C extension's import turns it into ``ImportError``); whatever follows the request is
+        part of stopping."""
+        try:
+            yield
+        except KeyboardInterrupt:
+            raise
+        except BaseException as exc:
+            if self.at_once:
+                raise _StopAtOnce from exc
+            raise
 
     def __exit__(self, *exc: Any) -> None:
         for signum, handler in self.previous.items():
             signal.signal(signum, handler)
+        sys.unraisablehook = self.previous_unraisablehook
 
 
 def _exit_status(signum: int) -> int:
@@ -433,9 +475,10 @@ def execute(plan_: Plan) -> int:
     primary = _primary()
     with _Interrupts() as interrupts:
         try:
-            ts = plan_.state
-            if ts is None:
-                ts = initial_state(plan_.module, plan_.env, plan_.config, run.seeds)
+            with interrupts.attributed():
+                ts = plan_.state
+                if ts is None:
+                    ts = initial_state(plan_.module, plan_.env, plan_.config, run.seeds)
         except KeyboardInterrupt:
             name = signal.Signals(interrupts.requested or signal.SIGINT).name
             print(f"\n{name}: stopped before training started; nothing was written", file=sys.stderr)
@@ -459,7 +502,8 @@ def execute(plan_: Plan) -> int:
             except runlog.RunDirError as e:
                 print(f"error: {e}", file=sys.stderr)
                 return 2
-            return _train(plan_, ts, wall_offset, interrupts)
+            with interrupts.attributed():
+                return _train(plan_, ts, wall_offset, interrupts)
         except KeyboardInterrupt:
             # While writing the run directory or between that and the training loop's own handler
             # (imports, profiling, device placement): the same clean-up as an interrupt in the
@@ -512,35 +556,38 @@ def _train(plan_: Plan, ts: Any, wall_offset: float, interrupts: _Interrupts) ->
     status = 0
     callbacks: _Callbacks | None = None
     try:
-        checkpoints = ckpt_lib.Checkpointer(run_dir / runlog.CHECKPOINT_DIR, keep=run.keep_checkpoints, create=True)
-        writer = runlog.MetricsWriter(run_dir, run.seeds, start_iteration=plan_.start) if primary else _Silent()
-        if plan_.start == 0:
-            writer.add_text("config", "```\n" + json.dumps(run.to_json(), indent=2) + "\n```")
-        progress = (
-            runlog.Progress(run.iterations, initial=plan_.start, enabled=plan_.progress, desc=f"{run.algo} {run.task}")
-            if primary
-            else _Silent()
-        )
-        callbacks = _Callbacks(plan_, checkpoints, writer, progress, wall_offset, interrupts)
-        block = run.block_size
-        # Blocks start at multiples of block_size, as in an uninterrupted run.
-        segments = []
-        misaligned = (-plan_.start) % block
-        if misaligned:
-            segments.append(min(misaligned, remaining))
-        if remaining - sum(segments) > 0:
-            segments.append(remaining - sum(segments))
-        for index, count in enumerate(segments):
-            ts = train.train(
-                update,
-                ts,
-                count,
-                block_size=min(block, count),
-                callbacks=[callbacks],
-                seeds=run.vmap_seeds,
-                evaluate=evaluate,
-                final_eval=index == len(segments) - 1,  # the run's last iteration is always evaluated
+        with interrupts.attributed():
+            checkpoints = ckpt_lib.Checkpointer(run_dir / runlog.CHECKPOINT_DIR, keep=run.keep_checkpoints, create=True)
+            writer = runlog.MetricsWriter(run_dir, run.seeds, start_iteration=plan_.start) if primary else _Silent()
+            if plan_.start == 0:
+                writer.add_text("config", "```\n" + json.dumps(run.to_json(), indent=2) + "\n```")
+            progress = (
+                runlog.Progress(
+                    run.iterations, initial=plan_.start, enabled=plan_.progress, desc=f"{run.algo} {run.task}"
+                )
+                if primary
+                else _Silent()
             )
+            callbacks = _Callbacks(plan_, checkpoints, writer, progress, wall_offset, interrupts)
+            block = run.block_size
+            # Blocks start at multiples of block_size, as in an uninterrupted run.
+            segments = []
+            misaligned = (-plan_.start) % block
+            if misaligned:
+                segments.append(min(misaligned, remaining))
+            if remaining - sum(segments) > 0:
+                segments.append(remaining - sum(segments))
+            for index, count in enumerate(segments):
+                ts = train.train(
+                    update,
+                    ts,
+                    count,
+                    block_size=min(block, count),
+                    callbacks=[callbacks],
+                    seeds=run.vmap_seeds,
+                    evaluate=evaluate,
+                    final_eval=index == len(segments) - 1,  # the run's last iteration is always evaluated
+                )
     except _Stop as stop:
         progress.close()
         print(

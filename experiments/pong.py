@@ -60,7 +60,7 @@ from jaxpg.algos import a2c, reinforce, reinforce_points
 from jaxpg.algos.core import TrainState
 from jaxpg.cli import Parser, UsageError
 from jaxpg.envs import Env, EpisodeStats
-from jaxpg.envs.pong import FrameDifference, Pong
+from jaxpg.envs.pong import DifferencePong
 
 # The seed's network: one hidden layer of 200 ReLU units.
 SEED_NETWORK: dict[str, Any] = dict(policy_hidden=(200,), policy_activation="relu")
@@ -83,8 +83,9 @@ RUNNING_DECAY = 0.99  # running reward: EMA over games, as in the seed
 
 
 def make_env(size: int = 80, stay_action: bool = False, **pong_kwargs: Any) -> Env:
-    """``EpisodeStats(FrameDifference(Pong))``: frame differences ``[size * size]``, game statistics."""
-    return EpisodeStats(FrameDifference(Pong(size=size, stay_action=stay_action, **pong_kwargs)))
+    """``EpisodeStats(FrameDifference(Pong))`` (the registered task ``pong``): frame differences
+    ``[size * size]``, game statistics."""
+    return EpisodeStats(DifferencePong(size=size, stay_action=stay_action, **pong_kwargs))
 
 
 def make_atari_env(stay_action: bool = False) -> Env:

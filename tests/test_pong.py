@@ -233,7 +233,17 @@ def test_registry():
     assert env.task_score_name == "score_difference"
     state = env.reset(jax.random.PRNGKey(0))
     assert state.obs.shape == (6400,) and state.obs.dtype == jnp.float32
-    assert isinstance(env.unwrapped, Pong)
+    assert isinstance(env.unwrapped, Pong) and env.image_shape == (80, 80, 1)
+    # The registered task is seen through FrameDifference (as the seed's agents and the command
+    # line train on it): zeros first, then the current frame minus the previous one.
+    np.testing.assert_array_equal(state.obs, 0.0)
+    after = env.step(state, jnp.asarray(0))
+    frames = (
+        env.unwrapped.reset(jax.random.PRNGKey(0)).obs,
+        env.unwrapped.step(env.unwrapped.reset(jax.random.PRNGKey(0)), jnp.asarray(0)).obs,
+    )
+    np.testing.assert_allclose(after.obs, frames[1] - frames[0], atol=1e-6)
+    assert float(after.obs.min()) < 0.0 < float(after.obs.max())
 
 
 def test_frame_difference():

@@ -23,7 +23,8 @@ REGISTRY: dict[str, str] = {
     "inverted_pendulum": "jaxpg.envs.inverted_pendulum:InvertedPendulum",
     "inverted_double_pendulum": "jaxpg.envs.inverted_double_pendulum:InvertedDoublePendulum",
     "cartpole": "jaxpg.envs.cartpole:CartPole",
-    "pong": "jaxpg.envs.pong:Pong",
+    # jaxpg's own Pong, observed as frame differences (jaxpg.envs.pong.DifferencePong).
+    "pong": "jaxpg.envs.pong:DifferencePong",
     # The Atari ROM through the Arcade Learning Environment (needs `pip install 'jaxpg[atari]'`).
     "atari_pong": "jaxpg.envs.atari:AtariPong",
 }

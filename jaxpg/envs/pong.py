@@ -137,6 +137,7 @@ class Pong(Env):
         self.stay_action = stay_action
         self.action_size = 3 if stay_action else 2
         self.observation_size = size * size
+        self.image_shape = (size, size, 1)
         self.winning_score = winning_score
         self.max_episode_steps = max_episode_steps
         self.paddle_height = paddle_height
@@ -304,3 +305,12 @@ class FrameDifference(Wrapper):
         stepped = self.env.step(state, action)
         frame = stepped.obs
         return stepped.replace(obs=frame - state.info["prev_frame"], info={**stepped.info, "prev_frame": frame})
+
+
+class DifferencePong(FrameDifference):
+    """The registered task ``pong``: ``Pong`` seen through ``FrameDifference``, the observation the
+    seed's agents learn from (``jaxpg.envs.make("pong", size=40)``). ``pong_kwargs`` go to ``Pong``;
+    ``first`` to ``FrameDifference``. ``unwrapped`` is the ``Pong`` that draws the frames."""
+
+    def __init__(self, first: str = "zeros", **pong_kwargs: Any):
+        super().__init__(Pong(**pong_kwargs), first=first)

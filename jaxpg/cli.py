@@ -40,7 +40,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from jaxpg import runlog
+from jaxpg import algos, runlog
 from jaxpg.runlog import RunConfig
 from jaxpg.session import Plan, execute
 
@@ -233,7 +233,10 @@ def build_parser(experiment: Experiment, algo: str, config_cls: type | None, con
         type=_positive,
         help=f"iterations between videos of the mean policy; 0: none (default: {experiment.video_every})",
     )
-    run.add_argument("--preset", help="named Config overrides of the algorithm (its PRESETS), e.g. lyceum")
+    run.add_argument(
+        "--preset",
+        help="named Config overrides of the algorithm (its PRESETS, checked against the task), e.g. lyceum",
+    )
     run.add_argument(
         "--profile",
         action="store_true",
@@ -391,12 +394,12 @@ def plan_fresh(args: argparse.Namespace, experiment: Experiment, module: Any, al
     _check_task(task, experiment)
     config_cls = module.Config
     values = experiment.config_defaults(algo, config_cls)
-    presets = getattr(module, "PRESETS", {})
     if args.preset is not None:
-        if args.preset not in presets:
-            known = ", ".join(sorted(presets)) or "none"
-            raise UsageError(f"unknown preset {args.preset!r} for {algo}; known presets: {known}")
-        values.update(presets[args.preset])
+        try:
+            values.update(algos.preset(algo, args.preset, task))
+        except ValueError as e:
+            known = ", ".join(algos.preset_names(algo, task)) or "none"
+            raise UsageError(f"{e}; presets of {algo} for {task}: {known}") from None
     values.update(_explicit_config(args))
     types = runlog.field_types(config_cls)
     config = config_cls(**{k: runlog.coerce(types[k], v) for k, v in values.items()})
@@ -510,7 +513,7 @@ def plan(argv: Sequence[str], experiment: Experiment) -> Plan:
     defaults = {f.name: _field_default(f) for f in dataclasses.fields(config_cls)}
     defaults.update(experiment.config_defaults(algo, config_cls))
     if resume_run is None and pre.preset is not None:
-        defaults.update(getattr(module, "PRESETS", {}).get(pre.preset, {}))
+        defaults.update(getattr(module, "PRESETS", {}).get(pre.preset, {}))  # plan_fresh checks it
     if resume_run is not None:
         defaults.update(runlog.current_field_names(config_cls, resume_run.config))
     parser = build_parser(experiment, algo, config_cls, defaults)

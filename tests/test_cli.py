@@ -252,6 +252,12 @@ BAD_INPUT = [
     (["--num-envs", "-4"], "num_envs must be >= 1"),
     (["--horizon", "2"], "value_batch_size 64 exceeds the 16 samples"),
     (["--preset", "nope"], "unknown preset 'nope'"),
+    # Presets are checked against their task: NPG's hopper preset on inverted_pendulum.
+    (
+        ["--preset", "hopper"],
+        "npg's preset 'hopper' was made for hopper, not inverted_pendulum; presets of npg for "
+        "inverted_pendulum: lyceum, pendulum_cpu",
+    ),
     (["--seeds", "1", "1"], "distinct"),
     (["--iterations", "-1"], "--iterations"),
     (["--policy-hidden", "a"], "--policy-hidden"),
@@ -269,6 +275,23 @@ def test_bad_input_is_one_error_line_with_status_2(extra, message, runs, capsys,
     assert err.startswith("error: ") and err.count("\n") == 1 and message in err, err
     assert "Traceback" not in err
     assert listing(runs) == before
+
+
+def test_every_preset_names_only_known_tasks_and_builds_its_config():
+    """``PRESET_TASKS`` names registered tasks and presets that exist; each preset is a valid
+    ``Config`` of its algorithm; ``algos.preset`` refuses a preset off its tasks."""
+    from jaxpg import algos, envs
+
+    for algo in algos.ALGORITHMS:
+        module = algos.get(algo)
+        for name, tasks in getattr(module, "PRESET_TASKS", {}).items():
+            assert name in module.PRESETS and set(tasks) <= set(envs.names()), (algo, name)
+        for name in module.PRESETS:
+            module.Config(**algos.preset(algo, name))
+    assert algos.preset("a2c", "minpy", "hopper") == algos.get("a2c").PRESETS["minpy"]  # any task
+    assert algos.preset_names("ppo", "atari_pong") == ["atari"]
+    with pytest.raises(ValueError, match="ppo's preset 'atari' was made for atari_pong, pong, not hopper"):
+        algos.preset("ppo", "atari", "hopper")
 
 
 def test_num_envs_not_divisible_by_devices_in_a_subprocess(runs):

@@ -170,3 +170,11 @@ def update(ts: TrainState) -> tuple[TrainState, dict[str, jax.Array]]:
     metrics = {name: diagnostics[name] for name in ("entropy", "policy_loss", "value_loss", "grad_norm", "loss")}
     kl = core.mean_kl(ts, old.params, ts.params, batch)
     return core.finish_iteration(old, ts, traj, loss=diagnostics["loss"], kl=kl, metrics=metrics)
+
+
+# The tasks each preset was made for (``jaxpg.algos.preset`` refuses it on others); unnamed: any task.
+PRESET_TASKS: dict[str, tuple[str, ...]] = {
+    "pong": ("pong", "atari_pong"),
+    "atari": ("atari_pong", "pong"),
+    "cartpole": ("cartpole",),
+}

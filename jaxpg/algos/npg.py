@@ -240,3 +240,11 @@ def make_update(
     update_with.__name__ = update_with.__qualname__ = f"update[{name}]"
     update_with.__doc__ = f"One NPG iteration with advantages from ``{name}`` (``npg.make_update``)."
     return update_with
+
+
+# The tasks each preset was made for (``jaxpg.algos.preset`` refuses it on others); unnamed: any task.
+PRESET_TASKS: dict[str, tuple[str, ...]] = {
+    "pendulum_cpu": ("inverted_pendulum",),
+    "hopper": ("hopper",),
+    "hopper_gpu": ("hopper",),
+}

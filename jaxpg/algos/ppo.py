@@ -253,3 +253,13 @@ def update(ts: TrainState) -> tuple[TrainState, dict[str, jax.Array]]:
     kl = core.mean_kl(ts, old.params, ts.params, batch)
     metrics = {**diagnostics, "learning_rate": learning_rate(ts.config, old.iteration)}
     return core.finish_iteration(old, ts, traj, loss=diagnostics["loss"], kl=kl, metrics=metrics)
+
+
+# The tasks each preset was made for (``jaxpg.algos.preset`` refuses it on others); unnamed: any task.
+PRESET_TASKS: dict[str, tuple[str, ...]] = {
+    "brax_hopper": ("hopper",),
+    "brax_hopper_short": ("hopper",),
+    "hopper_gpu": ("hopper",),
+    "pendulum": ("inverted_pendulum",),
+    "atari": ("atari_pong", "pong"),
+}

@@ -188,3 +188,7 @@ def update(ts: TrainState) -> tuple[TrainState, dict[str, jax.Array]]:
     ts, diagnostics = policy_step(ts, batch)
     kl = core.mean_kl(ts, old.params, ts.params, batch)
     return core.finish_iteration(old, ts, traj, loss=diagnostics["loss"], kl=kl, metrics=diagnostics)
+
+
+# The tasks each preset was made for (``jaxpg.algos.preset`` refuses it on others); unnamed: any task.
+PRESET_TASKS: dict[str, tuple[str, ...]] = {"gymnasium_tutorial": ("inverted_pendulum",), "kokoyi": ("cartpole",)}

@@ -105,3 +105,8 @@ def update(ts: TrainState) -> tuple[TrainState, dict[str, jax.Array]]:
         "value_loss": value_loss,
     }
     return core.finish_iteration(old, ts, traj, loss=value_loss + kl, kl=kl, metrics=metrics)
+
+
+# The tasks each preset was made for (``jaxpg.algos.preset`` refuses it on others); unnamed: any
+# task. ``lyceum`` is LyceumAI's algorithm settings, which it ran on every task.
+PRESET_TASKS: dict[str, tuple[str, ...]] = {}

@@ -118,3 +118,7 @@ def update(ts: TrainState) -> tuple[TrainState, dict[str, jax.Array]]:
     kl = core.mean_kl(ts, old.params, ts.params, batch)
     metrics = {**diagnostics, "value_loss": value_loss}
     return core.finish_iteration(old, ts, traj, loss=diagnostics["loss"] + value_loss, kl=kl, metrics=metrics)
+
+
+# The tasks each preset was made for (``jaxpg.algos.preset`` refuses it on others); unnamed: any task.
+PRESET_TASKS: dict[str, tuple[str, ...]] = {"lightning": ("inverted_pendulum",)}

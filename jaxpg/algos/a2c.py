@@ -114,13 +114,7 @@ PRESETS: dict[str, dict[str, Any]] = {
         entropy_coef=0.01,
         value_coef=0.25,
         max_grad_norm=0.5,
-        conv_torso="nature",
-        policy_hidden=(512,),
-        policy_activation="relu",
-        value_hidden=(512,),
-        value_activation="relu",
-        network_init="orthogonal",
-        eval_envs=0,
+        **actor_critic.ATARI_NETWORKS,
     ),
     # Solves cartpole on two CPU cores and stays solved (tests/test_learning.py: the mean policy of
     # seeds 0-3 returned 500 at every evaluation from iteration 400 to 2000). Rewards are scaled

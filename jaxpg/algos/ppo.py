@@ -171,13 +171,7 @@ PRESETS["atari"] = dict(
     max_grad_norm=0.5,
     gamma=0.99,
     gae_lambda=0.95,
-    conv_torso="nature",
-    policy_hidden=(512,),
-    policy_activation="relu",
-    value_hidden=(512,),
-    value_activation="relu",
-    network_init="orthogonal",
-    eval_envs=0,
+    **actor_critic.ATARI_NETWORKS,
 )
 PRESETS["hopper_gpu"] = {
     **PRESETS["brax_hopper"],

@@ -28,6 +28,7 @@ import time
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 
 def algo_config(
@@ -53,14 +54,28 @@ def algo_config(
 
 
 def time_call(fn, *args, repeats: int) -> tuple[float, float, object]:  # noqa: ANN001
-    """Compile time of the first call and mean time of ``repeats`` later calls."""
+    """Compile time of the first call and the median time of ``repeats`` later calls (each
+    synchronised), so that one slow call does not move the figure."""
     start = time.perf_counter()
     out = jax.block_until_ready(fn(*args))
     compile_s = time.perf_counter() - start
-    start = time.perf_counter()
+    times = []
     for _ in range(repeats):
+        start = time.perf_counter()
         out = jax.block_until_ready(fn(*args))
-    return compile_s, (time.perf_counter() - start) / repeats, out
+        times.append(time.perf_counter() - start)
+    return compile_s, float(np.median(times)), out
+
+
+def time_chained(fn, state, repeats: int) -> tuple[float, object]:  # noqa: ANN001
+    """Median time of ``repeats`` synchronised calls ``state, _ = fn(state)``, each on the previous
+    call's outputs (as a training loop chains them); the caller has compiled and warmed ``fn``."""
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        state, out = jax.block_until_ready(fn(state))
+        times.append(time.perf_counter() - start)
+    return float(np.median(times)), (state, out)
 
 
 def measure(
@@ -73,8 +88,10 @@ def measure(
     iterations: int,
     preset: str | None,
     overrides: dict | None = None,
+    repeats: int = 3,
 ) -> dict:
-    """One row of the table (runs in its own process)."""
+    """One row of the table (runs in its own process). Every time is the median of ``repeats``
+    synchronised calls of ``iterations`` iterations (raw: of as many horizons)."""
     from jaxpg import algos, envs
     from jaxpg import rollout as rollout_lib
     from jaxpg import train as train_lib
@@ -92,10 +109,14 @@ def measure(
 
     @jax.jit
     def raw(state, key):  # noqa: ANN001, ANN202
-        state, traj = rollout_lib.rollout(sampler, random_act, None, state, key, horizon)
-        return state, jnp.sum(traj.rewards)
+        def one(state, key):  # noqa: ANN001, ANN202
+            state, traj = rollout_lib.rollout(sampler, random_act, None, state, key, horizon)
+            return state, jnp.sum(traj.rewards)
 
-    raw_compile, raw_s, _ = time_call(raw, state, jax.random.PRNGKey(1), repeats=10)
+        return jax.lax.scan(one, state, jax.random.split(key, iterations))
+
+    raw_compile, raw_s, _ = time_call(raw, state, jax.random.PRNGKey(1), repeats=repeats)
+    raw_s /= iterations
 
     module = algos.get(algo)
     config = algo_config(algo, num_envs, horizon, preset, overrides)
@@ -111,18 +132,34 @@ def measure(
     ts2, metrics = jax.block_until_ready(block(ts))
     train_compile = time.perf_counter() - start
     ts2, metrics = jax.block_until_ready(block(ts2))  # warm-up with the call's own outputs
-    start = time.perf_counter()
-    ts2, metrics = jax.block_until_ready(block(ts2))
-    train_s = (time.perf_counter() - start) / iterations
+    train_s, (ts2, metrics) = time_chained(block, ts2, repeats)
+    train_s /= iterations
+    # The sampling phase alone (the policy acting in the env batch, observation statistics
+    # included), iterations of it in one compiled call: what training adds to the simulation
+    # (sample - raw) apart from what the learner adds (train - sample).
+    from jaxpg.algos import core
+
+    def sample_only(ts):  # noqa: ANN001, ANN202
+        def one(ts, _):  # noqa: ANN001, ANN202
+            ts, traj, _ = core.phase_sample(ts)
+            return ts, jnp.sum(traj.rewards)
+
+        return jax.lax.scan(one, ts, None, length=iterations)
+
+    sample_block = jax.jit(sample_only)
+    ts_s, _ = jax.block_until_ready(sample_block(ts2))
+    ts_s, _ = jax.block_until_ready(sample_block(ts_s))
+    sample_s, _ = time_chained(sample_block, ts_s, repeats)
+    sample_s /= iterations
     # ... and one iteration per compiled call (block_size=1), dispatched from the host.
     single = jax.jit(module.update)
     ts3, _ = jax.block_until_ready(single(ts2))
     ts3, _ = jax.block_until_ready(single(ts3))
     start = time.perf_counter()
-    for _ in range(iterations):
+    for _ in range(iterations * repeats):
         ts3, _ = single(ts3)
     jax.block_until_ready(ts3)
-    single_s = (time.perf_counter() - start) / iterations
+    single_s = (time.perf_counter() - start) / (iterations * repeats)
     samples = num_envs * horizon
     eval_s, eval_compile = 0.0, 0.0
     if config.eval_envs > 0:
@@ -141,6 +178,9 @@ def measure(
         "raw_steps_per_s": samples / raw_s,
         "train_steps_per_s": samples / train_s,
         "ratio": raw_s / train_s,
+        "sample_steps_per_s": samples / sample_s,
+        "ratio_sample": raw_s / sample_s,
+        "repeats": repeats,
         "train_single_steps_per_s": samples / single_s,
         "ratio_single": raw_s / single_s,
         "preset": preset,
@@ -166,6 +206,7 @@ def main() -> None:
     parser.add_argument("--batch-sizes", nargs="+", type=int, default=[256, 1024])
     parser.add_argument("--horizon", type=int, default=32)
     parser.add_argument("--iterations", type=int, default=5, help="iterations per timed compiled call")
+    parser.add_argument("--repeats", type=int, default=3, help="timed calls per figure (their median is reported)")
     parser.add_argument("--preset", help="the algorithm's preset (with its evaluation) instead of a throughput config")
     parser.add_argument(
         "--set", nargs="+", default=[], metavar="FIELD=JSON", help="preset overrides, e.g. value_epoch_samples=65536"
@@ -187,6 +228,7 @@ def main() -> None:
             args.iterations,
             args.preset,
             overrides,
+            args.repeats,
         )
         print("ROW " + json.dumps(row), flush=True)
         return
@@ -197,6 +239,7 @@ def main() -> None:
             cmd = [sys.executable, __file__, "--single", f"{impl}:{num_envs}"]
             cmd += ["--task", args.task, "--algo", args.algo, "--fidelity", args.fidelity]
             cmd += ["--horizon", str(args.horizon), "--iterations", str(args.iterations)]
+            cmd += ["--repeats", str(args.repeats)]
             cmd += ["--preset", args.preset] if args.preset else []
             cmd += ["--set", *args.set] if args.set else []
             proc = subprocess.run(cmd, capture_output=True, text=True)
@@ -214,15 +257,15 @@ def main() -> None:
     title = " ".join([args.task, args.algo, args.preset or "", *args.set])
     print(f"\n{title}, horizon {args.horizon}, fidelity {args.fidelity}, {device}")
     print("| impl | envs | raw env steps/s | train env steps/s | train/raw | compile raw s | compile train s", end="")
-    print(" | peak MiB/env | 1 iter/call env steps/s | 1 iter/call train/raw |")
-    print("|---|---|---|---|---|---|---|---|---|---|")
+    print(" | peak MiB/env | 1 iter/call env steps/s | 1 iter/call train/raw | sampling alone/raw |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
         print(
             f"| {r['impl']} | {r['num_envs']} | {r['raw_steps_per_s'] / 1e6:.3f} M "
             f"| {r['train_steps_per_s'] / 1e6:.3f} M "
             f"| {r['ratio']:.2f} | {r['raw_compile_s']:.1f} | {r['train_compile_s']:.1f} | "
             f"{r['peak_bytes_per_env'] / 2**20:.3f} | {r['train_single_steps_per_s'] / 1e6:.3f} M "
-            f"| {r['ratio_single']:.2f} |"
+            f"| {r['ratio_single']:.2f} | {r['ratio_sample']:.2f} |"
         )
     if args.preset:
         print("\nwith evaluation at the preset's cadence (one evaluation per eval_every iterations):")

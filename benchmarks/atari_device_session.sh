@@ -67,9 +67,9 @@ a2c_cnn)  # [SECONDS [ENVS [more flags]]]
   ;;
 envs)
   rm -rf runs/atari-envs
-  timeout 590 $py experiments/pong.py --task atari_pong --compare-envs 1 2 4 16 64 --minutes 1.6 \
-    --run-dir runs/atari-envs 2>&1 | grep -v "A.L.E\|Stella" | tee "$OUT/atari-envs.log"
-  cp runs/atari-envs/pong_envs.png runs/atari-envs/metrics.jsonl "$OUT/" 2>/dev/null
+  timeout 590 $py benchmarks/pong.py --task atari_pong --compare-envs 1 2 4 16 64 --seconds 96 \
+    --run-dir runs/atari-envs --json "$OUT/atari-envs.json" 2>&1 | grep -v "A.L.E\|Stella" | tee "$OUT/atari-envs.log"
+  cp runs/atari-envs/pong_envs.png "$OUT/" 2>/dev/null
   ;;
 *)
   echo "usage: bash $0 fps|a2c [ENVS]|reinforce [ENVS]|ppo [SECONDS]|a2c_cnn [SECONDS]|envs"

@@ -1,21 +1,38 @@
-"""Pong from pixels on the accelerator: frames per second, and time for A2C to beat the opponent.
+"""Pong from pixels: frames per second, MinPy's comparison of env counts, and time for A2C to beat the opponent.
 
-Two measurements on jaxpg's pure-JAX Pong (``experiments/pong.py``'s env: frame differences of
-80x80 frames; not the Atari ROM):
+Measurements on jaxpg's pure-JAX Pong (the task ``pong``: frame differences of 80x80 frames; not
+the Atari ROM):
 
-  fps     frames (env steps) per second of ``--fps-envs`` games with random actions, in a jitted
-          ``lax.scan`` of ``--horizon`` steps, timed after compilation; and of A2C training
-          (sampling with the seed's 6400 -> 200 -> 2 network plus the update) at the same batch;
-  beat    A2C (``experiments/pong.py``'s settings, but ``--lr`` 2e-3 by default: at 1024 envs
-          on an H200 it did better than 4e-3, and at 2048 envs better than 1e-3) with
-          ``--train-envs`` games and each of ``--seeds``, ``--lr`` and ``--t-max``, trained for at
-          most ``--seconds`` of wall clock: when the seed's running reward (EMA over games of the
-          final score difference) first exceeds each of ``--thresholds`` (0: the agent beats the
-          scripted opponent on average; 10: by 10 points of 21). The clock starts after
-          compilation, as in ``experiments/pong.py``; compilation is reported apart.
+  fps      frames (env steps) per second of ``--fps-envs`` games with random actions, in a jitted
+           ``lax.scan`` of ``--horizon`` steps, timed after compilation; and of A2C training
+           (sampling with the seed's 6400 -> 200 -> 2 network plus the update) at the same batch;
+  beat     A2C runs of ``experiments/pong.py`` with ``--train-envs`` games and each of ``--seeds``,
+           ``--lr`` (default 2e-3: at 1024 envs on an H200 it did better than 4e-3, and at 2048
+           envs better than 1e-3) and ``--t-max``, each trained for ``--seconds`` of wall clock
+           (compilation excluded) or exactly ``--iterations``: when the seed's running reward
+           first exceeds each of ``--thresholds`` (0: the agent beats the scripted opponent on
+           average; 10: by 10 points of 21);
+  compare  MinPy's comparison, ``--compare-envs 1 2 4 16 ...``: the same A2C runs with each number
+           of envs (the experiment's learning rate unless ``--lr`` is given, no fps measurement),
+           and their running reward against wall clock in ``RUN_DIR/pong_envs.png``: more envs
+           learn faster in wall-clock time (on one H200 it held from 1 to 1024 envs:
+           BENCHMARKS.md, section J).
+
+Every A2C run is a standard run of the command line (``jaxpg.cli.plan`` of ``experiments/pong.py``
+with ``--minutes``, run by ``jaxpg.session.execute``) in ``RUN_DIR/envs<N>-tmax<T>-lr<LR>-seed<S>``,
+so ``python -m jaxpg.evaluate``, ``jaxpg.load_policy`` and ``--resume`` work on each. The running
+reward is the seed's, computed from its ``metrics.jsonl``: an exponential moving average of the
+final score difference of the games, ``running = 0.99 running + 0.01 game`` at every finished
+game, starting from the first game's. Its clock starts when the run's first compiled block (which
+compiles) has finished. ``--iterations N`` replaces the wall-clock budget by exactly ``N``
+iterations per run, the same on every machine (tests use it). ``--task atari_pong`` runs the
+comparison on the Atari ROM (``experiments/atari_pong.py``; needs ``pip install 'jaxpg[atari]'``).
 
     python benchmarks/pong.py --fps-envs 1024 4096 --train-envs 1024 --seeds 0 1 2 --seconds 150 --json pong.json
     python benchmarks/pong.py --fps-envs 8 --train-envs 8 --seconds 5 --size 40     # CPU smoke run
+    python benchmarks/pong.py --compare-envs 1 2 4 16 64 256 --seconds 300 --run-dir runs/pong-envs
+    python benchmarks/pong.py --compare-envs 1 4 16 --seconds 30 --size 40 --run-dir runs/pong-cpu   # a CPU
+    python benchmarks/pong.py --task atari_pong --compare-envs 1 2 4 16 64 --seconds 1200 --run-dir runs/atari-envs
     python benchmarks/pong.py --plot docs/pong_a2c_h200.png benchmarks/results/2026-11-22-h200/pong*.json
     python benchmarks/pong.py --fps-envs --train-envs 2048 --lr 1e-3 2e-3 4e-3 --seconds 125   # the lr sweep
 """
@@ -23,36 +40,50 @@ Two measurements on jaxpg's pure-JAX Pong (``experiments/pong.py``'s env: frame 
 from __future__ import annotations
 
 import argparse
+import datetime
 import importlib.util
 import json
 import math
 import sys
 import time
+from collections.abc import Sequence
 from pathlib import Path
-from types import ModuleType
+from typing import Any
 
 import jax
 import jax.numpy as jnp
 
-from jaxpg import compile_cache
+from jaxpg import algos, cli, compile_cache, envs, runlog, session
+
+ROOT = Path(__file__).resolve().parents[1]
+RUNNING_DECAY = 0.99  # running reward: EMA over games, as in the seed
+EXPERIMENTS = {"pong": "experiments/pong.py", "atari_pong": "experiments/atari_pong.py"}
+NO_LIMIT = 10**9  # iterations of a run that stops at its time limit
 
 
-def load_experiment() -> ModuleType:
-    """``experiments/pong.py`` as a module (its env, configs, running reward and training loop)."""
-    path = Path(__file__).resolve().parents[1] / "experiments" / "pong.py"
-    spec = importlib.util.spec_from_file_location("pong_experiment", path)
+def load_experiment(task: str) -> cli.Experiment:
+    """The ``EXPERIMENT`` of the experiment script that trains ``task``."""
+    path = ROOT / EXPERIMENTS[task]
+    spec = importlib.util.spec_from_file_location(f"{task}_experiment", path)
     module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module
     spec.loader.exec_module(module)
-    return module
+    return module.EXPERIMENT
 
 
-def env_fps(pong: ModuleType, num_envs: int, horizon: int, size: int, repeats: int = 3) -> dict:
+def a2c_config(num_envs: int) -> Any:
+    """``a2c.Config`` of A2C on Pong (``a2c.PRESETS["pong"]``) with ``num_envs`` games."""
+    return algos.get("a2c").Config(**algos.preset("a2c", "pong", "pong"), num_envs=num_envs)
+
+
+# ---------------------------------------------------------------------------------------------
+# fps: the env and one training iteration, timed after compilation.
+
+
+def env_fps(num_envs: int, horizon: int, size: int, repeats: int = 3) -> dict:
     """Frames/s of ``num_envs`` games stepped with random actions (auto-reset included)."""
-    from jaxpg import envs
     from jaxpg import rollout as rollout_lib
 
-    env = envs.AutoReset(pong.make_env(size))
+    env = envs.AutoReset(envs.make_shared("pong", size=size))
     state = rollout_lib.reset_batch(env, jax.random.PRNGKey(0), num_envs)
 
     def random_act(params, obs, key):  # noqa: ANN001, ANN202
@@ -69,16 +100,15 @@ def env_fps(pong: ModuleType, num_envs: int, horizon: int, size: int, repeats: i
     return {"fps": num_envs * horizon * repeats / (time.perf_counter() - start), "compile_s": compile_s}
 
 
-def train_fps(pong: ModuleType, num_envs: int, size: int, per_call: int = 1, iterations: int = 24) -> dict:
+def train_fps(num_envs: int, size: int, per_call: int = 1, iterations: int = 24) -> dict:
     """Frames/s of A2C training iterations (sampling + update), ``per_call`` iterations per compiled
     call (a ``lax.scan``), calls dispatched without waiting."""
     from jaxpg import train as train_lib
 
-    env = pong.make_env(size)
-    config = pong.make_config("a2c", num_envs)
-    init, update = pong.ALGORITHMS["a2c"]
-    ts = train_lib._private_copy(init(jax.random.PRNGKey(0), env, config))
-    step = train_lib.compiled_block(update, per_call, False)
+    a2c = algos.get("a2c")
+    config = a2c_config(num_envs)
+    ts = train_lib._private_copy(a2c.init(jax.random.PRNGKey(0), envs.make_shared("pong", size=size), config))
+    step = train_lib.compiled_block(a2c.update, per_call, False)
     start = time.perf_counter()
     ts, _ = jax.block_until_ready(step(ts))
     compile_s = time.perf_counter() - start
@@ -94,117 +124,257 @@ def train_fps(pong: ModuleType, num_envs: int, size: int, per_call: int = 1, ite
     }
 
 
-def time_to_beat(
-    pong: ModuleType,
+# ---------------------------------------------------------------------------------------------
+# A2C runs through the command line, and the running reward from their metrics.
+
+
+def run_name(num_envs: int, horizon: int | None, lr: float | None, seed: int) -> str:
+    """The run directory's name under ``--run-dir``: ``envs16-seed0``, with ``-tmax5`` and ``-lr0.002``
+    where they are not the experiment's."""
+    tmax = "" if horizon is None else f"-tmax{horizon}"
+    return f"envs{num_envs}{tmax}{'' if lr is None else f'-lr{lr:g}'}-seed{seed}"
+
+
+def run_argv(
+    run_dir: Path,
+    task: str,
     num_envs: int,
-    seconds: float,
-    size: int,
-    thresholds: list[float],
     seed: int = 0,
+    lr: float | None = None,
+    horizon: int | None = None,
+    seconds: float | None = None,
+    iterations: int | None = None,
+    size: int | None = None,
     call_steps: int = 2048,
-    **overrides: float,
-) -> dict:
-    """Train A2C (``overrides`` on ``experiments/pong.py``'s settings, e.g. ``lr``, ``horizon``) for
-    up to ``seconds``; wall-clock seconds and env steps at which the running reward first exceeds
-    each threshold (``None`` where it never did)."""
-    env = pong.make_env(size)
-    config = pong.make_config("a2c", num_envs, **overrides)
-    _, record, compile_s = pong.train_for(
-        "a2c", env, config, seconds, seed=seed, call_steps=call_steps, log=lambda line: print(line, flush=True)
-    )
+) -> list[str]:
+    """The experiment's command line of one A2C run: ``iterations``, or ``seconds`` of training.
+
+    A compiled call (a block, between metrics reaching the host) covers about ``call_steps`` env
+    steps (1 to 256 iterations): one iteration at GPU-sized batches, many at small ones, where a
+    call's latency would otherwise dominate. Checkpoints only at the end.
+    """
+    samples = num_envs * (horizon or a2c_config(num_envs).horizon)
+    per_call = min(max(round(call_steps / samples), 1), 256)
+    argv = ["--algo", "a2c", "--num-envs", str(num_envs), "--seed", str(seed), "--run-dir", str(run_dir)]
+    argv += ["--log-every", str(per_call), "--checkpoint-every", "0", "--no-progress"]
+    argv += ["--iterations", str(iterations or NO_LIMIT)]
+    if iterations is None:
+        argv += ["--minutes", repr(seconds / 60.0)]
+    for flag, value in (("--lr", lr), ("--horizon", horizon), ("--size", size)):
+        if value is not None:
+            argv += [flag, repr(value) if isinstance(value, float) else str(value)]
+    return argv
+
+
+def train_run(plan: session.Plan) -> None:
+    """Run one planned command line (``jaxpg.session.execute``); ``RuntimeError`` if it does not
+    finish with status 0."""
+    status = session.execute(plan)
+    if status != 0:
+        raise RuntimeError(f"the run {' '.join(plan.command)} ended with status {status}")
+
+
+def running_reward(records: Sequence[dict[str, Any]], block: int, decay: float = RUNNING_DECAY) -> list[dict]:
+    """The seed's running reward along a run's ``metrics.jsonl`` records (one seed).
+
+    An iteration in which ``k`` games ended with mean final score ``m`` counts as ``k`` games of
+    score ``m``: ``running = decay^k running + (1 - decay^k) m`` (the first game's score first).
+    ``wall_s`` counts from the end of iteration ``block`` (the first compiled block, which
+    compiles); the records of that block are left out. Each row: ``wall_s``, ``env_steps``,
+    ``iteration``, ``running_reward`` (NaN before the first game ended), ``mean_reward`` (per
+    step), ``games`` (so far).
+    """
+    block = min(block, records[-1]["iteration"])
+    start = next(r["wall_time_s"] for r in records if r["iteration"] == block)
+    running, games, rows = math.nan, 0, []
+    for r in records:
+        k, score = int(r.get("episodes") or 0), r.get("return_stochastic")
+        if k > 0 and score is not None:
+            running = score if math.isnan(running) else decay**k * running + (1.0 - decay**k) * score
+            games += k
+        if r["iteration"] > block:
+            rows.append(
+                {
+                    "wall_s": r["wall_time_s"] - start,
+                    "env_steps": r["env_steps"],
+                    "iteration": r["iteration"],
+                    "running_reward": running,
+                    "mean_reward": r["mean_reward"],
+                    "games": games,
+                }
+            )
+    return rows
+
+
+def summarize(run_dir: Path, thresholds: Sequence[float]) -> dict:
+    """One A2C run's results: its settings, seconds of its first block (compilation included),
+    wall-clock seconds
+    and env steps at which the running reward first exceeded each threshold (``None`` where it never
+    did), the final running reward, and the curve at most twice a second."""
+    run = runlog.RunConfig.load(run_dir)
+    records = runlog.read_metrics(run_dir / runlog.METRICS_FILE)
+    curve = running_reward(records, run.block_size)
+    block = min(run.block_size, records[-1]["iteration"])
+    first_block = next(r["wall_time_s"] for r in records if r["iteration"] == block)
     reached = {}
     for threshold in thresholds:
-        first = next((r for r in record.rows if r["running_reward"] > threshold), None)
+        first = next((r for r in curve if r["running_reward"] > threshold), None)
         reached[str(threshold)] = (
             None if first is None else {"seconds": first["wall_s"], "env_steps": first["env_steps"]}
         )
-    last = record.rows[-1]
-    curve, last_kept = [], -math.inf  # at most two points a second
-    for r in record.rows:
-        if r["wall_s"] - last_kept >= 0.5 or r is record.rows[-1]:
-            curve.append({k: (None if isinstance(v, float) and math.isnan(v) else v) for k, v in r.items()})
+    kept, last_kept = [], -math.inf
+    for r in curve:
+        if r["wall_s"] - last_kept >= 0.5 or r is curve[-1]:
+            kept.append({k: None if isinstance(v, float) and math.isnan(v) else v for k, v in r.items()})
             last_kept = r["wall_s"]
+    last = curve[-1] if curve else {"running_reward": math.nan, "games": 0, "env_steps": 0, "wall_s": 0.0}
     return {
-        "num_envs": num_envs,
-        "seed": seed,
-        "call_steps": call_steps,
-        "lr": config.lr,
-        "horizon": config.horizon,
-        "compile_s": compile_s,
+        "run_dir": str(run_dir),
+        "num_envs": run.config["num_envs"],
+        "seed": run.seeds[0],
+        "lr": run.config["lr"],
+        "horizon": run.config["horizon"],
+        "first_block_s": first_block,
         "reached": reached,
         "final_running_reward": last["running_reward"],
         "games": last["games"],
         "env_steps": last["env_steps"],
         "wall_s": last["wall_s"],
-        "curve": curve,
+        "curve": kept,
     }
 
 
-def plot(json_paths: list[str], out: str) -> None:
-    """Running reward against wall clock for every A2C run in the ``--json`` files, into ``out``."""
+def plot(runs: Sequence[dict], out: str | Path, title: str) -> None:
+    """Running reward against wall clock, one line per run (a colour per setting), into ``out``."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    settings = sorted({(r["num_envs"], r.get("horizon", 8), r.get("lr", 1e-3)) for r in runs})
+    cmap = plt.get_cmap("viridis") if len(settings) > 10 else None
+    colors = (
+        dict(zip(settings, cmap([i / max(len(settings) - 1, 1) for i in range(len(settings))]), strict=True))
+        if cmap
+        else dict(zip(settings, plt.get_cmap("tab10").colors, strict=False))
+    )
+    fig, ax = plt.subplots(figsize=(8, 4.5))
+    labelled = set()
+    for run in runs:
+        key = (run["num_envs"], run.get("horizon", 8), run.get("lr", 1e-3))
+        envs = f"{key[0]} env{'s' if key[0] > 1 else ''}"
+        label = None if key in labelled else f"A2C, {envs}, t_max {key[1]}, lr {key[2]:g}"
+        labelled.add(key)
+        t = [row["wall_s"] for row in run["curve"]]
+        reward = [math.nan if row["running_reward"] is None else row["running_reward"] for row in run["curve"]]
+        ax.plot(t, reward, color=colors.get(key), lw=1.2, label=label)
+    ax.axhline(0.0, color="k", lw=0.8, ls="--")
+    ax.axhline(10.0, color="k", lw=0.8, ls=":")
+    ax.set_xlabel("wall-clock seconds (compilation excluded)")
+    ax.set_ylabel("running reward (EMA of game score)")
+    ax.set_title(title)
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(out, dpi=100)
+    plt.close(fig)
+
+
+def plot_files(json_paths: Sequence[str], out: str) -> None:
+    """``plot`` of every A2C run in earlier ``--json`` files."""
     runs, device = [], ""
     for path in json_paths:
         with open(path) as f:
             result = json.load(f)
         runs += result["beat"]
         device = result["device"]
-    settings = sorted({(r["num_envs"], r.get("horizon", 8), r.get("lr", 1e-3)) for r in runs})
-    colors = dict(zip(settings, plt.get_cmap("tab10").colors, strict=False))
-    fig, ax = plt.subplots(figsize=(8, 4.5))
-    labelled = set()
-    for run in runs:
-        key = (run["num_envs"], run.get("horizon", 8), run.get("lr", 1e-3))
-        label = None if key in labelled else f"A2C, {key[0]} envs, t_max {key[1]}, lr {key[2]:g}"
-        labelled.add(key)
-        t = [row["wall_s"] for row in run["curve"]]
-        ax.plot(t, [row["running_reward"] for row in run["curve"]], color=colors.get(key), lw=1.2, label=label)
-    ax.axhline(0.0, color="k", lw=0.8, ls="--")
-    ax.axhline(10.0, color="k", lw=0.8, ls=":")
-    ax.set_xlabel("wall-clock seconds (compilation excluded)")
-    ax.set_ylabel("running reward (EMA of game score)")
-    ax.set_title(f"jaxpg Pong from frame differences, {device}: one line per run (seed)")
-    ax.legend(fontsize=8)
-    ax.grid(alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(out, dpi=100)
+    plot(runs, out, f"jaxpg Pong from frame differences, {device}: one line per run (seed)")
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--fps-envs", type=int, nargs="*", default=[1024, 4096])
+# ---------------------------------------------------------------------------------------------
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = cli.Parser(
+        prog="python benchmarks/pong.py",
+        description=__doc__.split("\n\n")[0],
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog="\n\n".join(__doc__.split("\n\n")[1:]),
+    )
+    parser.add_argument("--task", choices=sorted(EXPERIMENTS), default="pong", help="atari_pong: the ROM, in ALE")
+    parser.add_argument("--fps-envs", type=int, nargs="*", help="default: 1024 4096; none with --compare-envs")
     parser.add_argument("--horizon", type=int, default=128, help="env steps per timed call (fps)")
-    parser.add_argument("--train-envs", type=int, nargs="*", default=[1024])
+    parser.add_argument("--train-envs", type=int, nargs="*", default=[1024], help="A2C runs with each number of envs")
+    parser.add_argument(
+        "--compare-envs", type=int, nargs="+", help="MinPy's comparison: A2C runs with each, plot into pong_envs.png"
+    )
     parser.add_argument("--seconds", type=float, default=240.0, help="wall-clock budget of each A2C run")
-    parser.add_argument("--lr", type=float, nargs="+", default=[2e-3], help="A2C runs for each learning rate")
+    parser.add_argument("--iterations", type=int, help="instead of --seconds: exactly this many iterations per run")
+    parser.add_argument(
+        "--lr", type=float, nargs="+", help="A2C runs for each learning rate (default: 2e-3; the experiment's 1e-3 "
+        "with --compare-envs)"
+    )  # fmt: skip
     parser.add_argument("--seeds", type=int, nargs="+", default=[0], help="A2C runs for each seed")
     parser.add_argument("--call-steps", type=int, default=2048, help="env steps per compiled call while training")
-    parser.add_argument("--t-max", type=int, nargs="+", default=[8], help="A2C runs for each t_max (horizon)")
+    parser.add_argument("--t-max", type=int, nargs="+", help="A2C runs for each t_max (default: the experiment's, 8)")
     parser.add_argument("--scan", type=int, default=8, help="also time A2C with this many iterations per call")
     parser.add_argument("--thresholds", type=float, nargs="+", default=[0.0, 10.0])
-    parser.add_argument("--size", type=int, default=80)
+    parser.add_argument("--size", type=int, help="frames are SIZE x SIZE pixels (pong; default 80)")
+    parser.add_argument("--run-dir", type=Path, help="the A2C runs go here (default: runs/pong-benchmark-<time>)")
     parser.add_argument("--json", help="write the results here")
     parser.add_argument("--plot", nargs="+", metavar=("OUT", "JSON"), help="only plot earlier --json results")
-    args = parser.parse_args()
-    if args.plot:
-        plot(args.plot[1:], args.plot[0])
-        return
-    compile_cache.enable()
+    return parser
 
-    pong = load_experiment()
+
+def check(args: argparse.Namespace) -> None:
+    """``UsageError`` (one line) for arguments that cannot run, before anything is written."""
+    counts = [*(args.fps_envs or []), *(args.compare_envs or args.train_envs)]
+    if any(n < 1 for n in counts):
+        raise cli.UsageError(f"numbers of envs must be >= 1, got {' '.join(map(str, counts))}")
+    if not args.seconds > 0:
+        raise cli.UsageError(f"--seconds must be > 0, got {args.seconds:g}")
+    if args.iterations is not None and args.iterations < 1:
+        raise cli.UsageError(f"--iterations must be >= 1, got {args.iterations}")
+    if args.task != "pong" and (args.size is not None or args.fps_envs):
+        raise cli.UsageError("--size and --fps-envs are jaxpg Pong's (--task pong)")
+    if args.run_dir is not None and args.run_dir.exists():
+        raise cli.UsageError(f"{args.run_dir} exists; choose another --run-dir (nothing was changed)")
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point; returns the exit status (2 with one ``error:`` line for bad input)."""
+    try:
+        args = build_parser().parse_args(argv)
+        if args.plot:
+            plot_files(args.plot[1:], args.plot[0])
+            return 0
+        compare = args.compare_envs is not None
+        args.fps_envs = args.fps_envs if args.fps_envs is not None else ([] if compare else [1024, 4096])
+        check(args)
+        root = args.run_dir or Path("runs") / f"pong-benchmark-{datetime.datetime.now():%Y%m%d-%H%M%S}"
+        experiment = load_experiment(args.task)
+        budget = dict(seconds=args.seconds, iterations=args.iterations, size=args.size, call_steps=args.call_steps)
+        plans = [
+            cli.plan(run_argv(root / run_name(n, t_max, lr, seed), args.task, n, seed, lr, t_max, **budget), experiment)
+            for n in args.compare_envs or args.train_envs
+            for t_max in args.t_max or [None]
+            for lr in args.lr or ([None] if compare else [2e-3])
+            for seed in args.seeds
+        ]
+    except ValueError as e:  # UsageError, or a run the command line refuses
+        print(f"error: {str(e).strip().splitlines()[0]}", file=sys.stderr)
+        return 2
+    compile_cache.enable()
+    size = args.size or 80
     device = jax.devices()[0].device_kind
     print(f"device: {device}, jax {jax.__version__}", flush=True)
     fps_rows = []
     for n in args.fps_envs:
         row = {
             "num_envs": n,
-            "env": env_fps(pong, n, args.horizon, args.size),
-            "a2c": train_fps(pong, n, args.size),
-            "a2c_scan": train_fps(pong, n, args.size, per_call=args.scan),
+            "env": env_fps(n, args.horizon, size),
+            "a2c": train_fps(n, size),
+            "a2c_scan": train_fps(n, size, per_call=args.scan),
         }
         fps_rows.append(row)
         print(
@@ -212,20 +382,22 @@ def main() -> None:
             f"(scan of {args.scan}: {row['a2c_scan']['fps']:,.0f}/s)",
             flush=True,
         )
-    beat_rows = [
-        time_to_beat(pong, n, args.seconds, args.size, args.thresholds, seed, args.call_steps, lr=lr, horizon=t_max)
-        for n in args.train_envs
-        for t_max in args.t_max
-        for lr in args.lr
-        for seed in args.seeds
-    ]
+    beat_rows = []
+    for plan in plans:
+        train_run(plan)
+        beat_rows.append(summarize(plan.run_dir, args.thresholds))
 
-    print(f"\nPong {args.size}x{args.size}, {device}")
-    print(
-        f"| envs | env frames/s (random actions) | A2C training frames/s, 1 iteration per call "
-        f"| scan of {args.scan} per call | compile env / A2C s |"
-    )
-    print("|---|---|---|---|---|")
+    game = f"jaxpg Pong ({size}x{size} frame differences)" if args.task == "pong" else "Atari Pong (ALE)"
+    if compare:
+        plot(beat_rows, root / "pong_envs.png", f"A2C on {game}, {device}")
+        print(f"wrote {root / 'pong_envs.png'}")
+    print(f"\n{game}, {device}")
+    if fps_rows:
+        print(
+            f"| envs | env frames/s (random actions) | A2C training frames/s, 1 iteration per call "
+            f"| scan of {args.scan} per call | compile env / A2C s |"
+        )
+        print("|---|---|---|---|---|")
     for r in fps_rows:
         print(
             f"| {r['num_envs']} | {r['env']['fps'] / 1e6:.2f} M | {r['a2c']['fps'] / 1e6:.2f} M "
@@ -233,7 +405,7 @@ def main() -> None:
         )
     print()
     heads = " | ".join(f"running reward > {t:g}" for t in args.thresholds)
-    print(f"| A2C envs | t_max | lr | seed | {heads} | final running reward | games | env steps | compile s |")
+    print(f"| A2C envs | t_max | lr | seed | {heads} | final running reward | games | env steps | first block s |")
     print("|---|---|---|---|" + "---|" * (len(args.thresholds) + 4))
     for r in beat_rows:
         cells = [
@@ -243,12 +415,14 @@ def main() -> None:
         print(
             f"| {r['num_envs']} | {r['horizon']} | {r['lr']:g} | {r['seed']} | {' | '.join(cells)} "
             f"| {r['final_running_reward']:.2f} | {r['games']} "
-            f"| {r['env_steps'] / 1e6:.1f} M | {r['compile_s']:.1f} |"
+            f"| {r['env_steps'] / 1e6:.1f} M | {r['first_block_s']:.1f} |"
         )
     if args.json:
         with open(args.json, "w") as f:
-            json.dump({"device": device, "size": args.size, "fps": fps_rows, "beat": beat_rows}, f, indent=1)
+            result = {"device": device, "task": args.task, "size": size, "fps": fps_rows, "beat": beat_rows}
+            json.dump(result, f, indent=1)
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

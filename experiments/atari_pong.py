@@ -72,7 +72,7 @@ a CPU with a few cores (thousands of steps per second; the convolutions are slow
   python experiments/atari_pong.py --algo a2c --num-envs 16 --iterations 2000 --run-dir runs/atari-a2c
 
 MinPy's comparison on the real game (running reward against wall-clock time, 1 to 64 envs):
-  python experiments/pong.py --task atari_pong --compare-envs 1 2 4 16 64 --minutes 20
+  python benchmarks/pong.py --task atari_pong --compare-envs 1 2 4 16 64 --seconds 1200 --run-dir runs/atari-envs
 """,
 )
 

@@ -18,6 +18,9 @@ latest checkpoint and produces the same metrics, bit for bit on the same device,
 was never interrupted (the iteration where an earlier process ended also holds that process's
 final evaluation of the mean policy: every run evaluates its last iteration).
 
+``--minutes M`` stops a run after M minutes of training (counted after the first compiled block,
+which compiles), with a checkpoint written, so that ``--resume`` continues it.
+
 Bad input (unknown task or algorithm, impossible sizes, a run directory that exists, a resume of
 a missing or foreign directory, an unusable checkpoint) is reported as one ``error: ...`` line on
 stderr with exit status 2, before anything is compiled or written.
@@ -60,6 +63,9 @@ class Experiment:
       config: ``Config`` overrides per algorithm name (``"*"``: for every algorithm that has the
         field); applied below ``--preset`` and explicit flags.
       env_kwargs: default keyword arguments of ``jaxpg.envs.make``.
+      env_flags: keyword arguments of the task offered as flags, ``name -> (type, help)``
+        (``{"size": (int, "frames are SIZE x SIZE pixels")}`` gives ``--size 40``); a given flag
+        goes to ``jaxpg.envs.make`` on top of ``env_kwargs``, and is saved with the run.
       prog, description, epilog: help text (the epilog should hold the GPU command that reaches
         the headline result).
     """
@@ -74,6 +80,7 @@ class Experiment:
     video_every: int = 0
     config: dict[str, dict[str, Any]] = dataclasses.field(default_factory=dict)
     env_kwargs: dict[str, Any] = dataclasses.field(default_factory=dict)
+    env_flags: dict[str, tuple[type, str]] = dataclasses.field(default_factory=dict)
     prog: str | None = None
     description: str | None = None
     epilog: str | None = None
@@ -130,9 +137,10 @@ RUN_FLAGS = (
     "task", "algo", "seed", "seeds", "iterations", "run_dir", "resume", "overwrite", "checkpoint_every",
     "keep_checkpoints", "log_every", "video_every", "preset", "profile", "fidelity", "impl",
     "max_episode_steps", "shard", "progress", "coordinator_address", "num_processes", "process_id",
-    "distributed_timeout",
+    "distributed_timeout", "minutes",
 )  # fmt: skip
 CONFIG_PREFIX = "config."
+ENV_PREFIX = "env."
 
 
 def add_config_flags(parser: argparse.ArgumentParser, config_cls: type, defaults: dict[str, Any], title: str) -> None:
@@ -173,6 +181,20 @@ def add_config_flags(parser: argparse.ArgumentParser, config_cls: type, defaults
             parse = _optional(parse)
         metavar = getattr(base, "__name__", "VALUE").upper()
         group.add_argument(_flag(name), type=parse, metavar=metavar, **kwargs)
+
+
+def add_env_flags(parser: argparse.ArgumentParser, experiment: Experiment) -> None:
+    """One flag per entry of ``experiment.env_flags`` (dest ``env.<name>``, default ``None`` =
+    not given; booleans as ``--x/--no-x``)."""
+    if not experiment.env_flags:
+        return
+    group = parser.add_argument_group(f"task settings (keyword arguments of the task {experiment.task!r})")
+    for name, (kind, help_text) in experiment.env_flags.items():
+        kwargs: dict[str, Any] = {"dest": ENV_PREFIX + name, "default": None, "help": help_text}
+        if kind is bool:
+            group.add_argument(_flag(name), action=argparse.BooleanOptionalAction, **kwargs)
+        else:
+            group.add_argument(_flag(name), type=kind, metavar=kind.__name__.upper(), **kwargs)
 
 
 def _positive(text: str) -> int:
@@ -220,6 +242,12 @@ def build_parser(experiment: Experiment, algo: str, config_cls: type | None, con
     )
     run.add_argument("--overwrite", action="store_true", default=None, help="replace an existing run directory")
     run.add_argument(
+        "--minutes",
+        type=float,
+        help="stop after this many minutes of training, counted from the end of the first compiled "
+        "block (which compiles): a checkpoint is written and --resume continues (default: no limit)",
+    )
+    run.add_argument(
         "--checkpoint-every",
         type=_positive,
         help=f"iterations between checkpoints; 0: only at the end (default: {experiment.checkpoint_every})",
@@ -252,6 +280,7 @@ def build_parser(experiment: Experiment, algo: str, config_cls: type | None, con
         default=None,
         help="progress bar (default: on a terminal)",
     )
+    add_env_flags(parser, experiment)
     add_distributed_flags(parser)
     if config_cls is not None:
         add_config_flags(parser, config_cls, config_defaults, f"{algo} hyperparameters (jaxpg.algos.{algo}.Config)")
@@ -343,6 +372,10 @@ def _explicit_config(args: argparse.Namespace) -> dict[str, Any]:
     return {k[len(CONFIG_PREFIX) :]: v for k, v in vars(args).items() if k.startswith(CONFIG_PREFIX) and v is not None}
 
 
+def _explicit_env(args: argparse.Namespace) -> dict[str, Any]:
+    return {k[len(ENV_PREFIX) :]: v for k, v in vars(args).items() if k.startswith(ENV_PREFIX) and v is not None}
+
+
 def _default_run_dir(task: str, algo: str) -> Path:
     stamp = datetime.datetime.now().strftime("%Y%m%d-%H%M%S")
     return Path("runs") / f"{task}-{algo}-{stamp}"
@@ -403,7 +436,7 @@ def plan_fresh(args: argparse.Namespace, experiment: Experiment, module: Any, al
     values.update(_explicit_config(args))
     types = runlog.field_types(config_cls)
     config = config_cls(**{k: runlog.coerce(types[k], v) for k, v in values.items()})
-    env_kwargs = dict(experiment.env_kwargs)
+    env_kwargs = {**experiment.env_kwargs, **_explicit_env(args)}
     for key in ("fidelity", "impl", "max_episode_steps"):
         if getattr(args, key) is not None:
             env_kwargs[key] = getattr(args, key)
@@ -448,7 +481,7 @@ def plan_resume(args: argparse.Namespace, run: RunConfig, run_dir: Path) -> Plan
     from jaxpg import checkpoint as ckpt_lib
     from jaxpg import policy_io
 
-    fixed = [_flag(k) for k in _explicit_config(args)]
+    fixed = [_flag(k) for k in (*_explicit_config(args), *_explicit_env(args))]
     for key in ("seed", "seeds", "preset", "fidelity", "impl", "max_episode_steps", "run_dir", "overwrite"):
         if getattr(args, key) is not None:
             fixed.append(_flag(key))
@@ -459,7 +492,8 @@ def plan_resume(args: argparse.Namespace, run: RunConfig, run_dir: Path) -> Plan
     if fixed:
         raise UsageError(
             f"--resume continues {str(run_dir)!r} with its saved settings; drop {' '.join(fixed)} "
-            "(only --iterations, --checkpoint-every, --keep-checkpoints, --log-every, --video-every may change)"
+            "(only --iterations, --minutes, --checkpoint-every, --keep-checkpoints, --log-every, --video-every "
+            "may change)"
         )
     module = _algo_module(run.algo)
     config = run.algo_config()
@@ -522,6 +556,9 @@ def plan(argv: Sequence[str], experiment: Experiment) -> Plan:
         result = plan_resume(args, resume_run, Path(args.resume))
     else:
         result = plan_fresh(args, experiment, module, algo)
+    if args.minutes is not None and not args.minutes > 0:
+        raise UsageError(f"--minutes must be > 0, got {args.minutes:g}")
+    result.time_limit_s = None if args.minutes is None else 60.0 * args.minutes
     result.profile = bool(args.profile)
     result.progress = args.progress
     result.command = list(argv)

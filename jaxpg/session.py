@@ -54,6 +54,8 @@ class Plan:
     profile: bool = False
     progress: bool | None = None
     command: list[str] = dataclasses.field(default_factory=list)
+    # Stop (checkpoint written, status 0) once this many seconds have passed since the first block.
+    time_limit_s: float | None = None
 
 
 @functools.lru_cache(maxsize=16)
@@ -155,6 +157,7 @@ class _Callbacks:
         self.evaluations = 0
         self.overflow_noted = False
         self.interrupts = interrupts
+        self.clock_start: float | None = None  # end of the first block: the time limit counts from here
 
     def _wall(self, now: float) -> float:
         return self.wall_offset + (now - self.t_start)
@@ -202,6 +205,12 @@ class _Callbacks:
                 self.plot()
         if self.primary and self.videos_enabled and (last % self.run.video_every == 0 or at_end):
             self.video(ts, last)
+        if self.out_of_time(time.perf_counter()) and not at_end:
+            if self.last_saved != last:
+                self.save(ts, last, metrics)
+                if self.primary:
+                    self.plot()
+            raise _TimeUp
         if self.interrupts is not None and self.interrupts.requested is not None:
             if self.last_saved != last:
                 self.save(ts, last, metrics)
@@ -210,6 +219,16 @@ class _Callbacks:
             raise _Stop(self.interrupts.requested)
         # Host work (checkpoints, plots, videos) is left out of the next block's throughput.
         self.t_last = time.perf_counter()
+
+    def out_of_time(self, now: float) -> bool:
+        """``plan.time_limit_s`` has passed since the end of the first block (which compiles, so
+        that the limit counts training alone); never before a second block has run."""
+        if self.plan.time_limit_s is None:
+            return False
+        if self.clock_start is None:
+            self.clock_start = now
+            return False
+        return now - self.clock_start >= self.plan.time_limit_s
 
     def _note_rejections(self, metrics: dict[str, np.ndarray], first: int) -> None:
         """One line per block in which updates were rolled back (trust region or non-finite) or
@@ -385,6 +404,11 @@ class _Stop(Exception):
     def __init__(self, signum: int):
         super().__init__(signal.Signals(signum).name)
         self.signum = signum
+
+
+class _TimeUp(Exception):
+    """Raised by the callbacks when ``Plan.time_limit_s`` has passed, once the block's checkpoint
+    is written."""
 
 
 class _StopAtOnce(KeyboardInterrupt):
@@ -605,6 +629,12 @@ def _train(plan_: Plan, ts: Any, wall_offset: float, interrupts: _Interrupts) ->
         signum = interrupts.requested or signal.SIGINT
         print(f"\n{signal.Signals(signum).name}: stopped at once{resume}{note}", file=sys.stderr)
         return _exit_status(signum)
+    except _TimeUp:
+        progress.close()
+        _print(
+            f"time limit of {plan_.time_limit_s / 60:g} min reached after iteration {callbacks.last_iteration} "
+            f"(checkpoint written; continue with: python -m jaxpg.cli --resume {run_dir})"
+        )
     except train.TrainingDiverged as e:
         progress.close()
         print(f"error: {e}; metrics and checkpoints up to then are in {run_dir}", file=sys.stderr)
@@ -671,6 +701,8 @@ def _report_end(plan_: Plan, callbacks: _Callbacks) -> None:
     if run.task == "atari_pong":  # the real game is ALE's: play it there
         _print(f"evaluate: python -m jaxpg.evaluate {run_dir} --ale --episodes 10 [--no-sticky]")
         return
-    _print(
-        f"evaluate: python -m jaxpg.evaluate {run_dir} --episodes 10 [--gymnasium] [--video {run_dir}/videos/final.mp4]"
-    )
+    from jaxpg import evaluate
+
+    gymnasium = " [--gymnasium]" if run.task in evaluate.GYMNASIUM_IDS else ""
+    video = f"[--video {run_dir}/videos/final.mp4]"
+    _print(f"evaluate: python -m jaxpg.evaluate {run_dir} --episodes 10{gymnasium} {video}")

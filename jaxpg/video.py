@@ -8,8 +8,9 @@ import, to ``egl`` on an NVIDIA GPU machine and to ``osmesa`` (software; Debian/
 ``MUJOCO_GL=osmesa`` and no libOSMesa, ``import mujoco`` itself fails. Without any, it leaves
 ``MUJOCO_GL`` unset, MuJoCo imports and simulates as usual, and rendering raises ``RenderError``
 with one line naming the package to install (``gl_problem``). Pure-JAX tasks without MuJoCo
-(CartPole) are drawn with NumPy from the observation, or by the task's own
-``render_frame(obs) -> [H, W, 3] uint8`` when it has one.
+(CartPole) are drawn with NumPy from the observation, or by the env's own
+``render_frame(obs) -> [H, W, 3] uint8`` when it (the task or a wrapper that changes the
+observation, e.g. Pong's ``FrameDifference``) has one.
 
 Files are mp4 (H.264 through imageio-ffmpeg) or gif, chosen by the extension.
 """
@@ -231,8 +232,8 @@ def _is_cartpole(task: Any) -> bool:
 def render_states(env: Any, obs: np.ndarray, qpos: np.ndarray | None, qvel: np.ndarray | None) -> list[np.ndarray]:
     """Frames of one episode's states (``obs [T, obs_dim]``, and ``qpos``/``qvel`` for MJX tasks)."""
     task = env.unwrapped
-    if hasattr(task, "render_frame"):
-        return [np.asarray(task.render_frame(o)) for o in obs]
+    if hasattr(env, "render_frame"):  # wrappers forward it: the outermost layer that draws its obs
+        return [np.asarray(env.render_frame(o)) for o in obs]
     if hasattr(task, "mj_model") and qpos is not None:
         return render_mujoco(task.mj_model, qpos, qvel)
     if _is_cartpole(task):

@@ -157,6 +157,23 @@ def test_resume_is_bit_identical_to_an_uninterrupted_run(trained, runs):
     assert without_wall_time(runlog.read_metrics(killed)) == expected
 
 
+def test_minutes_stop_after_the_time_limit_with_a_checkpoint(trained, runs, capsys):
+    """``--minutes``: the clock starts after the first block (which compiles); the run stops at
+    the first block end past the limit, status 0, with a checkpoint that ``--resume`` continues."""
+    limited = runs / "limited"
+    assert cli.main([*TINY, "--iterations", "8", "--minutes", "1e-9", "--run-dir", str(limited)]) == 0
+    assert "time limit of 1e-09 min reached after iteration 4" in capsys.readouterr().out
+    records = runlog.read_metrics(limited)
+    assert [r["iteration"] for r in records] == [1, 2, 3, 4]
+    keys = ("iteration", "env_steps", "return_stochastic", "loss")
+    assert [[r.get(k) for k in keys] for r in records] == [
+        [r.get(k) for k in keys] for r in runlog.read_metrics(trained)
+    ]
+    assert max(int(c.name) for c in (limited / "checkpoints").iterdir() if c.name.isdigit()) == 4
+    assert cli.main(["--resume", str(limited), "--iterations", "6"]) == 0
+    assert runlog.read_metrics(limited)[-1]["iteration"] == 6
+
+
 def test_run_saved_under_old_field_names_loads_evaluates_and_resumes(trained, runs, capsys):
     """A run directory written before NPG's ``step_size`` became ``kl_delta``, ``policy_init``
     became ``network_init`` and the metrics ``eval_metric``/``step_size`` became
@@ -262,6 +279,7 @@ BAD_INPUT = [
     (["--iterations", "-1"], "--iterations"),
     (["--policy-hidden", "a"], "--policy-hidden"),
     (["--fidelity", "exact"], "--fidelity"),
+    (["--minutes", "0"], "--minutes must be > 0"),
 ]
 
 

@@ -1,11 +1,16 @@
 """Pong (``jaxpg.envs.pong``): physics invariants over long random games, determinism, the rendered
-frame against an independent NumPy drawing, the frame-difference wrapper, the per-point returns of
-``experiments/pong.py`` and a short A2C run that beats a random policy."""
+frame against an independent NumPy drawing, the frame-difference wrapper and its video frames,
+REINFORCE's per-point returns, a short A2C run that beats a random policy, and
+``experiments/pong.py`` (the shared command line on ``pong``: train, evaluate, load, resume) with
+``benchmarks/pong.py``'s comparison of env counts."""
 
 from __future__ import annotations
 
 import importlib.util
 import json
+import shutil
+import subprocess
+import sys
 import time
 from pathlib import Path
 
@@ -15,9 +20,10 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from jaxpg import envs
+import jaxpg
+from jaxpg import cli, envs, runlog
 from jaxpg import train as train_lib
-from jaxpg.algos import a2c
+from jaxpg.algos import a2c, reinforce_points
 from jaxpg.envs import AutoReset, EpisodeStats
 from jaxpg.envs.pong import FrameDifference, Pong, PongData
 
@@ -25,8 +31,9 @@ ROOT = Path(__file__).resolve().parents[1]
 SMALL = 16  # frame size for the physics tests: the physics does not depend on it
 
 
-def load_experiment():
-    spec = importlib.util.spec_from_file_location("pong_experiment", ROOT / "experiments" / "pong.py")
+def load_script(script: str):
+    """``experiments/pong.py`` or ``benchmarks/pong.py`` as a module."""
+    spec = importlib.util.spec_from_file_location(script.replace("/", "_")[:-3], ROOT / script)
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
@@ -276,27 +283,50 @@ def test_frame_difference():
 
 
 def test_point_returns_restart_at_every_point():
-    """``experiments/pong.py``'s per-point returns against a Python loop."""
-    exp = load_experiment()
+    """``reinforce_points.point_returns`` (Karpathy's returns per point) against a Python loop."""
     gamma = 0.9
     rewards = np.array([[0, 0, 1, 0, 0, -1, 0, 0], [0, -1, 0, 0, 0, 0, 0, 1]], np.float32).T  # [T=8, B=2]
     terminated = np.zeros_like(rewards, bool)
     truncated = np.zeros_like(rewards, bool)
     truncated[3, 1] = True  # a time limit in the middle of the second column's point
-    g, complete = jax.jit(exp.point_returns, static_argnums=3)(rewards, terminated, truncated, gamma)
+    for point_returns in (reinforce_points.point_returns, jax.jit(reinforce_points.point_returns, static_argnums=3)):
+        g, complete = point_returns(rewards, terminated, truncated, gamma)
 
-    want = np.zeros_like(rewards)
-    known = np.zeros_like(rewards, bool)
-    for b in range(2):
-        future, scored = 0.0, False
-        for t in reversed(range(8)):
-            if rewards[t, b] != 0 or truncated[t, b]:
-                future, scored = 0.0, rewards[t, b] != 0
-            future = rewards[t, b] + gamma * future
-            want[t, b], known[t, b] = future, scored
-    np.testing.assert_allclose(g, want, rtol=1e-6)
-    np.testing.assert_array_equal(complete, known)
-    assert not complete[6:, 0].any() and complete[:6, 0].all()  # the tail point is unfinished
+        want = np.zeros_like(rewards)
+        known = np.zeros_like(rewards, bool)
+        for b in range(2):
+            future, scored = 0.0, False
+            for t in reversed(range(8)):
+                if rewards[t, b] != 0 or truncated[t, b]:
+                    future, scored = 0.0, rewards[t, b] != 0
+                future = rewards[t, b] + gamma * future
+                want[t, b], known[t, b] = future, scored
+        np.testing.assert_allclose(g, want, rtol=1e-6)
+        np.testing.assert_array_equal(complete, known)
+        assert not complete[6:, 0].any() and complete[:6, 0].all()  # the tail point is unfinished
+
+
+def test_video_frames_show_the_frame_and_the_difference():
+    """``--video-every`` and ``jaxpg.evaluate --video`` draw ``pong``'s observations: the frame
+    difference the policy sees (mid-grey unchanged, white arrived, black left), scaled up."""
+    from jaxpg import video
+
+    env = envs.make("pong", size=SMALL)
+    state = env.reset(jax.random.PRNGKey(0))
+    moved = env.step(state, jnp.asarray(0))
+    frames = video.render_states(env, np.stack([state.obs, moved.obs]), None, None)
+    scale = 240 // SMALL
+    assert frames[0].shape == (SMALL * scale, SMALL * scale, 3) and frames[0].dtype == np.uint8
+    np.testing.assert_array_equal(frames[0], 127)  # no previous frame: no difference
+    diff = np.asarray(moved.obs).reshape(SMALL, SMALL)
+    want = (np.clip(0.5 + 0.5 * diff, 0, 1) * 255).astype(np.uint8)
+    np.testing.assert_array_equal(frames[1][::scale, ::scale, 0], want)
+    assert frames[1].min() < 127 < frames[1].max()
+    task = env.unwrapped  # the bare task draws its own frame
+    raw = np.asarray(task.reset(jax.random.PRNGKey(0)).obs)
+    np.testing.assert_array_equal(
+        task.render_frame(raw)[::scale, ::scale, 1], (raw.reshape(SMALL, SMALL) * 255).astype(np.uint8)
+    )
 
 
 def mean_reward_per_step(env, act, num_envs: int, steps: int, key: jax.Array) -> float:
@@ -320,7 +350,7 @@ def mean_reward_per_step(env, act, num_envs: int, steps: int, key: jax.Array) ->
 
 @pytest.mark.slow
 def test_a2c_beats_a_random_policy():
-    """A2C (``experiments/pong.py``'s settings on 40x40 frame differences: policy and value
+    """A2C (``experiments/pong.py``'s settings, ``a2c.PRESETS["pong"]``, on 40x40 frame differences: policy and value
     1600 -> 200 ReLU, 32 envs x t_max 8, Adam 1e-3, GAE 0.95, entropy 0.01) for 1600 iterations
     (410 k env steps) raises the mean reward per step of its stochastic policy above that of
     uniformly random actions (-0.0125: random play loses about 21-2 in ~1,500 steps), both measured
@@ -328,9 +358,8 @@ def test_a2c_beats_a_random_policy():
     -0.0100 at 1600 iterations. Budget: about 90 s on two loaded CPU cores, compilation included
     (under 2 min)."""
     start = time.perf_counter()
-    exp = load_experiment()
-    env = exp.make_env(size=40)
-    config = exp.make_config("a2c", 32)
+    env = envs.make("pong", size=40)
+    config = a2c.Config(**a2c.PRESETS["pong"], num_envs=32)
     ts = a2c.init(jax.random.PRNGKey(0), env, config)
     ts = train_lib.train(a2c.update, ts, 1600, block_size=100)
 
@@ -347,57 +376,168 @@ def test_a2c_beats_a_random_policy():
     assert learned > random + 0.001
 
 
-def test_experiment_compare_mode(tmp_path):
-    """``experiments/pong.py --compare-envs``: one curve per number of envs in ``metrics.jsonl``
-    (env steps in whole iterations, the running reward a finite score difference once games
-    ended), the comparison plot, a GIF of each trained agent, and its config with the defaults
-    it ran. ``--iterations`` fixes the work (games end by iteration 256 with 1 env, 192 with 4), so
-    the result does not depend on the machine's speed."""
-    exp = load_experiment()
-    run_dir = tmp_path / "compare"
-    argv = ["--compare-envs", "1", "4", "--iterations", "512", "--size", str(SMALL), "--video-steps", "30"]
-    assert exp.main([*argv, "--run-dir", str(run_dir)]) == 0
-    rows = [json.loads(line) for line in (run_dir / "metrics.jsonl").read_text().splitlines()]
-    for n in (1, 4):
-        curve = [r for r in rows if r["num_envs"] == n]
-        assert curve and all(r["algo"] == "a2c" for r in curve)
-        assert curve[-1]["iteration"] == 512
-        assert [r["env_steps"] for r in curve] == sorted(r["env_steps"] for r in curve)
-        assert all(r["env_steps"] == r["iteration"] * n * exp.A2C_DEFAULTS["horizon"] for r in curve)
-        finished = [r for r in curve if r["games"] > 0]
-        assert finished, f"no game ended with {n} envs"
-        assert all(-21 <= r["running_reward"] <= 21 for r in finished)
-        frames = imageio.mimread(run_dir / f"pong_a2c_{n}envs.gif")
-        assert len(frames) == 30 and frames[0].shape == (3 * SMALL, 3 * SMALL, 3)
-        assert max(int(f.max()) for f in frames) > 0
-    assert (run_dir / "pong_envs.png").stat().st_size > 0
-    config = json.loads((run_dir / "config.json").read_text())
-    assert config["configs"]["4"]["lr"] == exp.A2C_DEFAULTS["lr"]
+# --------------------------------------------------------------------------- experiments/pong.py
+
+# A tiny run of the experiment: 16x16 frames, 2 games, games cut at 300 steps (a short evaluation).
+TINY = ["--size", str(SMALL), "--num-envs", "2", "--max-episode-steps", "300", "--log-every", "1"]
+
+
+@pytest.fixture(scope="module")
+def experiment():
+    return load_script("experiments/pong.py").EXPERIMENT
+
+
+@pytest.fixture(scope="module")
+def pong_run(experiment, tmp_path_factory):
+    """``experiments/pong.py`` for 2 iterations with a video at the end: the run directory."""
+    run_dir = tmp_path_factory.mktemp("pong") / "run"
+    argv = [*TINY, "--iterations", "2", "--video-every", "2", "--run-dir", str(run_dir)]
+    assert cli.main(argv, experiment) == 0
+    return run_dir
+
+
+def test_experiment_defaults(experiment, tmp_path):
+    """A2C by default with ``a2c.PRESETS["pong"]`` on 80x80 frames; ``reinforce_points`` with its own
+    defaults (Karpathy's: 256 steps per update, Adam 1e-3, the 6400-200 network)."""
+    plan = cli.plan(["--run-dir", str(tmp_path / "a")], experiment)
+    assert plan.run.task == "pong" and plan.run.algo == "a2c"
+    assert plan.config == a2c.Config(**a2c.PRESETS["pong"], num_envs=16)
+    assert plan.env.observation_size == 80 * 80
+    plan = cli.plan(["--algo", "reinforce_points", "--size", "40", "--run-dir", str(tmp_path / "r")], experiment)
+    assert plan.config == reinforce_points.Config()
+    assert plan.config.horizon == 256 and plan.config.policy_hidden == (200,)
+    assert plan.run.env_kwargs["size"] == 40 and plan.env.observation_size == 40 * 40
+
+
+def test_experiment_run_directory(pong_run):
+    """The run directory is the command line's: config (with the task's settings), one metrics record
+    per iteration, curves, checkpoints, and the video of ``--video-every``."""
+    run = runlog.RunConfig.load(pong_run)
+    assert (run.task, run.algo, run.iterations) == ("pong", "a2c", 2)
+    assert run.env_kwargs["size"] == SMALL and run.env_kwargs["max_episode_steps"] == 300
+    records = runlog.read_metrics(pong_run / runlog.METRICS_FILE)
+    assert [r["iteration"] for r in records] == [1, 2]
+    assert [r["env_steps"] for r in records] == [16, 32]  # 2 games x t_max 8
+    assert (pong_run / runlog.CURVES_FILE).stat().st_size > 0
+    assert any((pong_run / runlog.CHECKPOINT_DIR).iterdir())
+    frames = imageio.mimread(pong_run / runlog.VIDEO_DIR / "iter_000002.mp4", memtest=False)
+    assert len(frames) > 1 and frames[0].shape[:2] == (240, 240)
+
+
+def test_experiment_run_evaluates_and_loads(pong_run):
+    """``python -m jaxpg.evaluate RUN --episodes 1`` plays it; ``jaxpg.load_policy(RUN)`` acts on
+    the task's difference frames."""
+    out = subprocess.run(
+        [sys.executable, "-m", "jaxpg.evaluate", str(pong_run), "--episodes", "1"],
+        capture_output=True,
+        text=True,
+        timeout=600,
+        cwd=ROOT,
+    )
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert "score_difference:" in out.stdout and "length: 300.00" in out.stdout
+    policy = jaxpg.load_policy(pong_run)
+    env = envs.make("pong", size=SMALL)
+    state = env.step(env.reset(jax.random.PRNGKey(0)), jnp.asarray(1))
+    action = np.asarray(policy(np.asarray(state.obs)))
+    assert action.shape == () and int(action) in (0, 1)
+
+
+def test_experiment_resume_continues_exactly(experiment, pong_run, tmp_path):
+    """``--resume`` of the 2-iteration run to 4 iterations logs what a 4-iteration run logs."""
+    resumed = tmp_path / "resumed"
+    shutil.copytree(pong_run, resumed)
+    assert cli.main(["--resume", str(resumed), "--iterations", "4", "--video-every", "0"], experiment) == 0
+    straight = tmp_path / "straight"
+    assert cli.main([*TINY, "--iterations", "4", "--run-dir", str(straight)], experiment) == 0
+    keys = ("iteration", "env_steps", "loss", "entropy", "mean_reward")
+    read = lambda d: [[r[k] for k in keys] for r in runlog.read_metrics(d / runlog.METRICS_FILE)]  # noqa: E731
+    assert read(resumed) == read(straight) and len(read(straight)) == 4
 
 
 @pytest.mark.parametrize(
     "argv, message",
     [
-        (["--num-envs", "0"], "numbers of envs must be >= 1"),
+        (["--size", "4"], "size must be >= 8"),
+        (["--task", "hopper"], "unknown task 'hopper'"),
         (["--minutes", "0"], "--minutes must be > 0"),
-        (["--iterations", "0"], "--iterations must be >= 1"),
-        (["--size", "4"], "--size must be >= 8"),
-        (["--lr", "-1"], "--lr must be > 0"),
-        (["--algo", "ppo"], "invalid choice"),
         (["--frobnicate"], "unrecognized arguments"),
         (["--run-dir", "EXISTING"], "exists"),
+        (["--resume", "EXISTING"], "not a jaxpg run directory"),
     ],
 )
-def test_experiment_bad_input(tmp_path, capsys, argv, message):
-    """Bad input: exit status 2, one ``error:`` line, and an existing run directory untouched."""
+def test_experiment_bad_input(experiment, tmp_path, capsys, argv, message):
+    """Bad input: exit status 2, one ``error:`` line, and an existing directory untouched."""
     existing = tmp_path / "run"
     existing.mkdir()
     (existing / "metrics.jsonl").write_text("keep\n")
     argv = [str(existing) if a == "EXISTING" else a for a in argv]
-    if "--run-dir" not in argv:
+    if "--run-dir" not in argv and "--resume" not in argv:
         argv += ["--run-dir", str(tmp_path / "new")]
-    assert load_experiment().main(argv) == 2
+    assert cli.main(argv, experiment) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("error: ") and message in err[0], err
     assert (existing / "metrics.jsonl").read_text() == "keep\n"
+    assert not (tmp_path / "new").exists()
+
+
+# --------------------------------------------------------------------------- benchmarks/pong.py
+
+
+def test_benchmark_running_reward():
+    """The seed's running reward from metrics records: the first game's score, then an EMA over
+    games (k games in one iteration count k times); the first block's records are left out."""
+    bench = load_script("benchmarks/pong.py")
+    records = [
+        {"iteration": 1, "wall_time_s": 5.0, "env_steps": 8, "episodes": 0, "return_stochastic": None},
+        {"iteration": 2, "wall_time_s": 6.0, "env_steps": 16, "episodes": 1, "return_stochastic": -21.0},
+        {"iteration": 3, "wall_time_s": 7.0, "env_steps": 24, "episodes": 0, "return_stochastic": None},
+        {"iteration": 4, "wall_time_s": 8.5, "env_steps": 32, "episodes": 2, "return_stochastic": -11.0},
+    ]
+    records = [{**r, "mean_reward": -0.01} for r in records]
+    rows = bench.running_reward(records, block=2, decay=0.9)
+    assert [r["iteration"] for r in rows] == [3, 4]
+    assert [r["wall_s"] for r in rows] == [1.0, 2.5]
+    assert [r["games"] for r in rows] == [1, 3]
+    assert rows[0]["running_reward"] == -21.0
+    assert rows[1]["running_reward"] == pytest.approx(0.81 * -21.0 + 0.19 * -11.0)
+
+
+def test_benchmark_compares_env_counts(tmp_path):
+    """``benchmarks/pong.py --compare-envs 1 4 --iterations 256``: one standard run per env count
+    (exactly 256 iterations, the same on every machine: games end by iteration 256 with 1 env and
+    192 with 4), the running reward of each in the results, and the comparison plot."""
+    bench = load_script("benchmarks/pong.py")
+    root, results = tmp_path / "envs", tmp_path / "envs.json"
+    argv = ["--compare-envs", "1", "4", "--iterations", "256", "--size", str(SMALL), "--call-steps", "256"]
+    assert bench.main([*argv, "--run-dir", str(root), "--json", str(results)]) == 0
+    rows = json.loads(results.read_text())["beat"]
+    assert [r["num_envs"] for r in rows] == [1, 4]
+    for row in rows:
+        run_dir = Path(row["run_dir"])
+        assert run_dir.parent == root
+        run = runlog.RunConfig.load(run_dir)
+        assert (run.task, run.algo, run.config["num_envs"], run.config["lr"]) == ("pong", "a2c", row["num_envs"], 1e-3)
+        records = runlog.read_metrics(run_dir / runlog.METRICS_FILE)
+        assert records[-1]["iteration"] == 256 and records[-1]["env_steps"] == 256 * 8 * row["num_envs"]
+        curve = row["curve"]
+        assert curve and curve[-1]["iteration"] == 256 and row["games"] > 0, f"no game ended with {row['num_envs']}"
+        assert all(-21 <= r["running_reward"] <= 21 for r in curve if r["games"] > 0)
+        assert [r["wall_s"] for r in curve] == sorted(r["wall_s"] for r in curve)
+    assert (root / "pong_envs.png").stat().st_size > 0
+
+
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["--compare-envs", "0"], "numbers of envs must be >= 1"),
+        (["--compare-envs", "1", "--iterations", "0"], "--iterations must be >= 1"),
+        (["--compare-envs", "1", "--size", "4"], "size must be >= 8"),
+        (["--task", "atari_pong", "--size", "40"], "--size and --fps-envs are jaxpg Pong's"),
+    ],
+)
+def test_benchmark_bad_input(tmp_path, capsys, argv, message):
+    assert load_script("benchmarks/pong.py").main([*argv, "--run-dir", str(tmp_path / "new")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("error: ") and message in err[0], err
     assert not (tmp_path / "new").exists()

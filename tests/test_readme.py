@@ -6,8 +6,9 @@
   InvertedPendulum-v5 and must reach the same.
 * The GPU training commands are planned as the CLI plans them (flags, preset, config validated
   against the task, env built) without training, which needs a GPU.
-* The Pong commands (``experiments/pong.py``, its own command line) pass that script's argument
-  checks; ``tests/test_pong.py`` runs its comparison mode on the CPU.
+* ``python -m jaxpg.evaluate`` of a Pong run is run by ``tests/test_pong.py`` on a tiny run.
+* The Pong benchmark's commands (``benchmarks/pong.py``, its own command line) pass that
+  script's argument checks; ``tests/test_pong.py`` runs its comparison mode on the CPU.
 * The several-process launch lines are run word for word by ``tests/test_distributed.py``.
 * The install, test and venv steps are what ``.ci/run`` runs.
 
@@ -53,8 +54,13 @@ def is_distributed(command: str) -> bool:
     return "--coordinator-address" in command
 
 
-def is_pong(command: str) -> bool:
-    return shlex.split(command)[1] == "experiments/pong.py"
+def is_pong_benchmark(command: str) -> bool:
+    return shlex.split(command)[1] == "benchmarks/pong.py"
+
+
+def is_pong_evaluation(command: str) -> bool:
+    """``python -m jaxpg.evaluate runs/pong...``: tests/test_pong.py runs it on a tiny trained run."""
+    return command.startswith("python -m jaxpg.evaluate runs/pong")
 
 
 def is_ale_evaluation(command: str) -> bool:
@@ -63,13 +69,12 @@ def is_ale_evaluation(command: str) -> bool:
 
 
 def is_planned(command: str) -> bool:
-    """A training command checked with ``cli.plan`` (everything but the main job and Pong)."""
+    """A training command checked with ``cli.plan`` (everything but the main job)."""
     words = shlex.split(command)
-    return (
-        command != MAIN_JOB
-        and not is_pong(command)
-        and (words[1].startswith("experiments/") or words[1:3] == ["-m", "jaxpg.cli"])
-    )
+    return command != MAIN_JOB and (words[1].startswith("experiments/") or words[1:3] == ["-m", "jaxpg.cli"])
+
+
+COVERED_ELSEWHERE = (is_distributed, is_planned, is_pong_benchmark, is_pong_evaluation, is_ale_evaluation)
 
 
 def test_every_command_is_covered():
@@ -78,11 +83,7 @@ def test_every_command_is_covered():
     evaluates = [c for c in commands if c.startswith("python -m jaxpg.evaluate runs/pendulum")]
     assert evaluates, "the README evaluates the main job's run directory"
     uncovered = [
-        c
-        for c in commands
-        if c != MAIN_JOB
-        and c not in evaluates
-        and not any(check(c) for check in (is_distributed, is_planned, is_pong, is_ale_evaluation))
+        c for c in commands if c != MAIN_JOB and c not in evaluates and not any(check(c) for check in COVERED_ELSEWHERE)
     ]
     assert not uncovered, f"README commands no test runs: {uncovered}"
 
@@ -120,13 +121,14 @@ def test_training_commands_plan(command, tmp_path):
     assert planned.config.num_envs >= 1 and planned.run.iterations >= 1
 
 
-@pytest.mark.parametrize("command", [c for c in readme_python_commands() if is_pong(c)])
-def test_pong_commands_pass_their_checks(command, tmp_path):
-    pong = load_script("experiments/pong.py")
+@pytest.mark.parametrize("command", [c for c in readme_python_commands() if is_pong_benchmark(c)])
+def test_pong_benchmark_commands_pass_their_checks(command, tmp_path):
+    bench = load_script("benchmarks/pong.py")
     argv = shlex.split(command)[2:]
     argv[argv.index("--run-dir") + 1] = str(tmp_path / "run")
-    args = pong.plan(argv)
-    assert args.minutes > 0 and not args.run_dir.exists()
+    args = bench.build_parser().parse_args(argv)
+    bench.check(args)
+    assert args.compare_envs and not args.run_dir.exists()
 
 
 @pytest.mark.slow

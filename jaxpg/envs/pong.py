@@ -52,6 +52,7 @@ from typing import Any
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 from flax import struct
 
 from jaxpg.envs.base import Env, State
@@ -83,6 +84,14 @@ def _coverage(lo: jax.Array, hi: jax.Array, size: int) -> jax.Array:
     return jnp.clip(jnp.minimum(hi, edges[1:]) - jnp.maximum(lo, edges[:-1]), 0.0, None) * size
 
 
+def _video_frame(image: np.ndarray, height: int = 240) -> np.ndarray:
+    """``[size, size]`` values in ``[0, 1]`` as an ``[H, W, 3]`` uint8 grey image about ``height``
+    pixels high (each pixel a square block)."""
+    scale = max(1, height // image.shape[0])
+    grey = (np.clip(image, 0.0, 1.0) * 255).astype(np.uint8).repeat(scale, axis=0).repeat(scale, axis=1)
+    return np.stack([grey] * 3, axis=-1)
+
+
 def _as_key(key: jax.Array) -> jax.Array:
     """A typed key from a typed key or a raw ``uint32`` one."""
     return key if jnp.issubdtype(key.dtype, jax.dtypes.prng_key) else jax.random.wrap_key_data(key)
@@ -105,7 +114,9 @@ class Pong(Env):
 
     discrete = True
     task_score_name = "score_difference"
-    dt = 1.0  # one step; there is no physical time unit
+    # There is no physical time unit; videos play 50 steps a second (the ball crosses the court
+    # in about a second at the serve's speed).
+    dt = 1.0 / 50
 
     # Distance of each paddle's outer side from its edge of the court.
     paddle_margin = 0.05
@@ -169,6 +180,10 @@ class Pong(Env):
         opponent = self._rect(jnp.asarray(self.opponent_face - w / 2), data.paddles[1], w, h)
         ball = self._rect(data.ball[0], data.ball[1], self.ball_size, self.ball_size)
         return jnp.clip(agent + opponent + ball, 0.0, 1.0)
+
+    def render_frame(self, obs: np.ndarray) -> np.ndarray:
+        """Video frame ``[H, W, 3]`` uint8 of an observation ``[size * size]`` (on the host)."""
+        return _video_frame(np.asarray(obs).reshape(self.size, self.size))
 
     def observe(self, data: PongData) -> jax.Array:
         """The observation ``[size * size]``: the flattened frame."""
@@ -300,6 +315,13 @@ class FrameDifference(Wrapper):
         state = self.env.reset(key)
         obs = jnp.zeros_like(state.obs) if self.first == "zeros" else state.obs
         return state.replace(obs=obs, info={**state.info, "prev_frame": state.obs})
+
+    def render_frame(self, obs: np.ndarray) -> np.ndarray:
+        """Video frame ``[H, W, 3]`` uint8 of a difference observation ``[size * size]``: what the
+        policy sees, mid-grey where nothing changed, white where an object arrived, black where
+        it left (a paddle that stands still does not show)."""
+        height, width = self.image_shape[:2]
+        return _video_frame(0.5 + 0.5 * np.asarray(obs).reshape(height, width))
 
     def step(self, state: State, action: jax.Array) -> State:
         stepped = self.env.step(state, action)

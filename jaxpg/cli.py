@@ -263,7 +263,7 @@ def build_parser(experiment: Experiment, algo: str, config_cls: type | None, con
     )
     run.add_argument(
         "--preset",
-        help="named Config overrides of the algorithm (its PRESETS, checked against the task), e.g. lyceum",
+        help="named Config overrides of the algorithm (jaxpg.algos.presets, checked against the task), e.g. lyceum",
     )
     run.add_argument(
         "--profile",
@@ -546,8 +546,8 @@ def plan(argv: Sequence[str], experiment: Experiment) -> Plan:
     config_cls = module.Config
     defaults = {f.name: _field_default(f) for f in dataclasses.fields(config_cls)}
     defaults.update(experiment.config_defaults(algo, config_cls))
-    if resume_run is None and pre.preset is not None:
-        defaults.update(getattr(module, "PRESETS", {}).get(pre.preset, {}))  # plan_fresh checks it
+    if resume_run is None and pre.preset in algos.preset_names(algo):
+        defaults.update(algos.preset(algo, pre.preset))  # plan_fresh checks it against the task
     if resume_run is not None:
         defaults.update(runlog.current_field_names(config_cls, resume_run.config))
     parser = build_parser(experiment, algo, config_cls, defaults)

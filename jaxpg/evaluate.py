@@ -56,42 +56,35 @@ class Episodes:
         return self.obs[:n, i], pick(self.qpos), pick(self.qvel)
 
 
+def physics_states(state: Any) -> dict[str, Any]:
+    """What a video needs of each state ``[B]``: ``obs``, and ``qpos``, ``qvel`` for MJX tasks
+    (a ``record_fn`` of ``jaxpg.rollout``)."""
+    out = {"obs": state.obs}
+    if hasattr(state.data, "qpos") and hasattr(state.data, "qvel"):
+        out["qpos"], out["qvel"] = state.data.qpos, state.data.qvel
+    return out
+
+
 def _rollout_impl(env: Any, policy: Any, num_episodes: int, horizon: int, deterministic: bool) -> Callable:
+    """The jitted ``(params, obs_stats, key) -> {name: array}`` behind ``rollout``: an episodic
+    ``jaxpg.rollout`` of the policy (its mode, or samples) that records the physics states."""
     import jax
     import jax.numpy as jnp
 
     from jaxpg import rollout as rollout_lib
+    from jaxpg.algos.core import make_act
 
     def run(params: Any, obs_stats: Any, key: jax.Array) -> dict[str, jax.Array]:
-        reset_key, steps_key = jax.random.split(key)
+        reset_key, steps_key = jax.random.split(key)  # as rollout_lib.rollout_episodes splits it
         state = rollout_lib.reset_batch(env, reset_key, num_episodes)
-
-        def physics(s: Any) -> dict[str, jax.Array]:
-            out = {"obs": s.obs}
-            if hasattr(s.data, "qpos") and hasattr(s.data, "qvel"):
-                out["qpos"], out["qvel"] = s.data.qpos, s.data.qvel
-            return out
-
-        def body(carry: tuple, step_key: jax.Array) -> tuple[tuple, dict]:
-            s, alive, metric = carry
-            obs = obs_stats.normalize(s.obs)
-            if deterministic:
-                action = policy.mode(params, obs)
-            else:
-                action, _ = policy.sample(params, obs, step_key)
-            nxt = jax.vmap(env.step)(s, action)
-            record = {"rewards": nxt.reward, "valid": alive.astype(jnp.float32), **physics(nxt)}
-            metric = jnp.where(alive, nxt.metrics["task_score"].astype(jnp.float32), metric)
-            return (nxt, alive & ~nxt.done, metric), record
-
-        alive = jnp.ones((num_episodes,), bool)
-        metric0 = jnp.zeros((num_episodes,), jnp.float32)
-        (_, _, metric), records = jax.lax.scan(body, (state, alive, metric0), jax.random.split(steps_key, horizon))
-        first = physics(state)
-        for k, v in first.items():
-            records[k] = jnp.concatenate([v[None], records[k]], axis=0)
-        records["task_score"] = metric
-        return records
+        act = make_act(policy, obs_stats, deterministic)
+        traj = rollout_lib.rollout_episodes_from(env, act, params, state, steps_key, horizon, physics_states)
+        return {
+            "rewards": traj.rewards,
+            "valid": traj.valid,
+            **rollout_lib.with_initial(physics_states(state), traj.extras),
+            "task_score": rollout_lib.last_valid(traj, traj.metrics["task_score"].astype(jnp.float32)),
+        }
 
     return jax.jit(run)
 

@@ -10,6 +10,10 @@ program) and with the env batch sharded over devices (the batch axis is the one 
   runs ``horizon`` steps without reset, and ``valid`` masks the steps after its episode ended.
 
 The policy enters as ``act_fn(params, obs [B, obs_dim], key) -> (action [B, ...], log_prob [B])``.
+Training, mean-policy evaluation (``jaxpg.algos.core.evaluate``, ``jaxpg.evaluate``) and videos
+all sample through these functions; what a caller needs beyond the transitions (a video needs
+the physics state, ``qpos`` and ``qvel``) it asks for with ``record_fn(state) -> {name: [B, ...]}``,
+whose outputs of every step's resulting state land in ``Trajectory.extras``.
 """
 
 from __future__ import annotations
@@ -24,6 +28,7 @@ from flax import struct
 from jaxpg.envs.base import Env, State
 
 ActFn = Callable[[Any, jax.Array, jax.Array], tuple[jax.Array, jax.Array]]
+RecordFn = Callable[[State], dict[str, jax.Array]]
 
 
 @struct.dataclass
@@ -46,6 +51,9 @@ class Trajectory:
       valid: ``[T, B]`` float32, 1 for real transitions, 0 for steps after an episode ended in
         episodic sampling (always 1 in continuing sampling).
       metrics: ``[T, B]`` per-step env metrics (``episode_return``, ``episode_done`` ...).
+      extras: ``[T, B, ...]`` what the sampler's ``record_fn`` read from each step's resulting
+        state (in continuing sampling, the state after any automatic reset); ``{}`` without a
+        ``record_fn``.
     """
 
     obs: jax.Array
@@ -57,6 +65,7 @@ class Trajectory:
     next_obs: jax.Array
     valid: jax.Array
     metrics: dict[str, jax.Array]
+    extras: dict[str, jax.Array] = struct.field(default_factory=dict)
 
     @property
     def dones(self) -> jax.Array:
@@ -69,8 +78,11 @@ def reset_batch(env: Env, key: jax.Array, num_envs: int) -> State:
     return jax.vmap(env.reset)(jax.random.split(key, num_envs))
 
 
-def _transition(env: Env, act_fn: ActFn, params: Any, state: State, key: jax.Array) -> tuple[State, dict]:
-    """One batched env step from ``state [B]``; returns the new state and the step's record."""
+def _transition(
+    env: Env, act_fn: ActFn, params: Any, state: State, key: jax.Array, record_fn: RecordFn | None = None
+) -> tuple[State, dict]:
+    """One batched env step from ``state [B]``; returns the new state and the step's record
+    (``extras``: ``record_fn`` of the new state, when given)."""
     actions, log_probs = act_fn(params, state.obs, key)
     next_state = jax.vmap(env.step)(state, actions)
     next_obs = next_state.info.get("final_obs", next_state.obs)
@@ -83,46 +95,71 @@ def _transition(env: Env, act_fn: ActFn, params: Any, state: State, key: jax.Arr
         truncated=next_state.truncated,
         next_obs=next_obs,
         metrics=next_state.metrics,
+        extras={} if record_fn is None else record_fn(next_state),
     )
     return next_state, record
 
 
 def rollout(
-    env: Env, act_fn: ActFn, params: Any, env_state: State, key: jax.Array, horizon: int
+    env: Env,
+    act_fn: ActFn,
+    params: Any,
+    env_state: State,
+    key: jax.Array,
+    horizon: int,
+    record_fn: RecordFn | None = None,
 ) -> tuple[State, Trajectory]:
     """Continuing sampling of ``horizon`` steps from ``env_state [B]``.
 
     ``env`` must reset itself (``AutoReset``). Returns the env state to continue from and a
-    ``Trajectory`` of ``[horizon, B]`` transitions with ``valid`` all ones.
+    ``Trajectory`` of ``[horizon, B]`` transitions with ``valid`` all ones (``extras``:
+    ``record_fn`` of each step's resulting state, after any automatic reset).
     """
 
     def body(state: State, step_key: jax.Array) -> tuple[State, dict]:
-        return _transition(env, act_fn, params, state, step_key)
+        return _transition(env, act_fn, params, state, step_key, record_fn)
 
     env_state, records = jax.lax.scan(body, env_state, jax.random.split(key, horizon))
     valid = jnp.ones_like(records["rewards"])
     return env_state, Trajectory(valid=valid, **records)
 
 
-def rollout_episodes(env: Env, act_fn: ActFn, params: Any, key: jax.Array, num_envs: int, horizon: int) -> Trajectory:
+def rollout_episodes(
+    env: Env,
+    act_fn: ActFn,
+    params: Any,
+    key: jax.Array,
+    num_envs: int,
+    horizon: int,
+    record_fn: RecordFn | None = None,
+) -> Trajectory:
     """Episodic sampling: reset ``num_envs`` envs, run ``horizon`` steps, mask after each end.
 
     ``env`` must *not* reset itself. Returns a ``[horizon, num_envs]`` ``Trajectory`` whose
-    ``valid`` is 1 up to and including the step where each env's first episode ended.
+    ``valid`` is 1 up to and including the step where each env's first episode ended
+    (``extras``: ``record_fn`` of each step's resulting state; ``with_initial`` puts the same read
+    from the reset states in front).
     """
     reset_key, steps_key = jax.random.split(key)
-    return rollout_episodes_from(env, act_fn, params, reset_batch(env, reset_key, num_envs), steps_key, horizon)
+    state = reset_batch(env, reset_key, num_envs)
+    return rollout_episodes_from(env, act_fn, params, state, steps_key, horizon, record_fn)
 
 
 def rollout_episodes_from(
-    env: Env, act_fn: ActFn, params: Any, state: State, key: jax.Array, horizon: int
+    env: Env,
+    act_fn: ActFn,
+    params: Any,
+    state: State,
+    key: jax.Array,
+    horizon: int,
+    record_fn: RecordFn | None = None,
 ) -> Trajectory:
     """``rollout_episodes`` from given initial states ``state [B]`` (e.g. a device's share of a
     batch reset from its own keys); ``key`` draws the steps. Returns ``[horizon, B]``."""
 
     def body(carry: tuple[State, jax.Array], step_key: jax.Array) -> tuple[tuple[State, jax.Array], dict]:
         state, alive = carry
-        next_state, record = _transition(env, act_fn, params, state, step_key)
+        next_state, record = _transition(env, act_fn, params, state, step_key, record_fn)
         record["valid"] = alive.astype(jnp.float32)
         alive = jnp.logical_and(alive, ~next_state.done)
         return (next_state, alive), record
@@ -146,6 +183,20 @@ def flatten_samples(x: jax.Array) -> jax.Array:
     rows would interleave the devices' envs and make XLA gather the whole batch everywhere.
     """
     return jnp.swapaxes(x, 0, 1).reshape((-1,) + x.shape[2:])
+
+
+def with_initial(first: dict[str, jax.Array], extras: dict[str, jax.Array]) -> dict[str, jax.Array]:
+    """``extras [T, B, ...]`` (what ``record_fn`` read after every step) with ``first [B, ...]``
+    (the same read from the initial states) in front: ``[T + 1, B, ...]``, every state of an
+    episodic rollout from its reset on."""
+    return {k: jnp.concatenate([first[k][None], extras[k]], axis=0) for k in extras}
+
+
+def last_valid(traj: Trajectory, x: jax.Array) -> jax.Array:
+    """``x [T, B]`` at each env's last valid step (where its episode ended, or the last step of
+    one still running): ``[B]``. For episodic rollouts, whose ``valid`` is 1 up to that step."""
+    last = jnp.maximum(jnp.sum(traj.valid, axis=0).astype(jnp.int32) - 1, 0)
+    return jnp.take_along_axis(x, last[None, :], axis=0)[0]
 
 
 def episode_summary(traj: Trajectory) -> dict[str, jax.Array]:

@@ -64,7 +64,7 @@ class RunConfig:
       iterations: total iterations of the run.
       log_every, checkpoint_every, video_every: host-side schedule (0: off / only at the end).
       keep_checkpoints: how many of the latest checkpoints to keep (plus the best one).
-      preset: the ``PRESETS`` entry the config started from, if any.
+      preset: the preset (``jaxpg.algos.presets``) the config started from, if any.
       shard: the env batch is sharded over all local devices.
       info: provenance (command line, versions, device, creation time); not needed to rerun.
     """

@@ -295,23 +295,6 @@ def test_bad_input_is_one_error_line_with_status_2(extra, message, runs, capsys,
     assert listing(runs) == before
 
 
-def test_every_preset_names_only_known_tasks_and_builds_its_config():
-    """``PRESET_TASKS`` names registered tasks and presets that exist; each preset is a valid
-    ``Config`` of its algorithm; ``algos.preset`` refuses a preset off its tasks."""
-    from jaxpg import algos, envs
-
-    for algo in algos.ALGORITHMS:
-        module = algos.get(algo)
-        for name, tasks in getattr(module, "PRESET_TASKS", {}).items():
-            assert name in module.PRESETS and set(tasks) <= set(envs.names()), (algo, name)
-        for name in module.PRESETS:
-            module.Config(**algos.preset(algo, name))
-    assert algos.preset("a2c", "minpy", "hopper") == algos.get("a2c").PRESETS["minpy"]  # any task
-    assert algos.preset_names("ppo", "atari_pong") == ["atari"]
-    with pytest.raises(ValueError, match="ppo's preset 'atari' was made for atari_pong, pong, not hopper"):
-        algos.preset("ppo", "atari", "hopper")
-
-
 def test_num_envs_not_divisible_by_devices_in_a_subprocess(runs):
     """Also checks the ``python -m jaxpg.cli`` entry; two fake CPU devices shard the env batch."""
     env = {**os.environ, "XLA_FLAGS": "--xla_force_host_platform_device_count=2", "JAX_PLATFORMS": "cpu"}

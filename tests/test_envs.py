@@ -335,6 +335,77 @@ def test_rollout_episodes_matches_python_loop(rollout_case):
         np.testing.assert_allclose(np.asarray(traj.metrics[k])[ended], loop[k][ended], rtol=1e-6)
 
 
+def _physics(state):
+    return {"obs": state.obs, "qpos": state.data.qpos}
+
+
+@pytest.mark.parametrize("jit", [True, False], ids=["jit", "nojit"])
+def test_record_fn_reads_the_state_after_every_step(pendulum_case, jit):
+    """``record_fn`` adds ``extras`` (``[T, B, ...]``, the state after each step) and changes
+    nothing else; ``with_initial`` puts the reset states in front and ``last_valid`` picks each
+    episode's last step, as NumPy indexing does."""
+    env, auto, act = pendulum_case["env"], pendulum_case["auto"], pendulum_case["act"]
+    key = jax.random.key(5)
+    maybe_jit = jax.jit if jit else (lambda f, **kw: f)
+
+    @functools.partial(maybe_jit, static_argnums=1)
+    def episodic(key, record):
+        reset_key, steps_key = jax.random.split(key)
+        state = rollout_lib.reset_batch(env, reset_key, ROLLOUT_ENVS)
+        traj = rollout_lib.rollout_episodes_from(env, act, None, state, steps_key, 12, _physics if record else None)
+        return state, traj
+
+    state, traj = episodic(key, True)
+    plain = episodic(key, False)[1]
+    assert plain.extras == {}
+    assert all(jax.tree.leaves(jax.tree.map(jnp.array_equal, traj.replace(extras={}), plain)))
+    assert traj.extras["qpos"].shape == (12, ROLLOUT_ENVS, 2)
+    np.testing.assert_array_equal(traj.extras["obs"], traj.next_obs)  # no reset: the next observation
+    states = rollout_lib.with_initial(_physics(state), traj.extras)
+    np.testing.assert_array_equal(states["obs"][:-1], traj.obs)
+    np.testing.assert_array_equal(states["qpos"][0], state.data.qpos)
+
+    lengths = np.asarray(traj.valid).sum(axis=0).astype(int)
+    assert np.all(lengths < 12)  # every episode ended (time limit 5)
+    returns = np.asarray(traj.metrics["episode_return"])
+    np.testing.assert_array_equal(
+        rollout_lib.last_valid(traj, traj.metrics["episode_return"]), returns[lengths - 1, np.arange(ROLLOUT_ENVS)]
+    )
+
+    # Continuing sampling records the state the next step starts from (after an automatic reset).
+    start = rollout_lib.reset_batch(auto, key, ROLLOUT_ENVS)
+    _, cont = maybe_jit(lambda s, k: rollout_lib.rollout(auto, act, None, s, k, 12, _physics))(start, key)
+    np.testing.assert_array_equal(cont.extras["obs"][:-1], cont.obs[1:])
+    assert np.any(np.asarray(cont.dones)) and not np.array_equal(cont.extras["obs"], cont.next_obs)
+
+
+def test_evaluate_rollout_matches_a_python_loop_of_the_mean_policy(pendulum_case):
+    """``jaxpg.evaluate.rollout`` (mean-policy episodes with their physics states, through
+    ``jaxpg.rollout``) against single envs stepped one at a time with the policy's mode."""
+    from jaxpg import evaluate
+    from jaxpg.algos import npg
+
+    env = pendulum_case["env"]
+    ts = npg.init(jax.random.key(0), env, npg.Config(num_envs=4, horizon=16, value_batch_size=64, eval_envs=0))
+    eps = evaluate.rollout(env, ts.policy, ts.params, ts.obs_stats, seed=3, num_episodes=2, horizon=8)
+
+    reset_key, _ = jax.random.split(jax.random.PRNGKey(3))
+    step = jax.jit(env.step)
+    for i, k in enumerate(jax.random.split(reset_key, 2)):
+        state, qpos, total, score = env.reset(k), [], 0.0, None
+        qpos.append(np.asarray(state.data.qpos))
+        while not bool(state.done):
+            state = step(state, ts.policy.mode(ts.params, ts.obs_stats.normalize(state.obs[None]))[0])
+            qpos.append(np.asarray(state.data.qpos))
+            total, score = total + float(state.reward), float(state.metrics["task_score"])
+        assert eps.lengths[i] == len(qpos) - 1
+        np.testing.assert_allclose(eps.returns[i], total, rtol=1e-6)
+        np.testing.assert_allclose(eps.task_score[i], score, rtol=1e-6)
+        obs, ep_qpos, ep_qvel = eps.episode_states(i)
+        np.testing.assert_allclose(ep_qpos, np.stack(qpos), atol=1e-5)
+        assert obs.shape == (len(qpos), env.observation_size) and ep_qvel.shape == ep_qpos.shape
+
+
 # --------------------------------------------------------------------------------------------
 # Registry, wrappers and the non-finite guard
 

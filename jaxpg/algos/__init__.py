@@ -1,12 +1,13 @@
-"""Policy-gradient algorithms. Each algorithm module defines ``Config``, ``init(key, env, config)``,
-``update(train_state) -> (train_state, metrics)`` and ``PRESETS`` (named ``Config`` overrides),
-built on the algorithm core (``jaxpg.algos.core``) and at most one module its family shares
-(``natural_gradient``: NPG and TRPO; ``actor_critic``: PPO and A2C).
+"""Policy-gradient algorithms. Each algorithm module defines ``Config``, ``init(key, env, config)``
+and ``update(train_state) -> (train_state, metrics)``, built on the algorithm core
+(``jaxpg.algos.core``) and at most one module its family shares (``natural_gradient``: NPG and
+TRPO; ``actor_critic``: PPO and A2C).
 
-A preset made for particular tasks names them in its module's ``PRESET_TASKS`` (e.g.
-``npg.PRESET_TASKS["hopper"] == ("hopper",)``); the others (``a2c``'s ``minpy``) suit any task.
-``preset(algo, name, task)`` is the one lookup, and it refuses a preset on a task it was not made
-for, in one line.
+Presets (named ``Config`` overrides) live in one table, ``presets.TABLE``, keyed by
+``(algorithm, preset name)``; each row names the tasks it was made for (``npg``'s ``hopper``:
+``("hopper",)``) or none (``a2c``'s ``minpy``: any task). ``preset(algo, name, task)`` is the one
+lookup, and it refuses a preset on a task it was not made for, in one line; an algorithm module's
+``PRESETS`` is a read-only view of its rows (``npg.PRESETS["hopper"]``).
 """
 
 from __future__ import annotations
@@ -14,6 +15,8 @@ from __future__ import annotations
 import importlib
 from types import ModuleType
 from typing import Any
+
+from jaxpg.algos import presets
 
 # name -> module, imported on first use.
 ALGORITHMS: dict[str, str] = {
@@ -27,29 +30,32 @@ ALGORITHMS: dict[str, str] = {
 }
 
 
-def get(name: str) -> ModuleType:
-    """The algorithm module ``name``; ``ValueError`` listing the known ones otherwise."""
+def _check_known(name: str) -> None:
     if name not in ALGORITHMS:
         raise ValueError(f"unknown algorithm {name!r}; known algorithms: {', '.join(sorted(ALGORITHMS))}")
+
+
+def get(name: str) -> ModuleType:
+    """The algorithm module ``name``; ``ValueError`` listing the known ones otherwise."""
+    _check_known(name)
     return importlib.import_module(ALGORITHMS[name])
 
 
 def preset(algo: str, name: str, task: str | None = None) -> dict[str, Any]:
-    """The ``Config`` overrides that algorithm ``algo`` calls ``name``, checked against ``task`` when
-    given; ``ValueError`` (one line) for an unknown preset or a task it was not made for."""
-    module = get(algo)
-    presets = getattr(module, "PRESETS", {})
-    if name not in presets:
-        known = ", ".join(sorted(presets)) or "none"
+    """The ``Config`` overrides that algorithm ``algo`` calls ``name`` (``presets.TABLE``), checked
+    against ``task`` when given; ``ValueError`` (one line) for an unknown algorithm or preset, or a
+    task the preset was not made for."""
+    _check_known(algo)
+    row = presets.TABLE.get((algo, name))
+    if row is None:
+        known = ", ".join(preset_names(algo)) or "none"
         raise ValueError(f"unknown preset {name!r} for {algo}; known presets: {known}")
-    tasks = getattr(module, "PRESET_TASKS", {}).get(name)
-    if task is not None and tasks is not None and task not in tasks:
-        raise ValueError(f"{algo}'s preset {name!r} was made for {', '.join(tasks)}, not {task}")
-    return dict(presets[name])
+    if task is not None and not row.suits(task):
+        raise ValueError(f"{algo}'s preset {name!r} was made for {', '.join(row.tasks)}, not {task}")
+    return dict(row.overrides)
 
 
 def preset_names(algo: str, task: str | None = None) -> list[str]:
     """The presets of ``algo`` (those that suit ``task`` when given), sorted."""
-    module = get(algo)
-    tasks = getattr(module, "PRESET_TASKS", {})
-    return sorted(n for n in getattr(module, "PRESETS", {}) if task is None or task in tasks.get(n, (task,)))
+    _check_known(algo)
+    return sorted(n for (a, n), row in presets.TABLE.items() if a == algo and (task is None or row.suits(task)))

@@ -19,12 +19,12 @@ It works with every policy ``core.make_networks`` builds: categorical on a discr
 from __future__ import annotations
 
 import dataclasses
-from typing import Any, ClassVar
+from typing import ClassVar
 
 import jax
 import optax
 
-from jaxpg.algos import actor_critic, core
+from jaxpg.algos import actor_critic, core, presets
 from jaxpg.algos.core import TrainState
 from jaxpg.envs import Env
 
@@ -64,66 +64,8 @@ class Config(actor_critic.ActorCriticConfig):
             raise ValueError(f"rmsprop_decay must be in [0, 1), got {self.rmsprop_decay}")
 
 
-PRESETS: dict[str, dict[str, Any]] = {
-    # Pong from 80x80 difference frames (jaxpg's pong and ALE's atari_pong): the seed's network,
-    # 6400 -> 200 (ReLU), and a value network like it; t_max 8, Adam, GAE lambda 0.95, entropy
-    # bonus 0.01. lr 1e-3 suits small batches (32 envs on a CPU; 2e-3 did worse there); with 1024
-    # or more envs on a GPU, 2e-3 reached a running reward of 10 sooner (BENCHMARKS.md, section J).
-    "pong": dict(
-        policy_hidden=(200,),
-        policy_activation="relu",
-        value_hidden=(200,),
-        value_activation="relu",
-        horizon=8,
-        optimizer="adam",
-        lr=1e-3,
-        gamma=0.99,
-        gae_lambda=0.95,
-        entropy_coef=0.01,
-        value_coef=0.5,
-        max_grad_norm=0.5,
-        eval_envs=0,
-    ),
-    # MinPy's parallel A2C: n actors in lock-step, t_max 5, RMSprop, entropy bonus.
-    "minpy": dict(
-        num_envs=16,
-        horizon=5,
-        optimizer="rmsprop",
-        lr=7e-4,
-        rmsprop_decay=0.99,
-        eps=1e-5,
-        gamma=0.99,
-        gae_lambda=1.0,
-        entropy_coef=0.01,
-        value_coef=0.5,
-        max_grad_norm=0.5,
-    ),
-    # Solves cartpole on two CPU cores and stays solved (tests/test_learning.py: the mean policy of
-    # seeds 0-3 returned 500 at every evaluation from iteration 400 to 2000). Rewards are scaled
-    # by 0.1: cartpole's returns reach ~100 at gamma 0.99, so unscaled the value loss dominates
-    # the joint gradient clipped to norm 0.5 and the policy's share of each step is noise; with
-    # the former lr 3e-3 and no scaling the seeds touched 500 within 60-300 iterations but kept
-    # collapsing (means of the last 3 evaluations at the end: 329 and 470 after 600 iterations;
-    # at lr 1e-3 363-500 after 1000, at 3e-4 below 500 for all four seeds after 2500).
-    "cartpole": dict(
-        num_envs=64,
-        horizon=16,
-        optimizer="adam",
-        lr=1e-3,
-        reward_scaling=0.1,
-        gamma=0.99,
-        gae_lambda=1.0,
-        entropy_coef=0.01,
-        value_coef=0.5,
-        max_grad_norm=0.5,
-    ),
-}
-
-# Atari games from pixels (atari_pong) with the Nature network (three convolutions, 512 ReLU units)
-# before the policy and the value function: the A2C of Mnih et al. (2016) as the Stable-Baselines3
-# zoo runs it on Atari, MinPy's settings (16 envs, t_max 5, RMSprop 7e-4, decay 0.99, eps 1e-5,
-# entropy 0.01, gradient norm 0.5, n-step returns) with the value loss weighted 0.25.
-PRESETS["atari"] = {**PRESETS["minpy"], "value_coef": 0.25, **actor_critic.ATARI_NETWORKS}
+# Named Config overrides: a read-only view of this algorithm's rows of ``presets.TABLE``.
+PRESETS = presets.by_algorithm("a2c")
 
 
 def optimizer(config: Config) -> optax.GradientTransformation:
@@ -152,11 +94,3 @@ def update(ts: TrainState) -> tuple[TrainState, dict[str, jax.Array]]:
     metrics = {name: diagnostics[name] for name in ("entropy", "policy_loss", "value_loss", "grad_norm", "loss")}
     kl = core.mean_kl(ts, old.params, ts.params, batch)
     return core.finish_iteration(old, ts, traj, loss=diagnostics["loss"], kl=kl, metrics=metrics)
-
-
-# The tasks each preset was made for (``jaxpg.algos.preset`` refuses it on others); unnamed: any task.
-PRESET_TASKS: dict[str, tuple[str, ...]] = {
-    "pong": ("pong", "atari_pong"),
-    "atari": ("atari_pong", "pong"),
-    "cartpole": ("cartpole",),
-}

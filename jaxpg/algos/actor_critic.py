@@ -28,19 +28,6 @@ from jaxpg.algos.core import TrainState
 from jaxpg.envs import Env
 from jaxpg.rollout import Trajectory
 
-# The networks of the Atari presets of A2C and PPO: the Nature network (three convolutions, then
-# 512 ReLU units) in front of the policy and, separately, of the value function, initialised
-# orthogonally; no mean-policy evaluation in the run (a game to 21 points is thousands of steps).
-ATARI_NETWORKS: dict[str, Any] = dict(
-    conv_torso="nature",
-    policy_hidden=(512,),
-    policy_activation="relu",
-    value_hidden=(512,),
-    value_activation="relu",
-    network_init="orthogonal",
-    eval_envs=0,
-)
-
 
 @dataclasses.dataclass(frozen=True)
 class ActorCriticConfig(core.GAEConfig):

@@ -54,30 +54,6 @@ class NaturalGradientConfig(core.GAEConfig, core.ValueFitConfig):
             raise ValueError(f"fisher_samples must be >= 0 (0: all), got {self.fisher_samples}")
 
 
-# LyceumAI's NaturalPolicyGradient on HopperV2 (Summers et al., L4DC 2020): its sampling, networks
-# and value fit, which its NPG and TRPO presets share.
-LYCEUM_SETTINGS: dict[str, Any] = dict(
-    sampling="episodic",
-    num_envs=11,
-    horizon=1000,
-    sample_budget=10240,
-    gamma=0.995,
-    gae_lambda=0.97,
-    policy="gaussian",
-    policy_hidden=(32, 32),
-    policy_activation="tanh",
-    network_init="glorot_uniform",
-    log_std_init=0.0,
-    value_hidden=(128, 128),
-    value_activation="relu",
-    value_lr=1e-3,
-    value_epochs=3,
-    value_batch_size=64,
-    value_target="returns",
-    normalize_observations=False,
-)
-
-
 def init(key: jax.Array, env: Env, config: NaturalGradientConfig) -> core.TrainState:
     """A fresh ``TrainState`` for NPG or TRPO: networks, the value fit's optimizer, env batch (the
     policy steps in closed form and has no optimizer state)."""

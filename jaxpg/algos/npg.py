@@ -30,7 +30,7 @@ import jax
 import jax.numpy as jnp
 from jax.flatten_util import ravel_pytree
 
-from jaxpg.algos import core, natural_gradient
+from jaxpg.algos import core, natural_gradient, presets
 from jaxpg.algos.core import TrainState
 from jaxpg.envs import Env
 
@@ -58,72 +58,8 @@ class Config(natural_gradient.NaturalGradientConfig):
             raise ValueError(f"kl_delta must be > 0, got {self.kl_delta}")
 
 
-PRESETS: dict[str, dict[str, Any]] = {
-    # inverted_pendulum on a 2-core CPU: 4096 samples an iteration. kl_delta 0.03: with the former
-    # 0.1 (BENCHMARKS.md, section H, was measured with it) the mean policies solved the task in
-    # 10-40 iterations but kept collapsing to returns below 100 afterwards (seeds 0-3: never three
-    # evaluations in a row >= 950 for all four within 100 iterations; 0.05 collapsed less). With
-    # 0.03 seeds 0-3 evaluated at 1000 at every evaluation from iteration 25 to 60
-    # (tests/test_learning.py); one of them relapsed after 65.
-    "pendulum_cpu": dict(
-        num_envs=32,
-        horizon=128,
-        gamma=0.99,
-        kl_delta=0.03,
-        policy_hidden=(32, 32),
-        value_hidden=(64, 64),
-        value_batch_size=512,
-    ),
-    # Hopper from the command line (the defaults of experiments/hopper.py): 256 envs x 64 steps,
-    # 120 iterations (1.97 M env steps). Chosen by benchmarks/hopper_sweep.py on one H100 over
-    # eight seeds (BENCHMARKS.md): a kl_delta of 0.07, 10 value epochs per iteration on
-    # standardised value targets (16 minibatches an epoch: 1024 samples at 256 x 64, and the same
-    # number of steps at any --num-envs) and an initial log-std of 0 (std 1) took all eight seeds' mean
-    # policies past 3000 by 1.05 M steps and past 3290 by 1.97 M. Without the last two, four of
-    # eight seeds ended below 3000 (238-1713): in the "dive forward once" local optimum (return
-    # ~235), standing (~1000), or still on the way.
-    # A value epoch visits at most 16384 samples (all of them at 256 x 64), so that above 256
-    # envs the value fit stops growing with the batch: at 65536 envs it took 16% of an iteration
-    # (train/raw 0.67 -> 0.78 with the cap; at 4096 envs the mean policy still reached 3506 in
-    # 120 iterations, 3451 without it).
-    # Likewise the conjugate gradient's Fisher-vector products use 16384 samples of the batch
-    # (12% of an iteration at 65536 envs otherwise): with both caps train/raw is 0.91 at 16384
-    # envs and 0.89 at 65536, and the mean policy reached 3349 at 4096 envs (120 iterations)
-    # and 3319 at 16384 (60 iterations).
-    # The mean policy is evaluated after the last iteration (and every 120): one evaluation
-    # (1000 sequential steps) is ~1.3 s on an H100, 3% of a warm run; its program is compiled
-    # on a background thread while training runs.
-    "hopper": dict(
-        num_envs=256,
-        horizon=64,
-        kl_delta=0.07,
-        normalize_observations=True,
-        log_std_init=0.0,
-        value_hidden=(128, 128),
-        value_epochs=10,
-        value_minibatches=16,
-        value_epoch_samples=16384,
-        fisher_samples=16384,
-        normalize_value_targets=True,
-        eval_envs=16,
-        eval_every=120,
-    ),
-    # Hopper on one GPU (BENCHMARKS.md: mean-policy return 3000 in a median 46 s on an H200).
-    "hopper_gpu": dict(
-        num_envs=8192,
-        horizon=64,
-        normalize_observations=True,
-        value_batch_size=32768,
-        value_epochs=2,
-        kl_delta=0.1,
-        policy_hidden=(64, 64),
-        value_hidden=(256, 256),
-        eval_envs=32,
-        eval_every=10,
-    ),
-    # LyceumAI's NaturalPolicyGradient on HopperV2 (Summers et al., L4DC 2020).
-    "lyceum": dict(**natural_gradient.LYCEUM_SETTINGS, kl_delta=0.05),
-}
+# Named Config overrides: a read-only view of this algorithm's rows of ``presets.TABLE``.
+PRESETS = presets.by_algorithm("npg")
 
 # Networks, the value fit's optimizer, env batch; the policy steps in closed form.
 init = natural_gradient.init
@@ -240,11 +176,3 @@ def make_update(
     update_with.__name__ = update_with.__qualname__ = f"update[{name}]"
     update_with.__doc__ = f"One NPG iteration with advantages from ``{name}`` (``npg.make_update``)."
     return update_with
-
-
-# The tasks each preset was made for (``jaxpg.algos.preset`` refuses it on others); unnamed: any task.
-PRESET_TASKS: dict[str, tuple[str, ...]] = {
-    "pendulum_cpu": ("inverted_pendulum",),
-    "hopper": ("hopper",),
-    "hopper_gpu": ("hopper",),
-}

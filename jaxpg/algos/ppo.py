@@ -30,7 +30,7 @@ import jax
 import jax.numpy as jnp
 import optax
 
-from jaxpg.algos import actor_critic, core
+from jaxpg.algos import actor_critic, core, presets
 from jaxpg.algos.core import TrainState
 from jaxpg.envs import Env
 
@@ -86,102 +86,8 @@ class Config(actor_critic.ActorCriticConfig):
             )
 
 
-PRESETS: dict[str, dict[str, Any]] = {
-    # Brax's PPO on MJX Hopper (the reference run in BENCHMARKS.md): 2048 envs, unrolls of 20 steps, 32
-    # minibatches x 4 epochs, lr 3e-4, entropy 1e-3, gamma 0.99, reward scaling 10, observation
-    # normalisation, no gradient clipping. Brax gathers 8 unrolls of 20 steps per update
-    # (batch 512 x 32 minibatches = 16384 unrolls); horizon 160 holds the same samples per update
-    # (327,680) and minibatch size (10,240), with GAE running over the 160 steps.
-    # One H100, MJX jax impl, seed 0: 205 k env steps/s after a 75 s first block (compile
-    # included); mean-policy return 880 at 11.5 M steps, 123 s.
-    "brax_hopper": dict(
-        num_envs=2048,
-        horizon=160,
-        num_minibatches=32,
-        num_epochs=4,
-        lr=3e-4,
-        max_grad_norm=0.0,
-        entropy_coef=1e-3,
-        gamma=0.99,
-        gae_lambda=0.95,
-        reward_scaling=10.0,
-        normalize_observations=True,
-        policy_hidden=(32, 32, 32, 32),
-        policy_activation="swish",
-        value_hidden=(256, 256, 256, 256, 256),
-        value_activation="swish",
-        network_init="orthogonal",
-        eval_envs=128,
-        eval_every=10,
-    ),
-    # The same with unrolls of 20 steps per update (more, smaller updates).
-    "brax_hopper_short": dict(
-        num_envs=2048,
-        horizon=20,
-        num_minibatches=32,
-        num_epochs=4,
-        lr=3e-4,
-        max_grad_norm=0.0,
-        entropy_coef=1e-3,
-        gamma=0.99,
-        gae_lambda=0.95,
-        reward_scaling=10.0,
-        normalize_observations=True,
-        policy_hidden=(32, 32, 32, 32),
-        policy_activation="swish",
-        value_hidden=(256, 256, 256, 256, 256),
-        value_activation="swish",
-        network_init="orthogonal",
-        eval_envs=128,
-        eval_every=50,
-    ),
-    # Solves inverted_pendulum on the CPU: seeds 0 and 1 evaluated at 1000 from iteration 35 to 80
-    # (first after 20 iterations, 20 k env steps; tests/test_learning.py).
-    "pendulum": dict(
-        num_envs=32,
-        horizon=32,
-        num_minibatches=8,
-        num_epochs=10,
-        lr=1e-3,
-        gamma=0.99,
-        gae_lambda=0.95,
-        eval_envs=8,
-    ),
-    # Hopper on one GPU (BENCHMARKS.md: mean-policy return 3000 in a median 50 s on an H100):
-    # brax_hopper's networks and losses with 8192 envs x 32 steps in 8 minibatches.
-}
-# Atari games from pixels (atari_pong): the PPO of the Atari literature (Schulman et al. 2017's
-# Atari settings as CleanRL's ppo_atari keeps them: horizon 128, 4 epochs of 4 minibatches, Adam
-# 2.5e-4 annealed to 0, clip 0.1, entropy 0.01, value loss 0.5 with value clipping, gradient norm
-# 0.5, GAE(0.99, 0.95), orthogonal initialisation) with the Nature network (three convolutions,
-# 512 ReLU units) in front of each of the policy and the value function. 16 games rather than 8:
-# ALE's vector env steps 16 games about as fast as 8 on a 16-core host. anneal_lr_iterations
-# spans 2500 iterations (5.1 M agent steps, 20 M frames).
-PRESETS["atari"] = dict(
-    num_envs=16,
-    horizon=128,
-    num_minibatches=4,
-    num_epochs=4,
-    lr=2.5e-4,
-    anneal_lr_iterations=2500,
-    clip_eps=0.1,
-    value_clip_eps=0.1,
-    entropy_coef=0.01,
-    value_coef=0.5,
-    max_grad_norm=0.5,
-    gamma=0.99,
-    gae_lambda=0.95,
-    **actor_critic.ATARI_NETWORKS,
-)
-PRESETS["hopper_gpu"] = {
-    **PRESETS["brax_hopper"],
-    "num_envs": 8192,
-    "horizon": 32,
-    "num_minibatches": 8,
-    "num_epochs": 4,
-    "eval_envs": 32,
-    "eval_every": 10,
-}
+# Named Config overrides: a read-only view of this algorithm's rows of ``presets.TABLE``.
+PRESETS = presets.by_algorithm("ppo")
 
 
 def optimizer(config: Config) -> optax.GradientTransformation:
@@ -247,13 +153,3 @@ def update(ts: TrainState) -> tuple[TrainState, dict[str, jax.Array]]:
     kl = core.mean_kl(ts, old.params, ts.params, batch)
     metrics = {**diagnostics, "learning_rate": learning_rate(ts.config, old.iteration)}
     return core.finish_iteration(old, ts, traj, loss=diagnostics["loss"], kl=kl, metrics=metrics)
-
-
-# The tasks each preset was made for (``jaxpg.algos.preset`` refuses it on others); unnamed: any task.
-PRESET_TASKS: dict[str, tuple[str, ...]] = {
-    "brax_hopper": ("hopper",),
-    "brax_hopper_short": ("hopper",),
-    "hopper_gpu": ("hopper",),
-    "pendulum": ("inverted_pendulum",),
-    "atari": ("atari_pong", "pong"),
-}

@@ -32,7 +32,7 @@ import jax.numpy as jnp
 import optax
 
 from jaxpg import returns
-from jaxpg.algos import core
+from jaxpg.algos import core, presets
 from jaxpg.algos.core import TrainState
 from jaxpg.envs import Env
 from jaxpg.rollout import Trajectory
@@ -81,39 +81,8 @@ class Config(core.BaseConfig):
             )
 
 
-PRESETS: dict[str, dict[str, Any]] = {
-    # On inverted_pendulum: the Gymnasium REINFORCE tutorial. Shared tanh
-    # trunk 16 -> 32, linear mean and softplus-std heads, AdamW lr 1e-4, gamma 0.99, one update
-    # per episode, raw (unnormalised) returns, PyTorch's default initialisation.
-    "gymnasium_tutorial": dict(
-        sampling="episodic",
-        num_envs=1,
-        horizon=1000,
-        gamma=0.99,
-        policy="state_std_gaussian",
-        policy_hidden=(16, 32),
-        policy_activation="tanh",
-        network_init="pytorch",
-        optimizer="adamw",
-        lr=1e-4,
-        weight_decay=0.01,
-        return_normalization="none",
-    ),
-    # Seed 5, on cartpole: Kokoyi's policy gradient. Categorical policy 4 -> 128 (ReLU) -> 2,
-    # Adam lr 0.01, gamma 0.99, returns normalised per episode, one update per episode.
-    "kokoyi": dict(
-        sampling="episodic",
-        num_envs=1,
-        horizon=500,
-        gamma=0.99,
-        policy_hidden=(128,),
-        policy_activation="relu",
-        network_init="pytorch",
-        optimizer="adam",
-        lr=1e-2,
-        return_normalization="episode",
-    ),
-}
+# Named Config overrides: a read-only view of this algorithm's rows of ``presets.TABLE``.
+PRESETS = presets.by_algorithm("reinforce")
 
 
 def optimizer(config: Config) -> optax.GradientTransformation:
@@ -188,7 +157,3 @@ def update(ts: TrainState) -> tuple[TrainState, dict[str, jax.Array]]:
     ts, diagnostics = policy_step(ts, batch)
     kl = core.mean_kl(ts, old.params, ts.params, batch)
     return core.finish_iteration(old, ts, traj, loss=diagnostics["loss"], kl=kl, metrics=diagnostics)
-
-
-# The tasks each preset was made for (``jaxpg.algos.preset`` refuses it on others); unnamed: any task.
-PRESET_TASKS: dict[str, tuple[str, ...]] = {"gymnasium_tutorial": ("inverted_pendulum",), "kokoyi": ("cartpole",)}

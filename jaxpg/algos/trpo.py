@@ -16,7 +16,7 @@ import jax
 import jax.numpy as jnp
 from jax.flatten_util import ravel_pytree
 
-from jaxpg.algos import core, natural_gradient
+from jaxpg.algos import core, natural_gradient, presets
 from jaxpg.algos.core import TrainState
 from jaxpg.envs import Env
 
@@ -44,7 +44,8 @@ class Config(natural_gradient.NaturalGradientConfig):
             raise ValueError("max_kl must be > 0, backtracks >= 1 and 0 < backtrack_ratio < 1")
 
 
-PRESETS: dict[str, dict[str, Any]] = {"lyceum": dict(**natural_gradient.LYCEUM_SETTINGS, max_kl=0.05)}
+# Named Config overrides: a read-only view of this algorithm's rows of ``presets.TABLE``.
+PRESETS = presets.by_algorithm("trpo")
 
 # Networks, the value fit's optimizer, env batch; the policy steps in closed form.
 init = natural_gradient.init
@@ -105,8 +106,3 @@ def update(ts: TrainState) -> tuple[TrainState, dict[str, jax.Array]]:
         "value_loss": value_loss,
     }
     return core.finish_iteration(old, ts, traj, loss=value_loss + kl, kl=kl, metrics=metrics)
-
-
-# The tasks each preset was made for (``jaxpg.algos.preset`` refuses it on others); unnamed: any
-# task. ``lyceum`` is LyceumAI's algorithm settings, which it ran on every task.
-PRESET_TASKS: dict[str, tuple[str, ...]] = {}

@@ -22,11 +22,11 @@ textbook baseline on raw returns.
 from __future__ import annotations
 
 import dataclasses
-from typing import Any, ClassVar
+from typing import ClassVar
 
 import jax
 
-from jaxpg.algos import core, reinforce
+from jaxpg.algos import core, presets, reinforce
 from jaxpg.algos.core import TrainState
 from jaxpg.envs import Env
 
@@ -65,32 +65,8 @@ class Config(reinforce.Config, core.ValueFitConfig):
         super().validate(env)
 
 
-PRESETS: dict[str, dict[str, Any]] = {
-    # On inverted_pendulum: the PyTorch Lightning VPG. Policy 64 -> 64 tanh
-    # with a global log-std, baseline of the same shape, Adam lr 3.9e-3, discount 0.9, 2500
-    # samples per epoch (here 10 envs x 250 steps of continuing sampling, the data set carried
-    # across episode ends), advantages = normalised returns - baseline, baseline fitted to the
-    # normalised returns with one full-batch step per epoch; 100 epochs in the seed.
-    "lightning": dict(
-        sampling="continuing",
-        num_envs=10,
-        horizon=250,
-        gamma=0.9,
-        policy="gaussian",
-        policy_hidden=(64, 64),
-        policy_activation="tanh",
-        network_init="pytorch",
-        log_std_init=0.0,
-        value_hidden=(64, 64),
-        value_activation="tanh",
-        optimizer="adam",
-        lr=3.9e-3,
-        value_lr=3.9e-3,
-        value_epochs=1,
-        value_batch_size=0,
-        return_normalization="batch",
-    ),
-}
+# Named Config overrides: a read-only view of this algorithm's rows of ``presets.TABLE``.
+PRESETS = presets.by_algorithm("vpg")
 
 
 def init(key: jax.Array, env: Env, config: Config) -> TrainState:
@@ -118,7 +94,3 @@ def update(ts: TrainState) -> tuple[TrainState, dict[str, jax.Array]]:
     kl = core.mean_kl(ts, old.params, ts.params, batch)
     metrics = {**diagnostics, "value_loss": value_loss}
     return core.finish_iteration(old, ts, traj, loss=diagnostics["loss"] + value_loss, kl=kl, metrics=metrics)
-
-
-# The tasks each preset was made for (``jaxpg.algos.preset`` refuses it on others); unnamed: any task.
-PRESET_TASKS: dict[str, tuple[str, ...]] = {"lightning": ("inverted_pendulum",)}

@@ -186,13 +186,10 @@ def evaluate(ts: TrainState, key: jax.Array, deterministic: bool = True) -> dict
     args = (ts.params, ts.obs_stats, reset_keys, steps_key)
     traj = split_over_envs(run, padded, in_specs, TIME_ENVS, *args)
     traj = jax.tree.map(lambda x: x[:, :count], traj)
-    lengths = jnp.sum(traj.valid, axis=0)
-    last = jnp.maximum(lengths.astype(jnp.int32) - 1, 0)
-    final_metric = jnp.take_along_axis(traj.metrics["task_score"], last[None, :], axis=0)[0]
     return {
         "episode_return": jnp.mean(jnp.sum(traj.rewards * traj.valid, axis=0)),
-        "episode_length": jnp.mean(lengths),
-        "episode_task_score": jnp.mean(final_metric),
+        "episode_length": jnp.mean(jnp.sum(traj.valid, axis=0)),
+        "episode_task_score": jnp.mean(rollout_lib.last_valid(traj, traj.metrics["task_score"])),
         "episodes": jnp.asarray(config.eval_envs, jnp.float32),
     }
 

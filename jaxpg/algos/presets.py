@@ -1,0 +1,392 @@
+"""Every algorithm's presets in one table: named ``Config`` overrides keyed by
+``(algorithm, preset name)``, each with the tasks it was made for (or ``None``: any task).
+
+``jaxpg.algos.preset(algo, name, task)`` and ``jaxpg.algos.preset_names(algo, task)`` read the
+table; each algorithm module's ``PRESETS`` is ``by_algorithm(algo)``, a read-only view of its
+rows (``npg.PRESETS["hopper"]``). This module holds plain data and imports no algorithm, so any
+module may import it.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Mapping
+from types import MappingProxyType
+from typing import Any
+
+
+@dataclasses.dataclass(frozen=True)
+class Preset:
+    """One row of the table: ``overrides`` (``Config`` field -> value) and the ``tasks`` they were
+    made for (``None``: any task)."""
+
+    overrides: Mapping[str, Any]
+    tasks: tuple[str, ...] | None = None
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "overrides", MappingProxyType(dict(self.overrides)))
+
+    def suits(self, task: str) -> bool:
+        """Whether the preset was made for ``task`` (every task, when it names none)."""
+        return self.tasks is None or task in self.tasks
+
+
+# LyceumAI's NaturalPolicyGradient on HopperV2 (Summers et al., L4DC 2020): its sampling, networks
+# and value fit, which its NPG and TRPO presets share.
+LYCEUM_SETTINGS: Mapping[str, Any] = MappingProxyType(
+    dict(
+        sampling="episodic",
+        num_envs=11,
+        horizon=1000,
+        sample_budget=10240,
+        gamma=0.995,
+        gae_lambda=0.97,
+        policy="gaussian",
+        policy_hidden=(32, 32),
+        policy_activation="tanh",
+        network_init="glorot_uniform",
+        log_std_init=0.0,
+        value_hidden=(128, 128),
+        value_activation="relu",
+        value_lr=1e-3,
+        value_epochs=3,
+        value_batch_size=64,
+        value_target="returns",
+        normalize_observations=False,
+    )
+)
+
+# The networks of the Atari presets of A2C and PPO: the Nature network (three convolutions, then
+# 512 ReLU units) in front of the policy and, separately, of the value function, initialised
+# orthogonally; no mean-policy evaluation in the run (a game to 21 points is thousands of steps).
+ATARI_NETWORKS: Mapping[str, Any] = MappingProxyType(
+    dict(
+        conv_torso="nature",
+        policy_hidden=(512,),
+        policy_activation="relu",
+        value_hidden=(512,),
+        value_activation="relu",
+        network_init="orthogonal",
+        eval_envs=0,
+    )
+)
+
+# MinPy's parallel A2C: n actors in lock-step, t_max 5, RMSprop, entropy bonus.
+A2C_MINPY: Mapping[str, Any] = MappingProxyType(
+    dict(
+        num_envs=16,
+        horizon=5,
+        optimizer="rmsprop",
+        lr=7e-4,
+        rmsprop_decay=0.99,
+        eps=1e-5,
+        gamma=0.99,
+        gae_lambda=1.0,
+        entropy_coef=0.01,
+        value_coef=0.5,
+        max_grad_norm=0.5,
+    )
+)
+
+# Brax's PPO on MJX Hopper (the reference run in BENCHMARKS.md): 2048 envs, unrolls of 20 steps, 32
+# minibatches x 4 epochs, lr 3e-4, entropy 1e-3, gamma 0.99, reward scaling 10, observation
+# normalisation, no gradient clipping. Brax gathers 8 unrolls of 20 steps per update
+# (batch 512 x 32 minibatches = 16384 unrolls); horizon 160 holds the same samples per update
+# (327,680) and minibatch size (10,240), with GAE running over the 160 steps.
+# One H100, MJX jax impl, seed 0: 205 k env steps/s after a 75 s first block (compile
+# included); mean-policy return 880 at 11.5 M steps, 123 s.
+PPO_BRAX_HOPPER: Mapping[str, Any] = MappingProxyType(
+    dict(
+        num_envs=2048,
+        horizon=160,
+        num_minibatches=32,
+        num_epochs=4,
+        lr=3e-4,
+        max_grad_norm=0.0,
+        entropy_coef=1e-3,
+        gamma=0.99,
+        gae_lambda=0.95,
+        reward_scaling=10.0,
+        normalize_observations=True,
+        policy_hidden=(32, 32, 32, 32),
+        policy_activation="swish",
+        value_hidden=(256, 256, 256, 256, 256),
+        value_activation="swish",
+        network_init="orthogonal",
+        eval_envs=128,
+        eval_every=10,
+    )
+)
+
+TABLE: Mapping[tuple[str, str], Preset] = MappingProxyType(
+    {
+        # --- NPG ---
+        # inverted_pendulum on a 2-core CPU: 4096 samples an iteration. kl_delta 0.03: with the
+        # former 0.1 (BENCHMARKS.md, section H, was measured with it) the mean policies solved the
+        # task in 10-40 iterations but kept collapsing to returns below 100 afterwards (seeds 0-3:
+        # never three evaluations in a row >= 950 for all four within 100 iterations; 0.05
+        # collapsed less). With 0.03 seeds 0-3 evaluated at 1000 at every evaluation from
+        # iteration 25 to 60 (tests/test_learning.py); one of them relapsed after 65.
+        ("npg", "pendulum_cpu"): Preset(
+            tasks=("inverted_pendulum",),
+            overrides=dict(
+                num_envs=32,
+                horizon=128,
+                gamma=0.99,
+                kl_delta=0.03,
+                policy_hidden=(32, 32),
+                value_hidden=(64, 64),
+                value_batch_size=512,
+            ),
+        ),
+        # Hopper from the command line (the defaults of experiments/hopper.py): 256 envs x 64
+        # steps, 120 iterations (1.97 M env steps). Chosen by benchmarks/hopper_sweep.py on one
+        # H100 over eight seeds (BENCHMARKS.md): a kl_delta of 0.07, 10 value epochs per iteration
+        # on standardised value targets (16 minibatches an epoch: 1024 samples at 256 x 64, and
+        # the same number of steps at any --num-envs) and an initial log-std of 0 (std 1) took all
+        # eight seeds' mean policies past 3000 by 1.05 M steps and past 3290 by 1.97 M. Without
+        # the last two, four of eight seeds ended below 3000 (238-1713): in the "dive forward
+        # once" local optimum (return ~235), standing (~1000), or still on the way.
+        # A value epoch visits at most 16384 samples (all of them at 256 x 64), so that above 256
+        # envs the value fit stops growing with the batch: at 65536 envs it took 16% of an
+        # iteration (train/raw 0.67 -> 0.78 with the cap; at 4096 envs the mean policy still
+        # reached 3506 in 120 iterations, 3451 without it).
+        # Likewise the conjugate gradient's Fisher-vector products use 16384 samples of the batch
+        # (12% of an iteration at 65536 envs otherwise): with both caps train/raw is 0.91 at 16384
+        # envs and 0.89 at 65536, and the mean policy reached 3349 at 4096 envs (120 iterations)
+        # and 3319 at 16384 (60 iterations).
+        # The mean policy is evaluated after the last iteration (and every 120): one evaluation
+        # (1000 sequential steps) is ~1.3 s on an H100, 3% of a warm run; its program is compiled
+        # on a background thread while training runs.
+        ("npg", "hopper"): Preset(
+            tasks=("hopper",),
+            overrides=dict(
+                num_envs=256,
+                horizon=64,
+                kl_delta=0.07,
+                normalize_observations=True,
+                log_std_init=0.0,
+                value_hidden=(128, 128),
+                value_epochs=10,
+                value_minibatches=16,
+                value_epoch_samples=16384,
+                fisher_samples=16384,
+                normalize_value_targets=True,
+                eval_envs=16,
+                eval_every=120,
+            ),
+        ),
+        # Hopper on one GPU (BENCHMARKS.md: mean-policy return 3000 in a median 46 s on an H200).
+        ("npg", "hopper_gpu"): Preset(
+            tasks=("hopper",),
+            overrides=dict(
+                num_envs=8192,
+                horizon=64,
+                normalize_observations=True,
+                value_batch_size=32768,
+                value_epochs=2,
+                kl_delta=0.1,
+                policy_hidden=(64, 64),
+                value_hidden=(256, 256),
+                eval_envs=32,
+                eval_every=10,
+            ),
+        ),
+        # LyceumAI's NaturalPolicyGradient on HopperV2 (Summers et al., L4DC 2020).
+        ("npg", "lyceum"): Preset(overrides=dict(**LYCEUM_SETTINGS, kl_delta=0.05)),
+        # --- TRPO ---
+        ("trpo", "lyceum"): Preset(overrides=dict(**LYCEUM_SETTINGS, max_kl=0.05)),
+        # --- REINFORCE ---
+        # On inverted_pendulum: the Gymnasium REINFORCE tutorial. Shared tanh trunk 16 -> 32,
+        # linear mean and softplus-std heads, AdamW lr 1e-4, gamma 0.99, one update per episode,
+        # raw (unnormalised) returns, PyTorch's default initialisation.
+        ("reinforce", "gymnasium_tutorial"): Preset(
+            tasks=("inverted_pendulum",),
+            overrides=dict(
+                sampling="episodic",
+                num_envs=1,
+                horizon=1000,
+                gamma=0.99,
+                policy="state_std_gaussian",
+                policy_hidden=(16, 32),
+                policy_activation="tanh",
+                network_init="pytorch",
+                optimizer="adamw",
+                lr=1e-4,
+                weight_decay=0.01,
+                return_normalization="none",
+            ),
+        ),
+        # Seed 5, on cartpole: Kokoyi's policy gradient. Categorical policy 4 -> 128 (ReLU) -> 2,
+        # Adam lr 0.01, gamma 0.99, returns normalised per episode, one update per episode.
+        ("reinforce", "kokoyi"): Preset(
+            tasks=("cartpole",),
+            overrides=dict(
+                sampling="episodic",
+                num_envs=1,
+                horizon=500,
+                gamma=0.99,
+                policy_hidden=(128,),
+                policy_activation="relu",
+                network_init="pytorch",
+                optimizer="adam",
+                lr=1e-2,
+                return_normalization="episode",
+            ),
+        ),
+        # --- VPG ---
+        # On inverted_pendulum: the PyTorch Lightning VPG. Policy 64 -> 64 tanh with a global
+        # log-std, baseline of the same shape, Adam lr 3.9e-3, discount 0.9, 2500 samples per
+        # epoch (here 10 envs x 250 steps of continuing sampling, the data set carried across
+        # episode ends), advantages = normalised returns - baseline, baseline fitted to the
+        # normalised returns with one full-batch step per epoch; 100 epochs in the seed.
+        ("vpg", "lightning"): Preset(
+            tasks=("inverted_pendulum",),
+            overrides=dict(
+                sampling="continuing",
+                num_envs=10,
+                horizon=250,
+                gamma=0.9,
+                policy="gaussian",
+                policy_hidden=(64, 64),
+                policy_activation="tanh",
+                network_init="pytorch",
+                log_std_init=0.0,
+                value_hidden=(64, 64),
+                value_activation="tanh",
+                optimizer="adam",
+                lr=3.9e-3,
+                value_lr=3.9e-3,
+                value_epochs=1,
+                value_batch_size=0,
+                return_normalization="batch",
+            ),
+        ),
+        # --- A2C ---
+        # Pong from 80x80 difference frames (jaxpg's pong and ALE's atari_pong): the seed's
+        # network, 6400 -> 200 (ReLU), and a value network like it; t_max 8, Adam, GAE lambda
+        # 0.95, entropy bonus 0.01. lr 1e-3 suits small batches (32 envs on a CPU; 2e-3 did worse
+        # there); with 1024 or more envs on a GPU, 2e-3 reached a running reward of 10 sooner
+        # (BENCHMARKS.md, section J).
+        ("a2c", "pong"): Preset(
+            tasks=("pong", "atari_pong"),
+            overrides=dict(
+                policy_hidden=(200,),
+                policy_activation="relu",
+                value_hidden=(200,),
+                value_activation="relu",
+                horizon=8,
+                optimizer="adam",
+                lr=1e-3,
+                gamma=0.99,
+                gae_lambda=0.95,
+                entropy_coef=0.01,
+                value_coef=0.5,
+                max_grad_norm=0.5,
+                eval_envs=0,
+            ),
+        ),
+        ("a2c", "minpy"): Preset(overrides=A2C_MINPY),
+        # Solves cartpole on two CPU cores and stays solved (tests/test_learning.py: the mean
+        # policy of seeds 0-3 returned 500 at every evaluation from iteration 400 to 2000).
+        # Rewards are scaled by 0.1: cartpole's returns reach ~100 at gamma 0.99, so unscaled the
+        # value loss dominates the joint gradient clipped to norm 0.5 and the policy's share of
+        # each step is noise; with the former lr 3e-3 and no scaling the seeds touched 500 within
+        # 60-300 iterations but kept collapsing (means of the last 3 evaluations at the end: 329
+        # and 470 after 600 iterations; at lr 1e-3 363-500 after 1000, at 3e-4 below 500 for all
+        # four seeds after 2500).
+        ("a2c", "cartpole"): Preset(
+            tasks=("cartpole",),
+            overrides=dict(
+                num_envs=64,
+                horizon=16,
+                optimizer="adam",
+                lr=1e-3,
+                reward_scaling=0.1,
+                gamma=0.99,
+                gae_lambda=1.0,
+                entropy_coef=0.01,
+                value_coef=0.5,
+                max_grad_norm=0.5,
+            ),
+        ),
+        # Atari games from pixels (atari_pong) with the Nature network (three convolutions, 512
+        # ReLU units) before the policy and the value function: the A2C of Mnih et al. (2016) as
+        # the Stable-Baselines3 zoo runs it on Atari, MinPy's settings (16 envs, t_max 5, RMSprop
+        # 7e-4, decay 0.99, eps 1e-5, entropy 0.01, gradient norm 0.5, n-step returns) with the
+        # value loss weighted 0.25.
+        ("a2c", "atari"): Preset(
+            tasks=("atari_pong", "pong"),
+            overrides={**A2C_MINPY, "value_coef": 0.25, **ATARI_NETWORKS},
+        ),
+        # --- PPO ---
+        ("ppo", "brax_hopper"): Preset(tasks=("hopper",), overrides=PPO_BRAX_HOPPER),
+        # The same with unrolls of 20 steps per update (more, smaller updates).
+        ("ppo", "brax_hopper_short"): Preset(
+            tasks=("hopper",),
+            overrides={**PPO_BRAX_HOPPER, "horizon": 20, "eval_every": 50},
+        ),
+        # Solves inverted_pendulum on the CPU: seeds 0 and 1 evaluated at 1000 from iteration 35
+        # to 80 (first after 20 iterations, 20 k env steps; tests/test_learning.py).
+        ("ppo", "pendulum"): Preset(
+            tasks=("inverted_pendulum",),
+            overrides=dict(
+                num_envs=32,
+                horizon=32,
+                num_minibatches=8,
+                num_epochs=10,
+                lr=1e-3,
+                gamma=0.99,
+                gae_lambda=0.95,
+                eval_envs=8,
+            ),
+        ),
+        # Atari games from pixels (atari_pong): the PPO of the Atari literature (Schulman et al.
+        # 2017's Atari settings as CleanRL's ppo_atari keeps them: horizon 128, 4 epochs of 4
+        # minibatches, Adam 2.5e-4 annealed to 0, clip 0.1, entropy 0.01, value loss 0.5 with
+        # value clipping, gradient norm 0.5, GAE(0.99, 0.95), orthogonal initialisation) with the
+        # Nature network (three convolutions, 512 ReLU units) in front of each of the policy and
+        # the value function. 16 games rather than 8: ALE's vector env steps 16 games about as
+        # fast as 8 on a 16-core host. anneal_lr_iterations spans 2500 iterations (5.1 M agent
+        # steps, 20 M frames).
+        ("ppo", "atari"): Preset(
+            tasks=("atari_pong", "pong"),
+            overrides=dict(
+                num_envs=16,
+                horizon=128,
+                num_minibatches=4,
+                num_epochs=4,
+                lr=2.5e-4,
+                anneal_lr_iterations=2500,
+                clip_eps=0.1,
+                value_clip_eps=0.1,
+                entropy_coef=0.01,
+                value_coef=0.5,
+                max_grad_norm=0.5,
+                gamma=0.99,
+                gae_lambda=0.95,
+                **ATARI_NETWORKS,
+            ),
+        ),
+        # Hopper on one GPU (BENCHMARKS.md: mean-policy return 3000 in a median 50 s on an H100):
+        # brax_hopper's networks and losses with 8192 envs x 32 steps in 8 minibatches.
+        ("ppo", "hopper_gpu"): Preset(
+            tasks=("hopper",),
+            overrides={
+                **PPO_BRAX_HOPPER,
+                "num_envs": 8192,
+                "horizon": 32,
+                "num_minibatches": 8,
+                "num_epochs": 4,
+                "eval_envs": 32,
+                "eval_every": 10,
+            },
+        ),
+    }
+)
+
+
+def by_algorithm(algo: str) -> Mapping[str, Mapping[str, Any]]:
+    """Read-only ``{preset name: overrides}`` of ``algo``'s rows, in table order (an algorithm
+    module's ``PRESETS``; empty for an algorithm without presets)."""
+    return MappingProxyType({name: row.overrides for (a, name), row in TABLE.items() if a == algo})

@@ -1,0 +1,242 @@
+"""The presets table (``jaxpg.algos.presets``): key presets hold the values they held when each
+algorithm module kept its own ``PRESETS`` dict (written out here as literals, so that a change to
+the table shows up as a failing test), every row builds a valid ``Config`` for each task it was
+made for, the modules' ``PRESETS`` are read-only views of the table, and ``algos.preset`` refuses a
+preset off its tasks."""
+
+from __future__ import annotations
+
+import functools
+
+import pytest
+
+from jaxpg import algos, envs
+from jaxpg.algos import presets
+
+LYCEUM = dict(
+    sampling="episodic",
+    num_envs=11,
+    horizon=1000,
+    sample_budget=10240,
+    gamma=0.995,
+    gae_lambda=0.97,
+    policy="gaussian",
+    policy_hidden=(32, 32),
+    policy_activation="tanh",
+    network_init="glorot_uniform",
+    log_std_init=0.0,
+    value_hidden=(128, 128),
+    value_activation="relu",
+    value_lr=1e-3,
+    value_epochs=3,
+    value_batch_size=64,
+    value_target="returns",
+    normalize_observations=False,
+)
+MINPY = dict(
+    num_envs=16,
+    horizon=5,
+    optimizer="rmsprop",
+    lr=7e-4,
+    rmsprop_decay=0.99,
+    eps=1e-5,
+    gamma=0.99,
+    gae_lambda=1.0,
+    entropy_coef=0.01,
+    value_coef=0.5,
+    max_grad_norm=0.5,
+)
+ATARI_NETWORKS = dict(
+    conv_torso="nature",
+    policy_hidden=(512,),
+    policy_activation="relu",
+    value_hidden=(512,),
+    value_activation="relu",
+    network_init="orthogonal",
+    eval_envs=0,
+)
+
+# (algorithm, preset) -> (overrides, tasks): the values of the per-module dicts the table replaced.
+EXPECTED = {
+    ("npg", "hopper"): (
+        dict(
+            num_envs=256,
+            horizon=64,
+            kl_delta=0.07,
+            normalize_observations=True,
+            log_std_init=0.0,
+            value_hidden=(128, 128),
+            value_epochs=10,
+            value_minibatches=16,
+            value_epoch_samples=16384,
+            fisher_samples=16384,
+            normalize_value_targets=True,
+            eval_envs=16,
+            eval_every=120,
+        ),
+        ("hopper",),
+    ),
+    ("npg", "pendulum_cpu"): (
+        dict(
+            num_envs=32,
+            horizon=128,
+            gamma=0.99,
+            kl_delta=0.03,
+            policy_hidden=(32, 32),
+            value_hidden=(64, 64),
+            value_batch_size=512,
+        ),
+        ("inverted_pendulum",),
+    ),
+    ("npg", "lyceum"): ({**LYCEUM, "kl_delta": 0.05}, None),
+    ("trpo", "lyceum"): ({**LYCEUM, "max_kl": 0.05}, None),
+    ("a2c", "minpy"): (MINPY, None),
+    ("a2c", "atari"): ({**MINPY, "value_coef": 0.25, **ATARI_NETWORKS}, ("atari_pong", "pong")),
+    ("a2c", "pong"): (
+        dict(
+            policy_hidden=(200,),
+            policy_activation="relu",
+            value_hidden=(200,),
+            value_activation="relu",
+            horizon=8,
+            optimizer="adam",
+            lr=1e-3,
+            gamma=0.99,
+            gae_lambda=0.95,
+            entropy_coef=0.01,
+            value_coef=0.5,
+            max_grad_norm=0.5,
+            eval_envs=0,
+        ),
+        ("pong", "atari_pong"),
+    ),
+    ("ppo", "hopper_gpu"): (
+        dict(
+            num_envs=8192,
+            horizon=32,
+            num_minibatches=8,
+            num_epochs=4,
+            lr=3e-4,
+            max_grad_norm=0.0,
+            entropy_coef=1e-3,
+            gamma=0.99,
+            gae_lambda=0.95,
+            reward_scaling=10.0,
+            normalize_observations=True,
+            policy_hidden=(32, 32, 32, 32),
+            policy_activation="swish",
+            value_hidden=(256, 256, 256, 256, 256),
+            value_activation="swish",
+            network_init="orthogonal",
+            eval_envs=32,
+            eval_every=10,
+        ),
+        ("hopper",),
+    ),
+    ("vpg", "lightning"): (
+        dict(
+            sampling="continuing",
+            num_envs=10,
+            horizon=250,
+            gamma=0.9,
+            policy="gaussian",
+            policy_hidden=(64, 64),
+            policy_activation="tanh",
+            network_init="pytorch",
+            log_std_init=0.0,
+            value_hidden=(64, 64),
+            value_activation="tanh",
+            optimizer="adam",
+            lr=3.9e-3,
+            value_lr=3.9e-3,
+            value_epochs=1,
+            value_batch_size=0,
+            return_normalization="batch",
+        ),
+        ("inverted_pendulum",),
+    ),
+}
+
+# What every algorithm's presets were called, in the order its module listed them.
+EXPECTED_NAMES = {
+    "npg": ["pendulum_cpu", "hopper", "hopper_gpu", "lyceum"],
+    "trpo": ["lyceum"],
+    "reinforce": ["gymnasium_tutorial", "kokoyi"],
+    "reinforce_points": [],
+    "vpg": ["lightning"],
+    "a2c": ["pong", "minpy", "cartpole", "atari"],
+    "ppo": ["brax_hopper", "brax_hopper_short", "pendulum", "atari", "hopper_gpu"],
+}
+
+# Tasks an any-task preset is checked against.
+ANY_TASK_CHECKS = ("inverted_pendulum", "cartpole", "hopper")
+
+
+@functools.cache
+def env(task: str) -> envs.Env:
+    return envs.make(task)
+
+
+@pytest.mark.parametrize("key", sorted(EXPECTED), ids="/".join)
+def test_key_presets_keep_their_values(key):
+    algo, name = key
+    overrides, tasks = EXPECTED[key]
+    row = presets.TABLE[key]
+    assert dict(row.overrides) == overrides and row.tasks == tasks
+    for value, expected in zip(row.overrides.values(), (overrides[k] for k in row.overrides), strict=True):
+        assert type(value) is type(expected)  # 1 stays an int, 1.0 a float
+    assert algos.preset(algo, name) == overrides
+    assert dict(algos.get(algo).PRESETS[name]) == overrides
+
+
+def test_every_algorithm_keeps_its_preset_names():
+    assert set(EXPECTED_NAMES) == set(algos.ALGORITHMS)
+    for algo, names in EXPECTED_NAMES.items():
+        assert list(algos.get(algo).PRESETS) == names, algo
+        assert algos.preset_names(algo) == sorted(names)
+    assert {a for a, _ in presets.TABLE} <= set(algos.ALGORITHMS)
+
+
+@pytest.mark.parametrize("key", list(presets.TABLE), ids="/".join)
+def test_every_preset_builds_a_valid_config_for_its_tasks(key):
+    algo, name = key
+    row = presets.TABLE[key]
+    config = algos.get(algo).Config(**algos.preset(algo, name))
+    assert row.tasks is None or (row.tasks and set(row.tasks) <= set(envs.names())), row.tasks
+    for task in row.tasks or ANY_TASK_CHECKS:
+        config.validate(env(task))
+        assert algos.preset(algo, name, task) == dict(row.overrides)
+        assert name in algos.preset_names(algo, task)
+
+
+def test_module_presets_are_read_only_views_of_the_table():
+    from jaxpg.algos import a2c, npg
+
+    assert npg.PRESETS["hopper"] == presets.TABLE[("npg", "hopper")].overrides
+    with pytest.raises(TypeError):
+        npg.PRESETS["mine"] = {}
+    with pytest.raises(TypeError):
+        a2c.PRESETS["pong"]["lr"] = 1.0
+    with pytest.raises(TypeError):
+        presets.TABLE[("npg", "mine")] = presets.Preset({})
+    # The ways code and notebooks read them still work.
+    assert dict(**a2c.PRESETS["pong"], num_envs=64)["num_envs"] == 64
+    assert npg.Config(**{**npg.PRESETS["hopper"], "num_envs": 8}).kl_delta == 0.07
+    # algos.preset hands out a copy to change at will.
+    copy = algos.preset("npg", "hopper")
+    copy["kl_delta"] = 1.0
+    assert npg.PRESETS["hopper"]["kl_delta"] == 0.07
+
+
+def test_lookup_refuses_unknown_names_and_other_tasks():
+    assert algos.preset("a2c", "minpy", "hopper") == algos.get("a2c").PRESETS["minpy"]  # any task
+    assert algos.preset_names("ppo", "atari_pong") == ["atari"]
+    assert algos.preset_names("npg", "hopper") == ["hopper", "hopper_gpu", "lyceum"]
+    with pytest.raises(ValueError, match="ppo's preset 'atari' was made for atari_pong, pong, not hopper"):
+        algos.preset("ppo", "atari", "hopper")
+    with pytest.raises(ValueError, match="unknown preset 'nope' for npg; known presets: hopper, hopper_gpu"):
+        algos.preset("npg", "nope")
+    with pytest.raises(ValueError, match="unknown algorithm 'sac'"):
+        algos.preset("sac", "hopper")
+    with pytest.raises(ValueError, match="unknown algorithm 'sac'"):
+        algos.preset_names("sac")

@@ -1,5 +1,7 @@
-"""NPG and TRPO: the step obeys its trust region, updates are guarded, value targets are
-standardised on request. Their learning tests (NPG's ``pendulum_cpu`` preset and TRPO's defaults on
+"""NPG and TRPO: the step obeys its trust region, NPG's step as an optax transformation
+(``npg.scale_by_natural_gradient``) matches an explicit solve and gives ``npg.update`` the same bits
+as the CG-then-step code it replaced, updates are guarded, value targets are standardised on
+request. Their learning tests (NPG's ``pendulum_cpu`` preset and TRPO's defaults on
 ``inverted_pendulum``, two seeds each) are in ``tests/test_learning.py``.
 """
 
@@ -8,11 +10,12 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 import numpy as np
+import optax
 import pytest
 from jax.flatten_util import ravel_pytree
 
 import jaxpg.envs as envs
-from jaxpg import profiling
+from jaxpg import linalg, profiling
 from jaxpg import train as train_lib
 from jaxpg import value as value_lib
 from jaxpg.algos import core, natural_gradient, npg, trpo
@@ -65,6 +68,95 @@ def test_npg_direction_improves_surrogate(batch_and_direction):
     before = natural_gradient.surrogate(ts, ts.params, batch)
     after = natural_gradient.surrogate(ts, unravel(flat + step * cg.x), batch)
     assert float(after) > float(before)
+
+
+def explicit_problem():
+    """Parameters as a pytree of 5 numbers, a gradient and an SPD matrix ``A`` standing for
+    ``F + damping I``, with ``x = A^-1 g`` solved by NumPy."""
+    rng = np.random.default_rng(0)
+    m = rng.normal(size=(5, 5))
+    a = m @ m.T + 0.5 * np.eye(5)
+    params = {"w": jnp.zeros((2, 2)), "b": jnp.zeros((1,))}
+    _, unravel = ravel_pytree(params)
+    g = rng.normal(size=5)
+    grads = unravel(jnp.asarray(g, jnp.float32))
+    fvp = lambda v: unravel(jnp.asarray(a, jnp.float32) @ ravel_pytree(v)[0])  # noqa: E731
+    return params, grads, fvp, a, g, np.linalg.solve(a, g)
+
+
+@pytest.mark.parametrize("use_jit", [True, False], ids=["jit", "nojit"])
+def test_scale_by_natural_gradient_is_the_normalised_natural_step(use_jit):
+    """``s x`` with ``x = A^-1 g`` and ``s = sqrt(delta / g'x)``, so that ``0.5 u'Au = delta / 2``;
+    chained with ``optax.scale(-1)`` (a loss gradient) it is the opposite step."""
+    params, grads, fvp, a, g, x = explicit_problem()
+    delta = 0.02
+    transform = npg.scale_by_natural_gradient(delta, cg_iters=10)
+    update = lambda g, s, p: transform.update(g, s, p, fisher_vector_product=fvp)  # noqa: E731
+    updates, state = (jax.jit(update) if use_jit else update)(grads, transform.init(params), params)
+    assert jax.tree.structure(updates) == jax.tree.structure(params)
+    flat = np.asarray(ravel_pytree(updates)[0])
+    step = np.sqrt(delta / g.dot(x))
+    np.testing.assert_allclose(flat, step * x, rtol=1e-4, atol=1e-6)
+    np.testing.assert_allclose(0.5 * flat @ a @ flat, delta / 2, rtol=1e-4)
+    np.testing.assert_allclose(float(state.step_size), step, rtol=1e-4)
+    np.testing.assert_array_equal(np.asarray(state.step_size * state.direction), flat)
+    assert float(state.cg_residual) < 1e-4
+
+    descend = optax.chain(npg.scale_by_natural_gradient(delta, cg_iters=10), optax.scale(-1.0))
+    chain_update = lambda g, s, p: descend.update(g, s, p, fisher_vector_product=fvp)  # noqa: E731
+    down, _ = (jax.jit(chain_update) if use_jit else chain_update)(grads, descend.init(params), params)
+    np.testing.assert_allclose(np.asarray(ravel_pytree(down)[0]), -flat, rtol=1e-6)
+    moved = optax.apply_updates(params, down)
+    np.testing.assert_allclose(np.asarray(ravel_pytree(moved)[0]), -flat, rtol=1e-6)
+
+
+def reference_update(ts):
+    """NPG's iteration as it was written before ``scale_by_natural_gradient``: conjugate gradient on
+    the flat Fisher-vector product, then the normalised step and its KL back-off."""
+    config = ts.config
+    old = ts
+    ts, traj, key = core.phase_sample(ts)
+    value_key, _ = jax.random.split(key)
+    batch = core.phase_advantages(ts, traj)
+    flat_params, unravel = ravel_pytree(ts.params)
+    grad = ravel_pytree(jax.grad(natural_gradient.surrogate, argnums=1)(ts, ts.params, batch))[0]
+    obs, weights = natural_gradient.fisher_subsample(ts, batch)
+    fvp = linalg.make_fisher_vector_product(
+        ts.policy, ts.params, obs, weights=weights, damping=config.cg_damping, mode=config.fvp
+    )
+    cg = linalg.conjugate_gradient(lambda v: ravel_pytree(fvp(unravel(v)))[0], grad, config.cg_iters)
+    step = jnp.sqrt(config.kl_delta / jnp.maximum(jnp.dot(grad, cg.x), 1e-20))
+    new_params, kl, fraction = npg.step_within_kl(ts, batch, cg.x, step, npg.kl_bound(config))
+    entropy = core.mean_entropy(ts, ts.params, batch)
+    ts, value_loss = core.phase_value_fit(ts.replace(params=new_params), batch, value_key)
+    metrics = {
+        "entropy": entropy,
+        "step_length": fraction * step,
+        "step_fraction": fraction,
+        "cg_residual": cg.residual_norm,
+        "grad_norm": jnp.linalg.norm(grad),
+        "value_loss": value_loss,
+    }
+    return core.finish_iteration(
+        old, ts, traj, loss=value_loss + kl, kl=kl, metrics=metrics, step_accepted=fraction > 0
+    )
+
+
+def test_npg_update_through_the_transform_keeps_its_bits(pendulum):
+    """Three iterations of ``npg.update`` (which steps through ``scale_by_natural_gradient``) and of
+    the explicit reference give the same bits: parameters, value parameters and every metric. A
+    large ``kl_delta`` makes the back-off halve some steps; the Fisher products use a subsample."""
+    config = npg.Config(**{**SMALL, "kl_delta": 0.5, "fisher_samples": 100, "eval_envs": 0})
+    initial = npg.init(jax.random.PRNGKey(0), pendulum, config)
+    run = lambda update: jax.jit(lambda s: train_lib.scan_updates(update, s, 3))(initial)  # noqa: E731
+    (ts, metrics), (ts_ref, metrics_ref) = run(npg.update), run(reference_update)
+    assert np.any(np.asarray(metrics["step_fraction"]) < 1)
+    got, want = jax.tree.leaves((ts.params, ts.value_params)), jax.tree.leaves((ts_ref.params, ts_ref.value_params))
+    for a, b in zip(got, want, strict=True):
+        np.testing.assert_array_equal(np.asarray(a), np.asarray(b))
+    assert set(metrics) == set(metrics_ref)
+    for k in metrics:
+        np.testing.assert_array_equal(np.asarray(metrics[k]), np.asarray(metrics_ref[k]), err_msg=k)
 
 
 def test_trpo_line_search_respects_max_kl(batch_and_direction):

@@ -67,22 +67,35 @@ def surrogate(ts: core.TrainState, params: Any, batch: core.Batch) -> jax.Array:
     return core.weighted_mean(ratio * batch.advantages, batch.weights)
 
 
+def policy_gradient(ts: core.TrainState, batch: core.Batch) -> Any:
+    """The vanilla policy gradient ``g`` at ``ts.params``, a pytree like the parameters."""
+    return jax.grad(surrogate, argnums=1)(ts, ts.params, batch)
+
+
 def phase_gradient(ts: core.TrainState, batch: core.Batch) -> jax.Array:
     """The vanilla policy gradient ``g`` at ``ts.params``, flat ``[num_params]``."""
-    grad = jax.grad(surrogate, argnums=1)(ts, ts.params, batch)
-    return ravel_pytree(grad)[0]
+    return ravel_pytree(policy_gradient(ts, batch))[0]
+
+
+def fisher_operator(ts: core.TrainState, obs: jax.Array, weights: jax.Array) -> Callable[[Any], Any]:
+    """``v -> (F + cg_damping I) v`` on pytrees like the parameters, ``F`` the policy's Fisher
+    matrix at ``ts.params`` averaged over the states ``obs [M, obs_dim]`` weighted by
+    ``weights [M]`` (``config.fvp`` says how)."""
+    config = ts.config
+    return linalg.make_fisher_vector_product(
+        ts.policy, ts.params, obs, weights=weights, damping=config.cg_damping, mode=config.fvp
+    )
 
 
 def fisher_vector_product(ts: core.TrainState, obs: jax.Array, weights: jax.Array) -> Callable[[jax.Array], jax.Array]:
-    """``v [num_params] -> (F + cg_damping I) v [num_params]``, ``F`` the policy's Fisher matrix at
-    ``ts.params`` averaged over the states ``obs [M, obs_dim]`` weighted by ``weights [M]``
-    (``config.fvp`` says how)."""
-    config = ts.config
-    _, unravel = ravel_pytree(ts.params)
-    fvp = linalg.make_fisher_vector_product(
-        ts.policy, ts.params, obs, weights=weights, damping=config.cg_damping, mode=config.fvp
-    )
-    return lambda v: ravel_pytree(fvp(unravel(v)))[0]
+    """``fisher_operator`` on flat vectors: ``v [num_params] -> (F + cg_damping I) v [num_params]``."""
+    return flat_operator(fisher_operator(ts, obs, weights), ts.params)
+
+
+def flat_operator(operator: Callable[[Any], Any], params: Any) -> Callable[[jax.Array], jax.Array]:
+    """``operator`` (pytrees shaped like ``params`` in and out) on flat ``[num_params]`` vectors."""
+    _, unravel = ravel_pytree(params)
+    return lambda v: ravel_pytree(operator(unravel(v)))[0]
 
 
 FISHER_STREAM = 0x666973  # folded into the state's key to draw the Fisher subsample

@@ -4,16 +4,18 @@ One iteration:
   1. sample ``num_envs x horizon`` transitions with the stochastic policy (``core.phase_sample``);
   2. advantages by GAE(gamma, lambda) (Schulman et al. 2016) from the current value function
      (``core.phase_advantages``);
-  3. vanilla policy gradient ``g = grad E[A log pi(a|s)]`` (``natural_gradient.phase_gradient``);
+  3. vanilla policy gradient ``g = grad E[A log pi(a|s)]`` (``natural_gradient.policy_gradient``);
   4. natural direction ``x = F^-1 g`` by conjugate gradient on Fisher-vector products
-     (``natural_gradient.phase_natural_gradient``);
-  5. normalised step ``theta += sqrt(delta / g'x) * x`` with ``delta = kl_delta`` (so that
-     ``0.5 * step' F step = delta / 2``), halved while its measured mean KL exceeds ``kl_bound``
-     (twice the intended ``delta / 2``);
+     (``natural_gradient.fisher_operator``) and the normalised step ``sqrt(delta / g'x) * x`` with
+     ``delta = kl_delta`` (so that ``0.5 * step' F step = delta / 2``): both are
+     ``scale_by_natural_gradient``, an optax transformation that research code can chain;
+  5. ``theta += step``, halved while its measured mean KL exceeds ``kl_bound`` (twice the
+     intended ``delta / 2``; ``step_within_kl``);
   6. fit the value function to its targets by minibatch Adam (``core.phase_value_fit``);
   7. reject a non-finite update, update observation statistics (``core.finish_iteration``).
 
-What NPG adds to the core and to the natural-gradient pieces it shares with TRPO is step 5.
+What NPG adds to the core and to the natural-gradient pieces it shares with TRPO is the
+normalised step of 4 and the back-off of 5.
 ``make_update(advantage_fn)`` is ``update`` with another advantage estimator in step 2, and
 ``update_with_kl_delta(ts, kl_delta)`` is ``update`` with a (possibly traced) ``kl_delta``, so that
 one program can ``vmap`` over it.
@@ -24,12 +26,14 @@ from __future__ import annotations
 import dataclasses
 import functools
 from collections.abc import Callable
-from typing import Any, ClassVar
+from typing import Any, ClassVar, NamedTuple
 
 import jax
 import jax.numpy as jnp
+import optax
 from jax.flatten_util import ravel_pytree
 
+from jaxpg import linalg
 from jaxpg.algos import core, natural_gradient, presets
 from jaxpg.algos.core import TrainState
 from jaxpg.envs import Env
@@ -69,6 +73,66 @@ def normalized_step(grad: jax.Array, direction: jax.Array, delta: jax.Array | fl
     """``[]`` step length ``sqrt(delta / g'x)`` along the natural direction ``x = F^-1 g``, both
     flat ``[num_params]``: the quadratic model ``0.5 s^2 x'Fx`` of the step's KL is ``delta / 2``."""
     return jnp.sqrt(delta / jnp.maximum(jnp.dot(grad, direction), 1e-20))
+
+
+class NaturalGradientState(NamedTuple):
+    """What the last ``scale_by_natural_gradient`` update solved (nothing carries over from one
+    update to the next).
+
+    Attributes:
+      direction: ``[num_params]`` the natural direction ``x = F^-1 g``, flat; the updates are
+        ``step_size * direction`` in the parameters' shape. For a caller that takes fractions of
+        the step: NPG's KL back-off (``step_within_kl``) steps ``fraction * step_size`` along it.
+      step_size: ``[]`` the normalised step length ``sqrt(kl_delta / g'x)``.
+      cg_residual: ``[]`` ``||g - F x||`` as the conjugate gradient tracked it.
+    """
+
+    direction: jax.Array
+    step_size: jax.Array
+    cg_residual: jax.Array
+
+
+def scale_by_natural_gradient(kl_delta: jax.Array | float, cg_iters: int) -> optax.GradientTransformationExtraArgs:
+    """NPG's step as an optax transformation: a gradient ``g`` in, ``s x`` out, where
+    ``x = F^-1 g`` is the natural direction (``cg_iters`` iterations of
+    ``linalg.conjugate_gradient``) and ``s = sqrt(kl_delta / g'x)`` the normalised step length
+    (``normalized_step``), so that the quadratic model ``0.5 (s x)' F (s x)`` of the step's mean
+    KL is ``kl_delta / 2`` (Kakade 2001; the step of LyceumAI and mjrl).
+
+    ``update(grads, state, params=None, *, fisher_vector_product)``: ``grads`` and the returned
+    updates are pytrees shaped like the parameters; ``fisher_vector_product(v) -> (F + damping I) v``
+    maps such pytrees at the current parameters (``linalg.make_fisher_vector_product``, which
+    takes the damping, or ``natural_gradient.fisher_operator``). It is an extra argument of
+    ``update`` (``optax.GradientTransformationExtraArgs``) because ``F`` moves with the parameters
+    and the batch; ``optax.chain`` hands it through. The solve runs on the flattened vector
+    (``ravel_pytree``), as ``npg.update`` always did.
+
+    The updates point along ``+g``'s natural direction: for the gradient of an objective to
+    maximise (NPG's surrogate) apply them as they are, for a loss chain ``optax.scale(-1.0)``
+    after it. ``kl_delta`` may be traced (``update_with_kl_delta``).
+    """
+
+    def init(params: Any) -> NaturalGradientState:
+        flat_params, _ = ravel_pytree(params)
+        return NaturalGradientState(jnp.zeros_like(flat_params), jnp.zeros(()), jnp.zeros(()))
+
+    def update(
+        grads: Any,
+        state: NaturalGradientState,
+        params: Any = None,
+        *,
+        fisher_vector_product: Callable[[Any], Any],
+        **extra_args: Any,
+    ) -> tuple[Any, NaturalGradientState]:
+        del state, params, extra_args
+        flat_grad, unravel = ravel_pytree(grads)
+        cg = linalg.conjugate_gradient(
+            natural_gradient.flat_operator(fisher_vector_product, grads), flat_grad, cg_iters
+        )
+        step = normalized_step(flat_grad, cg.x, kl_delta)
+        return unravel(step * cg.x), NaturalGradientState(cg.x, step, cg.residual_norm)
+
+    return optax.GradientTransformationExtraArgs(init, update)
 
 
 BACKTRACKS = 6  # halvings of the natural step tried when it overshoots its KL bound
@@ -133,18 +197,23 @@ def update_using(
     ts, traj, key = core.phase_sample(ts)
     value_key, _ = jax.random.split(key)
     batch = core.phase_advantages(ts, traj, advantage_fn)
-    grad = natural_gradient.phase_gradient(ts, batch)
-    cg = natural_gradient.phase_natural_gradient(ts, batch, grad)
-    step = normalized_step(grad, cg.x, ts.config.kl_delta if kl_delta is None else kl_delta)
-    new_params, kl, fraction = step_within_kl(ts, batch, cg.x, step, kl_bound(ts.config, kl_delta))
+    grads = natural_gradient.policy_gradient(ts, batch)
+    natural_step = scale_by_natural_gradient(ts.config.kl_delta if kl_delta is None else kl_delta, ts.config.cg_iters)
+    fvp = natural_gradient.fisher_operator(ts, *natural_gradient.fisher_subsample(ts, batch))
+    # The updates are the full step; the KL back-off takes fractions of it, from the state's
+    # direction and step size (as before the transform, so that the results are the same bits).
+    _, solve = natural_step.update(grads, natural_step.init(ts.params), ts.params, fisher_vector_product=fvp)
+    new_params, kl, fraction = step_within_kl(
+        ts, batch, solve.direction, solve.step_size, kl_bound(ts.config, kl_delta)
+    )
     entropy = core.mean_entropy(ts, ts.params, batch)
     ts, value_loss = core.phase_value_fit(ts.replace(params=new_params), batch, value_key)
     metrics = {
         "entropy": entropy,
-        "step_length": fraction * step,
+        "step_length": fraction * solve.step_size,
         "step_fraction": fraction,
-        "cg_residual": cg.residual_norm,
-        "grad_norm": jnp.linalg.norm(grad),
+        "cg_residual": solve.cg_residual,
+        "grad_norm": jnp.linalg.norm(ravel_pytree(grads)[0]),
         "value_loss": value_loss,
     }
     return core.finish_iteration(

@@ -154,3 +154,14 @@ def test_a2c_step_is_the_shared_loss_without_clipping(cartpole):
 def test_validate_rejects_impossible_settings(algo, overrides, message, cartpole):
     with pytest.raises(ValueError, match=message):
         algo.Config(**overrides).validate(cartpole)
+
+
+def test_ppo_learning_rate_metric_is_the_optimizers_schedule():
+    """The logged learning rate is optax's schedule at the iteration's first optimizer step:
+    a linear decay to 0 over ``anneal_lr_iterations`` iterations, constant without annealing."""
+    config = ppo.Config(lr=3e-4, anneal_lr_iterations=10, num_epochs=2, num_minibatches=4)
+    for it in (0, 1, 5, 10, 12):
+        expected = 3e-4 * max(0.0, 1.0 - it / 10)
+        assert float(ppo.learning_rate(config, jnp.asarray(it))) == pytest.approx(expected, rel=1e-6, abs=1e-12)
+    constant = ppo.Config(lr=3e-4)
+    assert float(ppo.learning_rate(constant, jnp.asarray(7))) == pytest.approx(3e-4)

@@ -24,7 +24,6 @@ Both scans (epochs, minibatches) run inside ``jit``.
 from __future__ import annotations
 
 import dataclasses
-from typing import Any
 
 import jax
 import jax.numpy as jnp
@@ -90,24 +89,30 @@ class Config(actor_critic.ActorCriticConfig):
 PRESETS = presets.by_algorithm("ppo")
 
 
-def optimizer(config: Config) -> optax.GradientTransformation:
-    """Gradient clipping, then Adam with a constant or linearly annealed learning rate.
+def learning_rate_schedule(config: Config) -> optax.Schedule | float:
+    """The learning rate as optax takes it: ``config.lr``, or a linear decay to 0 over
+    ``anneal_lr_iterations`` iterations that counts optimizer steps (``num_epochs *
+    num_minibatches`` per iteration)."""
+    if not config.anneal_lr_iterations:
+        return config.lr
+    steps = config.anneal_lr_iterations * config.num_epochs * config.num_minibatches
+    return optax.linear_schedule(config.lr, 0.0, steps)
 
-    The annealing schedule counts optimizer steps: ``num_epochs * num_minibatches`` per iteration.
-    """
-    lr: Any = config.lr
-    if config.anneal_lr_iterations:
-        steps = config.anneal_lr_iterations * config.num_epochs * config.num_minibatches
-        lr = optax.linear_schedule(config.lr, 0.0, steps)
-    return optax.chain(core.clip_gradients(config.max_grad_norm), optax.adam(lr, eps=config.adam_eps))
+
+def optimizer(config: Config) -> optax.GradientTransformation:
+    """Gradient clipping, then Adam with ``learning_rate_schedule``."""
+    return optax.chain(
+        core.clip_gradients(config.max_grad_norm), optax.adam(learning_rate_schedule(config), eps=config.adam_eps)
+    )
 
 
 def learning_rate(config: Config, iteration: jax.Array) -> jax.Array:
-    """``[]`` the learning rate at the start of ``iteration`` (0-based)."""
-    if not config.anneal_lr_iterations:
-        return jnp.asarray(config.lr, jnp.float32)
-    frac = jnp.clip(iteration.astype(jnp.float32) / config.anneal_lr_iterations, 0.0, 1.0)
-    return config.lr * (1.0 - frac)
+    """``[]`` the learning rate at the start of ``iteration`` (0-based): the schedule's value at
+    that iteration's first optimizer step."""
+    schedule = learning_rate_schedule(config)
+    if not callable(schedule):
+        return jnp.asarray(schedule, jnp.float32)
+    return jnp.asarray(schedule(iteration * config.num_epochs * config.num_minibatches), jnp.float32)
 
 
 def init(key: jax.Array, env: Env, config: Config) -> TrainState:

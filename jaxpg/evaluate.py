@@ -115,6 +115,28 @@ def rollout(
     return Episodes({k: np.asarray(v) for k, v in out.items()})
 
 
+def record_policy(
+    env: Any,
+    policy: Any,
+    params: Any,
+    obs_stats: Any,
+    path: str | Path,
+    seed: int = 0,
+    max_steps: int | None = None,
+) -> tuple[Path, float, int]:
+    """Roll out the mean policy for one episode (``rollout``) and save its video
+    (``video.save_episode_video``); returns ``(path, episode
+    return, episode length)``."""
+    from jaxpg import video as video_lib
+
+    horizon = int(max_steps or env.max_episode_steps)
+    episodes = rollout(env, policy, params, obs_stats, seed, num_episodes=1, horizon=horizon)
+    length = int(episodes.lengths[0])
+    obs, qpos, qvel = episodes.episode_states(0)
+    out = video_lib.save_episode_video(env, obs, qpos, qvel, path)
+    return out, float(episodes.returns[0]), length
+
+
 def gymnasium_installed() -> bool:
     """Gymnasium can be imported (``GYMNASIUM_INSTALL`` says how to install it otherwise)."""
     try:

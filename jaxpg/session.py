@@ -302,14 +302,14 @@ class _Callbacks:
 
     def video(self, ts: Any, step: int) -> None:
         from jaxpg import distributed
-        from jaxpg import video as video_lib
+        from jaxpg import evaluate as evaluate_lib
 
         path = self.plan.run_dir / runlog.VIDEO_DIR / f"iter_{step:06d}.mp4"
         try:
             # Host copies: the video is recorded by process 0 alone, off the training mesh.
             params = _seed_slice(distributed.host_copy(ts.params), 0, self.run.vmap_seeds)
             stats = _seed_slice(distributed.host_copy(ts.obs_stats), 0, self.run.vmap_seeds)
-            out, ret, length = video_lib.record_policy(self.plan.env, ts.policy, params, stats, path, seed=step)
+            out, ret, length = evaluate_lib.record_policy(self.plan.env, ts.policy, params, stats, path, seed=step)
             self.progress.write(
                 f"video {out} (mean policy, seed {self.run.seeds[0]}: return {ret:.1f}, {length} steps)"
             )

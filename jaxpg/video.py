@@ -296,24 +296,3 @@ def save_episode_video(
     sl = slice(None, None, stride)
     frames = render_states(env, obs[sl], None if qpos is None else qpos[sl], None if qvel is None else qvel[sl])
     return write_video(frames, path, fps)
-
-
-def record_policy(
-    env: Any,
-    policy: Any,
-    params: Any,
-    obs_stats: Any,
-    path: str | os.PathLike,
-    seed: int = 0,
-    max_steps: int | None = None,
-) -> tuple[Path, float, int]:
-    """Roll out the mean policy for one episode and save its video; returns ``(path, episode
-    return, episode length)``."""
-    from jaxpg import evaluate
-
-    horizon = int(max_steps or env.max_episode_steps)
-    episodes = evaluate.rollout(env, policy, params, obs_stats, seed, num_episodes=1, horizon=horizon)
-    length = int(episodes.lengths[0])
-    obs, qpos, qvel = episodes.episode_states(0)
-    out = save_episode_video(env, obs, qpos, qvel, path)
-    return out, float(episodes.returns[0]), length

@@ -87,6 +87,28 @@ def test_the_core_imports_no_algorithm():
         assert algos_imports(f"jaxpg.algos.core.{name}") <= {"core"}, name
 
 
+def jaxpg_imports(module_name: str) -> set[str]:
+    """The ``jaxpg`` modules (``jaxpg.X``, first name below ``jaxpg``) that ``module_name``'s source
+    imports anywhere, function-level imports included."""
+    tree = ast.parse(inspect.getsource(importlib.import_module(module_name)))
+    found = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom) and node.module == "jaxpg":
+            found |= {alias.name for alias in node.names}
+        elif isinstance(node, ast.ImportFrom) and node.module and node.module.startswith("jaxpg."):
+            found.add(node.module.split(".")[1])
+        elif isinstance(node, ast.Import):
+            found |= {a.name.split(".")[1] for a in node.names if a.name.startswith("jaxpg.")}
+    return found
+
+
+def test_videos_draw_and_evaluation_rolls_out_with_no_import_cycle():
+    """``video`` draws and writes frames; ``evaluate`` rolls policies out (and records a policy's
+    video through ``video``). The dependency goes one way only."""
+    assert "evaluate" not in jaxpg_imports("jaxpg.video")
+    assert "video" in jaxpg_imports("jaxpg.evaluate")
+
+
 # -- Sampling ----------------------------------------------------------------------------------
 
 

@@ -252,7 +252,8 @@ class _Callbacks:
 
     def eta(self, last: int) -> float | None:
         """Seconds left at the training rate measured after the first block (which compiles), plus
-        the evaluations still due at their measured cost; ``None`` until a block after the first."""
+        the evaluations still due at their measured cost, or the time limit's remainder when that
+        comes first (``--minutes``); ``None`` until a block after the first."""
         timed = self.block_times[1:]
         iterations = sum(n for n, _ in timed)
         if not iterations:
@@ -261,7 +262,10 @@ class _Callbacks:
         per_eval = self.eval_seconds / self.evaluations if self.evaluations else 0.0
         every = int(self.plan.config.eval_every) if getattr(self.plan.config, "eval_envs", 0) else 0
         evals_left = (left // every if every else 0) + (1 if every else 0)
-        return left * sum(t for _, t in timed) / iterations + evals_left * per_eval
+        eta = left * sum(t for _, t in timed) / iterations + evals_left * per_eval
+        if self.plan.time_limit_s is not None and self.clock_start is not None:
+            eta = min(eta, max(0.0, self.plan.time_limit_s - (time.perf_counter() - self.clock_start)))
+        return eta
 
     def _note_overflow(self, metrics: dict[str, np.ndarray], first: int) -> None:
         """One line, the first time the physics reports an overflow (MuJoCo Warp's solver at its

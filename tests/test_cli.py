@@ -8,6 +8,7 @@ so a resume or a second run hits jit's cache). Bad-input tests fail before anyth
 import dataclasses
 import json
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -172,6 +173,17 @@ def test_minutes_stop_after_the_time_limit_with_a_checkpoint(trained, runs, caps
     assert max(int(c.name) for c in (limited / "checkpoints").iterdir() if c.name.isdigit()) == 4
     assert cli.main(["--resume", str(limited), "--iterations", "6"]) == 0
     assert runlog.read_metrics(limited)[-1]["iteration"] == 6
+
+
+def test_minutes_bound_the_eta(runs, capsys):
+    """With ``--minutes`` the progress line's time left is the time limit's remainder when that
+    comes before the last iteration (here 10^6 iterations, about an hour at this rate, against a
+    limit of 0.01 s)."""
+    run_dir = runs / "eta_limited"
+    assert cli.main([*TINY, "--iterations", "1000000", "--minutes", "2e-4", "--run-dir", str(run_dir)]) == 0
+    out = capsys.readouterr().out
+    etas = re.findall(r"ETA (\S+)", out)
+    assert etas and all(eta == "0:00" for eta in etas), out
 
 
 def test_run_saved_under_old_field_names_loads_evaluates_and_resumes(trained, runs, capsys):

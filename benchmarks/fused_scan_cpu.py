@@ -22,7 +22,7 @@ def ms_per_iteration(task: str, num_envs: int, per_call: int, iterations: int = 
     """Milliseconds per NPG iteration when ``per_call`` iterations run in one compiled scan."""
     env = envs.make(task)
     config = npg.Config(num_envs=num_envs, horizon=32, eval_envs=0, value_batch_size=num_envs * 4)
-    ts = train._private_copy(npg.init(jax.random.PRNGKey(0), env, config))
+    ts = train.own_buffers(npg.init(jax.random.PRNGKey(0), env, config))
     block = train.compiled_block(npg.update, per_call, False)
     ts, _ = jax.block_until_ready(block(ts))  # compile
     start = time.perf_counter()

@@ -107,7 +107,7 @@ def train_fps(num_envs: int, size: int, per_call: int = 1, iterations: int = 24)
 
     a2c = algos.get("a2c")
     config = a2c_config(num_envs)
-    ts = train_lib._private_copy(a2c.init(jax.random.PRNGKey(0), envs.make_shared("pong", size=size), config))
+    ts = train_lib.own_buffers(a2c.init(jax.random.PRNGKey(0), envs.make_shared("pong", size=size), config))
     step = train_lib.compiled_block(a2c.update, per_call, False)
     start = time.perf_counter()
     ts, _ = jax.block_until_ready(step(ts))

@@ -66,7 +66,7 @@ def run_one(args: argparse.Namespace, seed: int) -> dict:
             ts, metrics = block_fn(ts)
         return ts, metrics
 
-    ts = train_lib._private_copy(ts)
+    ts = train_lib.own_buffers(ts)
     history = []
     reached_at = None
     while True:

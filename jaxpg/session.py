@@ -78,26 +78,6 @@ def initial_state(module: Any, env: Any, config: Any, seeds: Sequence[int]) -> A
     return init() if len(seeds) > 1 else init(jax.random.PRNGKey(seeds[0]))
 
 
-def distinct_buffers(tree: Any) -> Any:
-    """A copy of ``tree`` in which no two leaves share a device buffer (the training step donates
-    its input, and XLA refuses to donate one buffer twice)."""
-    import jax
-
-    seen: set[int] = set()
-
-    def fresh(x: Any) -> Any:
-        try:
-            ptr = x.unsafe_buffer_pointer()
-        except Exception:  # noqa: BLE001 - sharded or deleted arrays: copy to be safe
-            return jax.numpy.array(x, copy=True)
-        if ptr in seen:
-            return jax.numpy.array(x, copy=True)
-        seen.add(ptr)
-        return x
-
-    return jax.tree.map(fresh, tree)
-
-
 def _seed_slice(tree: Any, index: int, vmap_seeds: bool) -> Any:
     import jax
 
@@ -563,7 +543,6 @@ def _train(plan_: Plan, ts: Any, wall_offset: float, interrupts: _Interrupts) ->
         f"{jax.device_count()} {jax.devices()[0].device_kind} device(s)"
         f"{f' in {jax.process_count()} processes' if jax.process_count() > 1 else ''} -> {run_dir}"
     )
-    ts = distinct_buffers(ts)
     update, evaluate = plan_.module.update, train.evaluate_state
     mesh = distributed.env_mesh() if run.shard else None
     if mesh is not None:

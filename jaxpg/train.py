@@ -66,7 +66,12 @@ def compiled_block(update: UpdateFn, block_size: int, seeds: bool) -> Callable:
 
 
 @jax.jit
-def _private_copy(tree: Any) -> Any:
+def own_buffers(tree: Any) -> Any:
+    """A copy of ``tree`` whose every leaf has its own device buffer, committed to its device the
+    way a jitted call's outputs are. ``train`` starts from it: its compiled blocks donate their
+    input state, which XLA refuses when two leaves share a buffer (a state built eagerly can, e.g.
+    an observation stored twice), and a block's first call on uncommitted leaves would compile a
+    second program for the committed outputs of the next call."""
     return jax.tree.map(jnp.copy, tree)
 
 
@@ -221,7 +226,7 @@ def train(
     # Donation needs every leaf in its own buffer (states built eagerly can alias, e.g. an
     # observation stored twice), and a jitted copy also commits the leaves to their device the way
     # the block's outputs are, so the second block reuses the first block's compilation.
-    train_state = _private_copy(train_state)
+    train_state = own_buffers(train_state)
     start = int(np.max(jax.device_get(train_state.iteration)))
     evaluator: Any = None
     done = 0

@@ -2,6 +2,8 @@
 
 import os
 
+import pytest
+
 # MuJoCo picks its OpenGL backend at first import: jaxpg.video.configure_gl sets MUJOCO_GL to a
 # backend whose library loads (OSMesa from Debian's libosmesa6, which .ci/run installs, or EGL),
 # and to none on a machine without either, so that `import mujoco` still works there and the
@@ -16,3 +18,19 @@ if "JAXPG_COMPILATION_CACHE" not in os.environ:
     import tempfile
 
     os.environ["JAXPG_COMPILATION_CACHE"] = tempfile.mkdtemp(prefix="jaxpg-xla-cache-")
+
+
+@pytest.fixture(autouse=True)
+def _persistent_compilation_cache_left_as_found():
+    """``jaxpg.cli.main`` turns JAX's persistent compilation cache on for the rest of its process
+    (so that a second run loads its programs). Tests that run the command line in this process
+    would leave it on for every later test, which then writes each program it compiles to disk:
+    here the cache is set back after each test, so that every test compiles as it would alone."""
+    import jax
+    from jax.experimental.compilation_cache import compilation_cache
+
+    before = jax.config.jax_compilation_cache_dir
+    yield
+    if jax.config.jax_compilation_cache_dir != before:
+        jax.config.update("jax_compilation_cache_dir", before)
+        compilation_cache.reset_cache()

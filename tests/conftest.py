@@ -20,17 +20,22 @@ if "JAXPG_COMPILATION_CACHE" not in os.environ:
     os.environ["JAXPG_COMPILATION_CACHE"] = tempfile.mkdtemp(prefix="jaxpg-xla-cache-")
 
 
+_CACHE_DIR_AT_START: list = []  # JAX's jax_compilation_cache_dir when the first test starts
+
+
 @pytest.fixture(autouse=True)
 def _persistent_compilation_cache_left_as_found():
     """``jaxpg.cli.main`` turns JAX's persistent compilation cache on for the rest of its process
     (so that a second run loads its programs). Tests that run the command line in this process
-    would leave it on for every later test, which then writes each program it compiles to disk:
-    here the cache is set back after each test, so that every test compiles as it would alone."""
+    (module fixtures too) would leave it on for every later test, which then writes each program it
+    compiles to disk: after each test the cache is set back to how the session found it, so that
+    every test compiles as it would alone."""
     import jax
     from jax.experimental.compilation_cache import compilation_cache
 
-    before = jax.config.jax_compilation_cache_dir
+    if not _CACHE_DIR_AT_START:
+        _CACHE_DIR_AT_START.append(jax.config.jax_compilation_cache_dir)
     yield
-    if jax.config.jax_compilation_cache_dir != before:
-        jax.config.update("jax_compilation_cache_dir", before)
+    if jax.config.jax_compilation_cache_dir != _CACHE_DIR_AT_START[0]:
+        jax.config.update("jax_compilation_cache_dir", _CACHE_DIR_AT_START[0])
         compilation_cache.reset_cache()

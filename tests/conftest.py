@@ -39,3 +39,17 @@ def _persistent_compilation_cache_left_as_found():
     if jax.config.jax_compilation_cache_dir != _CACHE_DIR_AT_START[0]:
         jax.config.update("jax_compilation_cache_dir", _CACHE_DIR_AT_START[0])
         compilation_cache.reset_cache()
+
+
+@pytest.fixture(autouse=True, scope="module")
+def _compiled_programs_freed_after_each_module():
+    """Free every compiled program after each test module: a single pytest process compiles
+    hundreds of MJX programs, and late in the suite XLA's CPU compiler aborted (twice, at
+    ``tests/test_train.py``) in a process that still held all of them."""
+    yield
+    import gc
+
+    import jax
+
+    jax.clear_caches()
+    gc.collect()

@@ -2,8 +2,8 @@
 
 LyceumAI's ``FluxTrainer`` (and mjrl's ``MLPBaseline``) refit the baseline every iteration with a
 few epochs of minibatch Adam on the mean squared error to the value targets (LyceumAI: batch 64,
-learning rate 1e-3, 3 epochs). Here the epochs and minibatches are two nested ``lax.scan``s over
-a fresh permutation per epoch, so shapes are static and nothing returns to the host.
+learning rate 1e-3, 3 epochs). Here every epoch's minibatches (a fresh permutation per epoch) are drawn first and
+stepped through in one ``lax.scan``, so shapes are static and nothing returns to the host.
 """
 
 from __future__ import annotations
@@ -50,6 +50,7 @@ def fit_value(
     batch_size: int,
     weights: jax.Array | None = None,
     samples_per_epoch: int = 0,
+    unroll: int = 1,
 ) -> tuple[Params, optax.OptState, jax.Array]:
     """``epochs`` passes of minibatch ``optimizer`` steps on ``value_loss``.
 
@@ -63,6 +64,9 @@ def fit_value(
       obs: ``[N, obs_dim]``; targets: ``[N]``; weights: optional ``[N]`` (e.g. the ``valid`` mask).
       key: PRNG key for the shuffles.
       epochs, batch_size, samples_per_epoch: static.
+      unroll: static; minibatch steps per iteration of the compiled loop. All ``epochs x
+        num_batches`` minibatches are drawn first and stepped through in one loop, so on a GPU,
+        where every loop iteration waits for the host, ``unroll`` steps share that wait.
     Returns ``(params, opt_state, mean_loss [])``, the loss averaged over all minibatch steps
     (each measured before its step; NaN when no step is taken).
     """
@@ -79,14 +83,16 @@ def fit_value(
         updates, opt_state = optimizer.update(grads, opt_state, params)
         return (optax.apply_updates(params, updates), opt_state), loss
 
-    def epoch(carry: tuple, epoch_key: jax.Array) -> tuple[tuple, jax.Array]:
+    def epoch_indices(epoch_key: jax.Array) -> jax.Array:
         if subsample:
-            indices = jax.random.randint(epoch_key, (num_batches, batch_size), 0, n)
-        else:
-            indices = jax.random.permutation(epoch_key, n)[: num_batches * batch_size].reshape(num_batches, batch_size)
-        return jax.lax.scan(minibatch, carry, indices)
+            return jax.random.randint(epoch_key, (num_batches, batch_size), 0, n)
+        return jax.random.permutation(epoch_key, n)[: num_batches * batch_size].reshape(num_batches, batch_size)
 
-    (params, opt_state), losses = jax.lax.scan(epoch, (params, opt_state), jax.random.split(key, epochs))
+    indices = jax.vmap(epoch_indices)(jax.random.split(key, epochs)).reshape(epochs * num_batches, batch_size)
+    steps = epochs * num_batches
+    (params, opt_state), losses = jax.lax.scan(
+        minibatch, (params, opt_state), indices, unroll=max(1, min(unroll, steps))
+    )
     return params, opt_state, jnp.mean(losses)
 
 

@@ -84,6 +84,16 @@ def test_gae(use_jit):
     ref_adv, ref_targets = np_gae(rewards, values, next_values, terminated, truncated, GAMMA, LAM)
     np.testing.assert_allclose(adv, ref_adv, rtol=1e-5, atol=1e-5)
     np.testing.assert_allclose(targets, ref_targets, rtol=1e-5, atol=1e-5)
+    # Unrolling the reverse scan (any number of steps, more than T too) gives the same numbers.
+    for unroll in (3, 1000):
+        got, _ = maybe_jit(functools.partial(R.gae, unroll=unroll), use_jit)(
+            rewards, values, next_values, terminated, truncated, GAMMA, LAM
+        )
+        np.testing.assert_allclose(got, adv, rtol=1e-6, atol=1e-6)
+        g = R.discounted_returns(rewards, terminated, truncated, GAMMA, next_values, unroll=unroll)
+        np.testing.assert_allclose(
+            g, R.discounted_returns(rewards, terminated, truncated, GAMMA, next_values), rtol=1e-6
+        )
 
 
 def test_gae_limits():

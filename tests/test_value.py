@@ -104,3 +104,42 @@ def test_samples_per_epoch_caps_the_steps_and_still_fits():
     assert int(full_state[0].count) == 20 * (N // 20)
     for a, b in zip(jax.tree.leaves(full), jax.tree.leaves(same), strict=True):
         np.testing.assert_array_equal(a, b)
+
+
+def nested_epochs_reference(params, opt_state, obs, targets, key, epochs, batch_size):
+    """The fit as two nested scans (epochs of minibatches over a fresh permutation each): the
+    layout ``fit_value`` had before it drew every epoch's minibatches first."""
+    grad_fn = jax.value_and_grad(lambda p, o, t: value_loss(VF, p, o, t))
+    n = obs.shape[0]
+
+    def minibatch(carry, idx):
+        p, s = carry
+        loss, grads = grad_fn(p, obs[idx], targets[idx])
+        updates, s = OPT.update(grads, s, p)
+        return (optax.apply_updates(p, updates), s), loss
+
+    def epoch(carry, epoch_key):
+        idx = jax.random.permutation(epoch_key, n)[: (n // batch_size) * batch_size].reshape(-1, batch_size)
+        return jax.lax.scan(minibatch, carry, idx)
+
+    (params, opt_state), losses = jax.lax.scan(epoch, (params, opt_state), jax.random.split(key, epochs))
+    return params, opt_state, jnp.mean(losses)
+
+
+def test_one_loop_of_all_minibatches_matches_nested_epochs_and_unrolls():
+    """``fit_value`` steps through the same minibatches in the same order as nested epoch and
+    minibatch scans (same bits), and ``unroll`` changes only how the loop compiles."""
+    obs, targets = problem()
+    params = VF.init(jax.random.key(0), OBS)
+    opt_state = OPT.init(params)
+    key = jax.random.key(5)
+    want = jax.jit(nested_epochs_reference, static_argnums=(5, 6))(params, opt_state, obs, targets, key, 3, 32)
+    flat = jax.jit(functools.partial(fit, epochs=3))(params, opt_state, obs, targets, key)
+    for a, b in zip(jax.tree.leaves(flat[:2]), jax.tree.leaves(want[:2]), strict=True):
+        np.testing.assert_array_equal(np.asarray(a), np.asarray(b))
+    np.testing.assert_allclose(flat[2], want[2], rtol=1e-6)  # the mean loss: a flat sum, not per epoch
+    unrolled = jax.jit(lambda *args: fit_value(VF, *args[:2], OPT, *args[2:], epochs=3, batch_size=32, unroll=5))(
+        params, opt_state, obs, targets, key
+    )
+    for a, b in zip(jax.tree.leaves(unrolled), jax.tree.leaves(want), strict=True):
+        np.testing.assert_allclose(np.asarray(a), np.asarray(b), rtol=1e-5, atol=1e-6)

@@ -92,7 +92,9 @@ class NaturalGradientState(NamedTuple):
     cg_residual: jax.Array
 
 
-def scale_by_natural_gradient(kl_delta: jax.Array | float, cg_iters: int) -> optax.GradientTransformationExtraArgs:
+def scale_by_natural_gradient(
+    kl_delta: jax.Array | float, cg_iters: int, unroll: int = 1
+) -> optax.GradientTransformationExtraArgs:
     """NPG's step as an optax transformation: a gradient ``g`` in, ``s x`` out, where
     ``x = F^-1 g`` is the natural direction (``cg_iters`` iterations of
     ``linalg.conjugate_gradient``) and ``s = sqrt(kl_delta / g'x)`` the normalised step length
@@ -109,7 +111,8 @@ def scale_by_natural_gradient(kl_delta: jax.Array | float, cg_iters: int) -> opt
 
     The updates point along ``+g``'s natural direction: for the gradient of an objective to
     maximise (NPG's surrogate) apply them as they are, for a loss chain ``optax.scale(-1.0)``
-    after it. ``kl_delta`` may be traced (``update_with_kl_delta``).
+    after it. ``kl_delta`` may be traced (``update_with_kl_delta``). ``unroll`` (static) runs
+    that many CG iterations per iteration of the compiled loop.
     """
 
     def init(params: Any) -> NaturalGradientState:
@@ -127,7 +130,7 @@ def scale_by_natural_gradient(kl_delta: jax.Array | float, cg_iters: int) -> opt
         del state, params, extra_args
         flat_grad, unravel = ravel_pytree(grads)
         cg = linalg.conjugate_gradient(
-            natural_gradient.flat_operator(fisher_vector_product, grads), flat_grad, cg_iters
+            natural_gradient.flat_operator(fisher_vector_product, grads), flat_grad, cg_iters, unroll=unroll
         )
         step = normalized_step(flat_grad, cg.x, kl_delta)
         return unravel(step * cg.x), NaturalGradientState(cg.x, step, cg.residual_norm)
@@ -198,7 +201,9 @@ def update_using(
     value_key, _ = jax.random.split(key)
     batch = core.phase_advantages(ts, traj, advantage_fn)
     grads = natural_gradient.policy_gradient(ts, batch)
-    natural_step = scale_by_natural_gradient(ts.config.kl_delta if kl_delta is None else kl_delta, ts.config.cg_iters)
+    natural_step = scale_by_natural_gradient(
+        ts.config.kl_delta if kl_delta is None else kl_delta, ts.config.cg_iters, ts.config.loop_unroll
+    )
     fvp = natural_gradient.fisher_operator(ts, *natural_gradient.fisher_subsample(ts, batch))
     # The updates are the full step; the KL back-off takes fractions of it, from the state's
     # direction and step size (as before the transform, so that the results are the same bits).

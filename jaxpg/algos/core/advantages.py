@@ -37,11 +37,23 @@ def gae_advantages(
     """
     config = ts.config
     advantages, targets = returns.gae(
-        traj.rewards, values, next_values, traj.terminated, traj.truncated, config.gamma, config.gae_lambda
+        traj.rewards,
+        values,
+        next_values,
+        traj.terminated,
+        traj.truncated,
+        config.gamma,
+        config.gae_lambda,
+        unroll=config.loop_unroll,
     )
     if config.value_target == "returns":
         targets = returns.discounted_returns(
-            traj.rewards, traj.terminated, traj.truncated, config.gamma, next_values=next_values
+            traj.rewards,
+            traj.terminated,
+            traj.truncated,
+            config.gamma,
+            next_values=next_values,
+            unroll=config.loop_unroll,
         )
     return advantages, targets
 

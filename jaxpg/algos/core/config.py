@@ -47,6 +47,11 @@ class BaseConfig:
     Trust-region guard: an update whose mean KL(old || new) over its batch exceeds
     ``max_update_kl`` is rolled back and counted in ``update_rejected`` (NPG first shrinks its
     step, see ``npg.update``); healthy updates move the policy by 0.001-0.1 nats. 0 turns it off.
+    Compiled loops: the learner's sequential loops (GAE's reverse scan over the horizon, the
+    value fit's minibatch steps, conjugate gradient) run ``loop_unroll`` steps per loop iteration.
+    The numbers are the same; on a GPU every loop iteration waits for the host to read its
+    condition, so unrolling the learner's many small steps saves that latency (1: no unrolling,
+    the fastest to compile; the CPU gains nothing from more).
     """
 
     num_envs: int = 64
@@ -68,6 +73,7 @@ class BaseConfig:
     eval_every: int = 10
     eval_horizon: int = 0
     max_update_kl: float = 1.0
+    loop_unroll: int = 1
 
     UNUSED_FIELDS: ClassVar[tuple[str, ...]] = ()
     OLD_FIELD_NAMES: ClassVar[dict[str, str | None]] = {"policy_init": "network_init"}
@@ -116,6 +122,8 @@ class BaseConfig:
                 f"eval_envs and eval_horizon must be >= 0 and eval_every >= 1, got "
                 f"{self.eval_envs}, {self.eval_horizon}, {self.eval_every}"
             )
+        if self.loop_unroll < 1:
+            raise ValueError(f"loop_unroll must be >= 1 (1: no unrolling), got {self.loop_unroll}")
         if not self.max_update_kl >= 0:
             raise ValueError(f"max_update_kl must be >= 0 (0: no check), got {self.max_update_kl}")
 

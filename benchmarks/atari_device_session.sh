@@ -16,6 +16,10 @@
 #   bash benchmarks/atari_device_session.sh ppo [SECONDS]      # PPO with the Nature CNN (preset), 16 envs
 #   bash benchmarks/atari_device_session.sh a2c_cnn [SECONDS [ENVS [flags]]]  # A2C, Nature CNN (--preset atari)
 #   bash benchmarks/atari_device_session.sh envs      # MinPy's comparison on the ROM: 1 2 4 16 64 envs, 100 s each
+#   bash benchmarks/atari_device_session.sh long [MINUTES]  # A2C (--preset atari, 16 games) and REINFORCE
+#                                              # (reinforce_points, 32 games, Nature CNN) side by side in the
+#                                              # background (setsid), MINUTES of training each, then ALE/Pong-v5
+#   bash benchmarks/atari_device_session.sh long_wait [SECONDS]  # wait for `long` (at most SECONDS), copy its results to $OUT
 #
 # Runs go to runs/atari-*; logs to $OUT (default: benchmarks/results/latest). A training stage
 # stops after its time (`timeout`): its latest checkpoint (every 250 iterations) is evaluated, and
@@ -71,8 +75,44 @@ envs)
     --run-dir runs/atari-envs --json "$OUT/atari-envs.json" 2>&1 | grep -v "A.L.E\|Stella" | tee "$OUT/atari-envs.log"
   cp runs/atari-envs/pong_envs.png "$OUT/" 2>/dev/null
   ;;
+long)  # [MINUTES]: both runs in the background, so that they outlive this call of the device tool
+  minutes=${2:-21}
+  mkdir -p /tmp/atari-long
+  export XLA_PYTHON_CLIENT_MEM_FRACTION=0.4  # two JAX processes share the GPU
+  setsid nohup bash "$0" _long_one a2c 16 "$minutes" --preset atari --checkpoint-every 2000 --log-every 500 \
+    >/tmp/atari-long/a2c.out 2>&1 </dev/null &
+  setsid nohup nice -n 19 bash "$0" _long_one reinforce_points 32 "$minutes" --conv-torso nature \
+    --policy-hidden 512 --network-init orthogonal --lr 3e-4 --checkpoint-every 250 --log-every 50 \
+    >/tmp/atari-long/reinforce_points.out 2>&1 </dev/null &
+  sleep 120
+  tail -n 3 /tmp/atari-long/*.log
+  ;;
+_long_one)  # ALGO ENVS MINUTES [flags]: one run of `long`, then its evaluation on ALE/Pong-v5
+  algo=$2 envs=$3 minutes=$4
+  shift 4
+  run=/tmp/atari-long/$algo-$envs
+  $py experiments/atari_pong.py --algo "$algo" --num-envs "$envs" --iterations 100000000 --minutes "$minutes" \
+    --run-dir "$run" --overwrite --no-progress "$@" >"/tmp/atari-long/$algo.log" 2>&1
+  for sticky in --sticky --no-sticky; do
+    timeout 300 $py -m jaxpg.evaluate "$run" --ale --episodes 10 $sticky 2>&1 | grep -v "A.L.E\|Stella" \
+      >>"/tmp/atari-long/$algo.eval.txt"
+  done
+  touch "/tmp/atari-long/$algo.done"
+  ;;
+long_wait)  # [SECONDS]
+  end=$((SECONDS + ${2:-570}))
+  while [ $SECONDS -lt $end ] && ! { [ -e /tmp/atari-long/a2c.done ] && [ -e /tmp/atari-long/reinforce_points.done ]; }; do
+    sleep 10
+  done
+  for algo in a2c reinforce_points; do
+    grep -v "A.L.E\|Stella" "/tmp/atari-long/$algo.log" | tail -n 40 >"$OUT/long-$algo.log"
+    cp "/tmp/atari-long/$algo.eval.txt" "$OUT/long-$algo.eval.txt" 2>/dev/null
+    gzip -c /tmp/atari-long/$algo-*/metrics.jsonl >"$OUT/long-$algo.metrics.jsonl.gz" 2>/dev/null
+    echo "== $algo"; tail -n 2 "$OUT/long-$algo.log"; cat "$OUT/long-$algo.eval.txt" 2>/dev/null
+  done
+  ;;
 *)
-  echo "usage: bash $0 fps|a2c [ENVS]|reinforce [ENVS]|ppo [SECONDS]|a2c_cnn [SECONDS]|envs"
+  echo "usage: bash $0 fps|a2c [ENVS]|reinforce [ENVS]|ppo [SECONDS]|a2c_cnn [SECONDS]|envs|long [MINUTES]|long_wait [SECONDS]"
   exit 2
   ;;
 esac

@@ -119,9 +119,10 @@ def main() -> None:
             print(f"  {setting} run {i}: {walls[-1]:.1f} s, {len(metrics[-1])} iterations", flush=True)
         pairs = [("cold vs warm", 0, 1)] + [("warm vs warm", 1, j) for j in range(2, args.runs)]
         for name, i, j in pairs:
-            rows.append(
-                {"setting": setting, "pair": name, "runs": [i, j], "wall_s": walls, **compare(metrics[i], metrics[j])}
-            )
+            result = compare(metrics[i], metrics[j])
+            where = "identical" if result["identical"] else f"first differs at iteration {result['first_iteration']}"
+            print(f"  {setting}, {name}: {where}, largest relative difference {result['max_rel']:.2e}", flush=True)
+            rows.append({"setting": setting, "pair": name, "runs": [i, j], "wall_s": walls, **result})
 
     print(f"\nhopper, {args.num_envs} envs, seed {args.seed}, {args.iterations} iterations per run")
     print("| setting | pair | identical | first differing iteration (field) | largest relative difference |")

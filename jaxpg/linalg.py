@@ -83,7 +83,10 @@ def conjugate_gradient(
         return x, r, p, new_rdotr, count + active.astype(jnp.int32)
 
     state = (x, b, b, rdotr, jnp.zeros((), jnp.int32))
-    x, _, _, rdotr, count = jax.lax.fori_loop(0, iters, body, state, unroll=max(1, min(unroll, iters)))
+    if unroll > 1 and isinstance(iters, int):
+        x, _, _, rdotr, count = jax.lax.fori_loop(0, iters, body, state, unroll=max(1, min(unroll, iters)))
+    else:  # also a traced ``iters`` (e.g. vmapped over iteration counts), which cannot unroll
+        x, _, _, rdotr, count = jax.lax.fori_loop(0, iters, body, state)
     return CGResult(x=x, residual_norm=jnp.sqrt(rdotr), iterations=count)
 
 

@@ -44,6 +44,10 @@ def test_cg_flat_matches_solve(use_jit):
     )(jnp.asarray(b, jnp.float32))
     np.testing.assert_allclose(unrolled.x, res.x, rtol=1e-4, atol=1e-5)
     assert int(unrolled.iterations) == int(res.iterations)
+    # A traced iteration count (vmapped over counts) runs the loop without unrolling.
+    counts = jnp.asarray([5, 30])
+    by_count = jax.vmap(lambda k: L.conjugate_gradient(lambda v: a32 @ v, jnp.asarray(b, jnp.float32), k, unroll=4).x)
+    np.testing.assert_allclose(by_count(counts)[1], res.x, rtol=1e-4, atol=1e-5)
 
 
 @pytest.mark.parametrize("use_jit", [False, True])

@@ -19,7 +19,12 @@
 #   bash benchmarks/atari_device_session.sh long [MINUTES]  # A2C (--preset atari, 16 games) and REINFORCE
 #                                              # (reinforce_points, 32 games, Nature CNN) side by side in the
 #                                              # background (setsid), MINUTES of training each, then ALE/Pong-v5
-#   bash benchmarks/atari_device_session.sh long_wait [SECONDS]  # wait for `long` (at most SECONDS), copy its results to $OUT
+#   bash benchmarks/atari_device_session.sh long_wait [SECONDS]  # wait for `long` (at most SECONDS), copy its results to $OUT:
+#                                              # per run its log with the evaluations, metrics.jsonl.gz, and its run
+#                                              # directory with the last checkpoint as run-NAME.tgz.NN (15 MB parts)
+#   To continue those runs in a later call: put the run-*.tgz.* files in .atari-runs/ (git-ignored:
+#   echo /.atari-runs/ >> .git/info/exclude), carry it, and `long` resumes each run it finds there
+#   (python -m jaxpg.cli --resume) for MINUTES more instead of starting afresh.
 #
 # Runs go to runs/atari-*; logs to $OUT (default: benchmarks/results/latest). A training stage
 # stops after its time (`timeout`): its latest checkpoint (every 250 iterations) is evaluated, and
@@ -78,6 +83,9 @@ envs)
 long)  # [MINUTES]: both runs in the background, so that they outlive this call of the device tool
   minutes=${2:-21}
   mkdir -p /tmp/atari-long
+  for name in $(ls .atari-runs 2>/dev/null | sed -n 's/^run-\(.*\)\.tgz\.00$/\1/p'); do
+    cat .atari-runs/run-"$name".tgz.* | tar xzf - -C /tmp/atari-long && echo "resuming $name"
+  done
   export XLA_PYTHON_CLIENT_MEM_FRACTION=0.4  # two JAX processes share the GPU
   setsid nohup bash "$0" _long_one a2c 16 "$minutes" --preset atari --checkpoint-every 2000 --log-every 500 \
     >/tmp/atari-long/a2c.out 2>&1 </dev/null &
@@ -91,8 +99,12 @@ _long_one)  # ALGO ENVS MINUTES [flags]: one run of `long`, then its evaluation 
   algo=$2 envs=$3 minutes=$4
   shift 4
   run=/tmp/atari-long/$algo-$envs
-  $py experiments/atari_pong.py --algo "$algo" --num-envs "$envs" --iterations 100000000 --minutes "$minutes" \
-    --run-dir "$run" --overwrite --no-progress "$@" >"/tmp/atari-long/$algo.log" 2>&1
+  if [ -e "$run/config.json" ]; then  # unpacked from .atari-runs by `long`: continue it
+    $py -m jaxpg.cli --resume "$run" --minutes "$minutes" --no-progress >"/tmp/atari-long/$algo.log" 2>&1
+  else
+    $py experiments/atari_pong.py --algo "$algo" --num-envs "$envs" --iterations 100000000 --minutes "$minutes" \
+      --run-dir "$run" --overwrite --no-progress "$@" >"/tmp/atari-long/$algo.log" 2>&1
+  fi
   for sticky in --sticky --no-sticky; do
     timeout 300 $py -m jaxpg.evaluate "$run" --ale --episodes 10 $sticky 2>&1 | grep -v "A.L.E\|Stella" \
       >>"/tmp/atari-long/$algo.eval.txt"
@@ -104,12 +116,24 @@ long_wait)  # [SECONDS]
   while [ $SECONDS -lt $end ] && ! { [ -e /tmp/atari-long/a2c.done ] && [ -e /tmp/atari-long/reinforce_points.done ]; }; do
     sleep 10
   done
+  # At most 8 files come back from a call: per run its log (evaluations appended), its metrics, and
+  # its run directory with the last checkpoint, in 15 MB parts.
   for algo in a2c reinforce_points; do
-    grep -v "A.L.E\|Stella" "/tmp/atari-long/$algo.log" | tail -n 40 >"$OUT/long-$algo.log"
-    cp "/tmp/atari-long/$algo.eval.txt" "$OUT/long-$algo.eval.txt" 2>/dev/null
-    gzip -c /tmp/atari-long/$algo-*/metrics.jsonl >"$OUT/long-$algo.metrics.jsonl.gz" 2>/dev/null
-    echo "== $algo"; tail -n 2 "$OUT/long-$algo.log"; cat "$OUT/long-$algo.eval.txt" 2>/dev/null
+    {
+      cat "$OUT/gpu.txt" "$OUT/cores.txt"
+      grep -v "A.L.E\|Stella" "/tmp/atari-long/$algo.log" | tail -n 40
+      cat "/tmp/atari-long/$algo.eval.txt" 2>/dev/null
+    } >"$OUT/long-$algo.log"
+    echo "== $algo"; tail -n 10 "$OUT/long-$algo.log"
+    run=$(ls -d /tmp/atari-long/$algo-*/ 2>/dev/null | head -n 1)
+    [ -n "$run" ] || continue
+    gzip -c "$run/metrics.jsonl" >"$OUT/long-$algo.metrics.jsonl.gz"
+    name=$(basename "$run") last=$(ls "$run/checkpoints" | sort -n | tail -n 1)
+    tar czf - -C /tmp/atari-long "$name/config.json" "$name/metrics.jsonl" "$name/checkpoints/$last" \
+      | split -b 15000000 -d - "$OUT/run-$name.tgz."
   done
+  rm -f "$OUT/gpu.txt" "$OUT/cores.txt"
+  ls "$OUT"
   ;;
 *)
   echo "usage: bash $0 fps|a2c [ENVS]|reinforce [ENVS]|ppo [SECONDS]|a2c_cnn [SECONDS]|envs|long [MINUTES]|long_wait [SECONDS]"

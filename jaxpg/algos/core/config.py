@@ -49,9 +49,10 @@ class BaseConfig:
     step, see ``npg.update``); healthy updates move the policy by 0.001-0.1 nats. 0 turns it off.
     Compiled loops: the learner's sequential loops (GAE's reverse scan over the horizon, the
     value fit's minibatch steps, conjugate gradient) run ``loop_unroll`` steps per loop iteration.
-    The numbers are the same; on a GPU every loop iteration waits for the host to read its
-    condition, so unrolling the learner's many small steps saves that latency (1: no unrolling,
-    the fastest to compile; the CPU gains nothing from more).
+    The arithmetic is the same (results agree to float rounding); only the compiled program
+    changes. 1 (no unrolling) compiles fastest; on one H100 at 1024 Hopper envs 16 gained under
+    1 % and cost 10 s more compilation (BENCHMARKS.md, section AA), so it is a knob to try on
+    other hardware, not a default.
     """
 
     num_envs: int = 64

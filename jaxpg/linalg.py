@@ -84,7 +84,7 @@ def conjugate_gradient(
 
     state = (x, b, b, rdotr, jnp.zeros((), jnp.int32))
     if unroll > 1 and isinstance(iters, int):
-        x, _, _, rdotr, count = jax.lax.fori_loop(0, iters, body, state, unroll=max(1, min(unroll, iters)))
+        x, _, _, rdotr, count = jax.lax.fori_loop(0, iters, body, state, unroll=unroll)
     else:  # also a traced ``iters`` (e.g. vmapped over iteration counts), which cannot unroll
         x, _, _, rdotr, count = jax.lax.fori_loop(0, iters, body, state)
     return CGResult(x=x, residual_norm=jnp.sqrt(rdotr), iterations=count)

@@ -52,9 +52,7 @@ def discounted_returns(
         g = r + gamma * jnp.where(d, end, future)
         return g, g
 
-    _, returns = jax.lax.scan(
-        step, next_values[-1], (rewards, done, end_values), reverse=True, unroll=max(1, min(unroll, rewards.shape[0]))
-    )
+    _, returns = jax.lax.scan(step, next_values[-1], (rewards, done, end_values), reverse=True, unroll=unroll)
     return returns
 
 
@@ -94,9 +92,7 @@ def gae(
         adv = delta + c * next_adv
         return adv, adv
 
-    _, advantages = jax.lax.scan(
-        step, jnp.zeros_like(deltas[-1]), (deltas, carry_on), reverse=True, unroll=max(1, min(unroll, deltas.shape[0]))
-    )
+    _, advantages = jax.lax.scan(step, jnp.zeros_like(deltas[-1]), (deltas, carry_on), reverse=True, unroll=unroll)
     return advantages, advantages + values
 
 

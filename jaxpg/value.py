@@ -89,10 +89,7 @@ def fit_value(
         return jax.random.permutation(epoch_key, n)[: num_batches * batch_size].reshape(num_batches, batch_size)
 
     indices = jax.vmap(epoch_indices)(jax.random.split(key, epochs)).reshape(epochs * num_batches, batch_size)
-    steps = epochs * num_batches
-    (params, opt_state), losses = jax.lax.scan(
-        minibatch, (params, opt_state), indices, unroll=max(1, min(unroll, steps))
-    )
+    (params, opt_state), losses = jax.lax.scan(minibatch, (params, opt_state), indices, unroll=unroll)
     return params, opt_state, jnp.mean(losses)
 
 

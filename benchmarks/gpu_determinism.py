@@ -69,7 +69,8 @@ def read_metrics(run_dir: Path) -> list[dict[str, Any]]:
 
 def compare(a: list[dict[str, Any]], b: list[dict[str, Any]]) -> dict[str, Any]:
     """Where two runs' metrics first differ: ``{"identical", "first_iteration", "field", "max_rel"}``
-    (``max_rel``: the largest relative difference of any numeric field at any iteration)."""
+    (``max_rel``: the largest relative difference of any numeric field at any iteration where both
+    values are finite; a NaN or infinity against another value is a difference without a size)."""
     first: tuple[int, str] | None = None
     max_rel = 0.0
     for row_a, row_b in zip(a, b, strict=True):
@@ -81,7 +82,7 @@ def compare(a: list[dict[str, Any]], b: list[dict[str, Any]]) -> dict[str, Any]:
                 continue
             if first is None:
                 first = (int(row_a.get("iteration", -1)), field)
-            if isinstance(x, int | float) and isinstance(y, int | float):
+            if isinstance(x, int | float) and isinstance(y, int | float) and math.isfinite(x) and math.isfinite(y):
                 max_rel = max(max_rel, abs(x - y) / max(abs(x), abs(y), 1e-12))
     return {
         "identical": first is None,

@@ -77,8 +77,7 @@ def gae(
       rewards, values, next_values: ``[T, B]``; ``values = V(obs)``, ``next_values = V(next_obs)``.
       terminated, truncated: ``[T, B]`` bool.
       gamma, lam: discount and GAE lambda.
-      unroll: time steps per iteration of the compiled loop (static; on a GPU each loop iteration
-        waits for the host, so unrolling a short horizon saves that latency; the result is the same).
+      unroll: time steps per iteration of the compiled loop (static; the result is the same).
     Returns ``(advantages [T, B], value_targets [T, B])`` with ``value_targets = advantages + values``
     (the TD(lambda) returns).
     """

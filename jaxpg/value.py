@@ -65,8 +65,8 @@ def fit_value(
       key: PRNG key for the shuffles.
       epochs, batch_size, samples_per_epoch: static.
       unroll: static; minibatch steps per iteration of the compiled loop. All ``epochs x
-        num_batches`` minibatches are drawn first and stepped through in one loop, so on a GPU,
-        where every loop iteration waits for the host, ``unroll`` steps share that wait.
+        num_batches`` minibatches are drawn first and stepped through in one loop; unrolling it
+        changes the compiled program, not the arithmetic.
     Returns ``(params, opt_state, mean_loss [])``, the loss averaged over all minibatch steps
     (each measured before its step; NaN when no step is taken).
     """

@@ -16,9 +16,9 @@
 #   bash benchmarks/atari_device_session.sh ppo [SECONDS]      # PPO with the Nature CNN (preset), 16 envs
 #   bash benchmarks/atari_device_session.sh a2c_cnn [SECONDS [ENVS [flags]]]  # A2C, Nature CNN (--preset atari)
 #   bash benchmarks/atari_device_session.sh envs      # MinPy's comparison on the ROM: 1 2 4 16 64 envs, 100 s each
-#   bash benchmarks/atari_device_session.sh long [MINUTES]  # A2C (--preset atari, 16 games) and REINFORCE
-#                                              # (reinforce_points, 32 games, Nature CNN) side by side in the
-#                                              # background (setsid), MINUTES of training each, then ALE/Pong-v5
+#   bash benchmarks/atari_device_session.sh long [MINUTES [RUN ...]]  # A2C (a2c: --preset atari, 16 games) and
+#                                              # REINFORCE (reinforce_points: 32 games, Nature CNN), both unless RUNs
+#                                              # are named, in the background (setsid), MINUTES of training each, then ALE/Pong-v5
 #   bash benchmarks/atari_device_session.sh long_wait [SECONDS]  # wait for `long` (at most SECONDS), copy its results to $OUT:
 #                                              # per run its log with the evaluations, metrics.jsonl.gz, and its run
 #                                              # directory with the last checkpoint as run-NAME.tgz.NN (15 MB parts)
@@ -80,18 +80,31 @@ envs)
     --run-dir runs/atari-envs --json "$OUT/atari-envs.json" 2>&1 | grep -v "A.L.E\|Stella" | tee "$OUT/atari-envs.log"
   cp runs/atari-envs/pong_envs.png "$OUT/" 2>/dev/null
   ;;
-long)  # [MINUTES]: both runs in the background, so that they outlive this call of the device tool
+long)  # [MINUTES [RUN ...]]: runs (a2c, reinforce_points; default both) in the background, so that they outlive this call
   minutes=${2:-21}
-  mkdir -p /tmp/atari-long
+  runs=${*:3}
+  runs=${runs:-a2c reinforce_points}
+  mkdir -p /tmp/atari-long/src
+  # The runs import from their own copy of the sources: a later call of the device tool replaces
+  # the working tree, and each run's final evaluation starts a new process.
+  cp -r jaxpg experiments benchmarks pyproject.toml /tmp/atari-long/src/
   for name in $(ls .atari-runs 2>/dev/null | sed -n 's/^run-\(.*\)\.tgz\.00$/\1/p'); do
     cat .atari-runs/run-"$name".tgz.* | tar xzf - -C /tmp/atari-long && echo "resuming $name"
   done
-  export XLA_PYTHON_CLIENT_MEM_FRACTION=0.4  # two JAX processes share the GPU
-  setsid nohup bash "$0" _long_one a2c 16 "$minutes" --preset atari --checkpoint-every 2000 --log-every 500 \
-    >/tmp/atari-long/a2c.out 2>&1 </dev/null &
-  setsid nohup nice -n 19 bash "$0" _long_one reinforce_points 32 "$minutes" --conv-torso nature \
-    --policy-hidden 512 --network-init orthogonal --lr 3e-4 --checkpoint-every 250 --log-every 50 \
-    >/tmp/atari-long/reinforce_points.out 2>&1 </dev/null &
+  export PYTHONPATH=/tmp/atari-long/src${PYTHONPATH:+:$PYTHONPATH}
+  [ "$(echo $runs | wc -w)" -gt 1 ] && export XLA_PYTHON_CLIENT_MEM_FRACTION=0.4  # two JAX processes share the GPU
+  for algo in a2c reinforce_points; do
+    case " $runs " in *" $algo "*) ;; *) touch "/tmp/atari-long/$algo.done"; continue ;; esac
+    if [ "$algo" = a2c ]; then
+      flags="a2c 16 $minutes --preset atari --checkpoint-every 2000 --log-every 500"
+      prio=""
+    else
+      flags="reinforce_points 32 $minutes --conv-torso nature --policy-hidden 512 --network-init orthogonal --lr 3e-4 --checkpoint-every 250 --log-every 50"
+      prio="nice -n 19"
+    fi
+    (cd /tmp/atari-long/src && setsid nohup $prio bash benchmarks/atari_device_session.sh _long_one $flags \
+      >/tmp/atari-long/$algo.out 2>&1 </dev/null &)
+  done
   sleep 120
   tail -n 3 /tmp/atari-long/*.log
   ;;

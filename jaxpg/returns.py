@@ -4,7 +4,11 @@ Conventions (those of ``jaxpg.rollout.Trajectory``): ``terminated[t]`` means the
 step ``t`` and the value after it is zero; ``truncated[t]`` means the time limit cut the episode at
 ``t`` and the value of ``next_obs[t]`` should be bootstrapped; a step with either is *done*, and
 the next row of that env column starts a new episode. Where both flags are set, termination wins.
-All functions are reverse ``lax.scan``s or segment sums over time, pure and jittable.
+All functions are pure and jittable. The reverse recursions (returns, GAE) are linear,
+``y_t = x_t + c_t y_{t+1}``, and run by default as ``lax.associative_scan`` (a tree of
+``O(log T)`` whole-batch steps; on an H100 GAE over 64 steps took 0.08-0.17 ms this way against
+1.3-1.6 ms as a ``lax.scan`` of 64 steps, BENCHMARKS.md section AE); ``parallel=False`` runs the
+sequential ``lax.scan`` instead (the same numbers up to float rounding).
 """
 
 from __future__ import annotations
@@ -15,6 +19,26 @@ import jax.numpy as jnp
 ArrayLike = jax.Array | float
 
 
+def reverse_linear_recurrence(inputs: jax.Array, coeffs: jax.Array, last: jax.Array | None = None) -> jax.Array:
+    """``y_t = inputs_t + coeffs_t y_{t+1}`` for ``t = T-1 .. 0`` with ``y_T = last`` (zeros if
+    ``None``), by ``lax.associative_scan`` over the leading axis: ``[T, ...]``.
+
+    ``inputs, coeffs: [T, ...]``; ``last: [...]``. Composing the affine maps ``y -> x + c y`` is
+    associative, so the ``T`` steps become a tree of ``O(log T)`` elementwise steps over the
+    whole array instead of ``T`` sequential ones.
+    """
+    if last is not None:
+        inputs = inputs.at[-1].add(coeffs[-1] * last)
+
+    def compose(later: tuple[jax.Array, jax.Array], earlier: tuple[jax.Array, jax.Array]) -> tuple:
+        # scanning backwards in time: `later` already holds the composed maps of later steps
+        c_later, x_later = later
+        c_earlier, x_earlier = earlier
+        return c_earlier * c_later, x_earlier + c_earlier * x_later
+
+    return jax.lax.associative_scan(compose, (coeffs, inputs), reverse=True)[1]
+
+
 def discounted_returns(
     rewards: jax.Array,
     terminated: jax.Array,
@@ -22,6 +46,7 @@ def discounted_returns(
     gamma: ArrayLike,
     next_values: jax.Array | None = None,
     unroll: int = 1,
+    parallel: bool = True,
 ) -> jax.Array:
     """Reward-to-go ``G_t = r_t + gamma G_{t+1}`` within each episode: ``[T, B]``.
 
@@ -36,7 +61,9 @@ def discounted_returns(
       terminated, truncated: ``[T, B]`` bool.
       gamma: discount factor.
       next_values: optional ``[T, B]`` ``V(next_obs)``.
-      unroll: time steps per iteration of the compiled loop (static; the result is the same).
+      unroll: with ``parallel=False``, time steps per iteration of the compiled loop (static; the
+        result is the same).
+      parallel: static; ``reverse_linear_recurrence`` (default) or a sequential ``lax.scan``.
     """
     rewards = jnp.asarray(rewards)
     terminated = jnp.asarray(terminated, bool)
@@ -46,6 +73,9 @@ def discounted_returns(
     done = terminated | truncated
     # Value after a done step: V(next_obs) when truncated, 0 when terminated.
     end_values = jnp.where(truncated & ~terminated, next_values, 0.0)
+    if parallel:
+        inputs = rewards + gamma * jnp.where(done, end_values, 0.0)
+        return reverse_linear_recurrence(inputs, gamma * (1.0 - done.astype(inputs.dtype)), next_values[-1])
 
     def step(future: jax.Array, xs: tuple[jax.Array, ...]) -> tuple[jax.Array, jax.Array]:
         r, d, end = xs
@@ -65,6 +95,7 @@ def gae(
     gamma: ArrayLike,
     lam: ArrayLike,
     unroll: int = 1,
+    parallel: bool = True,
 ) -> tuple[jax.Array, jax.Array]:
     """Generalised advantage estimation (Schulman et al., 2016, eq. 16).
 
@@ -77,7 +108,9 @@ def gae(
       rewards, values, next_values: ``[T, B]``; ``values = V(obs)``, ``next_values = V(next_obs)``.
       terminated, truncated: ``[T, B]`` bool.
       gamma, lam: discount and GAE lambda.
-      unroll: time steps per iteration of the compiled loop (static; the result is the same).
+      unroll: with ``parallel=False``, time steps per iteration of the compiled loop (static; the
+        result is the same).
+      parallel: static; ``reverse_linear_recurrence`` (default) or a sequential ``lax.scan``.
     Returns ``(advantages [T, B], value_targets [T, B])`` with ``value_targets = advantages + values``
     (the TD(lambda) returns).
     """
@@ -85,6 +118,9 @@ def gae(
     done = terminated | jnp.asarray(truncated, bool)
     deltas = rewards + gamma * jnp.where(terminated, 0.0, next_values) - values
     carry_on = gamma * lam * (1.0 - done.astype(deltas.dtype))
+    if parallel:
+        advantages = reverse_linear_recurrence(deltas, carry_on)
+        return advantages, advantages + values
 
     def step(next_adv: jax.Array, xs: tuple[jax.Array, jax.Array]) -> tuple[jax.Array, jax.Array]:
         delta, c = xs

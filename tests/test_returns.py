@@ -65,10 +65,11 @@ def np_gae(rewards, values, next_values, terminated, truncated, gamma, lam):
     return adv, adv + values
 
 
+@pytest.mark.parametrize("parallel", [True, False])
 @pytest.mark.parametrize("use_jit", [False, True])
-def test_discounted_returns(use_jit):
+def test_discounted_returns(use_jit, parallel):
     rewards, _, next_values, terminated, truncated = random_batch()
-    fn = maybe_jit(R.discounted_returns, use_jit)
+    fn = maybe_jit(functools.partial(R.discounted_returns, parallel=parallel), use_jit)
     got = fn(rewards, terminated, truncated, GAMMA)
     np.testing.assert_allclose(got, np_discounted_returns(rewards, terminated, truncated, GAMMA), rtol=1e-5, atol=1e-5)
     got = fn(rewards, terminated, truncated, GAMMA, next_values)
@@ -77,23 +78,51 @@ def test_discounted_returns(use_jit):
     assert got.shape == (T, B)
 
 
+@pytest.mark.parametrize("parallel", [True, False])
 @pytest.mark.parametrize("use_jit", [False, True])
-def test_gae(use_jit):
+def test_gae(use_jit, parallel):
     rewards, values, next_values, terminated, truncated = random_batch(1)
-    adv, targets = maybe_jit(R.gae, use_jit)(rewards, values, next_values, terminated, truncated, GAMMA, LAM)
+    gae = functools.partial(R.gae, parallel=parallel)
+    adv, targets = maybe_jit(gae, use_jit)(rewards, values, next_values, terminated, truncated, GAMMA, LAM)
     ref_adv, ref_targets = np_gae(rewards, values, next_values, terminated, truncated, GAMMA, LAM)
     np.testing.assert_allclose(adv, ref_adv, rtol=1e-5, atol=1e-5)
     np.testing.assert_allclose(targets, ref_targets, rtol=1e-5, atol=1e-5)
-    # Unrolling the reverse scan (any number of steps, more than T too) gives the same numbers.
+    if parallel:
+        return
+    # Unrolling the sequential scan (any number of steps, more than T too) gives the same numbers.
     for unroll in (3, 1000):
-        got, _ = maybe_jit(functools.partial(R.gae, unroll=unroll), use_jit)(
+        got, _ = maybe_jit(functools.partial(gae, unroll=unroll), use_jit)(
             rewards, values, next_values, terminated, truncated, GAMMA, LAM
         )
         np.testing.assert_allclose(got, adv, rtol=1e-6, atol=1e-6)
-        g = R.discounted_returns(rewards, terminated, truncated, GAMMA, next_values, unroll=unroll)
-        np.testing.assert_allclose(
-            g, R.discounted_returns(rewards, terminated, truncated, GAMMA, next_values), rtol=1e-6
-        )
+        sequential = functools.partial(R.discounted_returns, parallel=False)
+        g = sequential(rewards, terminated, truncated, GAMMA, next_values, unroll=unroll)
+        np.testing.assert_allclose(g, sequential(rewards, terminated, truncated, GAMMA, next_values), rtol=1e-6)
+
+
+@pytest.mark.parametrize("length", [1, 2, 64, 100])
+def test_reverse_linear_recurrence(length):
+    """The associative form against the loop it replaces, for lengths that are and are not powers
+    of two, with trailing batch axes and a bootstrap value; under vmap and grad too."""
+    rng = np.random.default_rng(length)
+    x = rng.normal(size=(length, 3, 2)).astype(np.float32)
+    c = rng.uniform(0.0, 1.0, size=(length, 3, 2)).astype(np.float32)
+    c[rng.uniform(size=c.shape) < 0.1] = 0.0  # episode boundaries
+    last = rng.normal(size=(3, 2)).astype(np.float32)
+    want = np.zeros_like(x)
+    y = last
+    for t in reversed(range(length)):
+        y = x[t] + c[t] * y
+        want[t] = y
+    np.testing.assert_allclose(jax.jit(R.reverse_linear_recurrence)(x, c, last), want, rtol=1e-5, atol=1e-5)
+    no_last = R.reverse_linear_recurrence(x, c)
+    np.testing.assert_allclose(no_last[-1], x[-1], rtol=1e-6)
+    # Batched over a leading axis by vmap: the same as the unbatched calls.
+    stacked = jax.vmap(R.reverse_linear_recurrence, in_axes=(2, 2, 1), out_axes=2)(x, c, last)
+    np.testing.assert_allclose(stacked, want, rtol=1e-5, atol=1e-5)
+    # d y_0 / d x_t = prod_{k<t} c_k (the recurrence is linear in x).
+    grad = jax.grad(lambda xs: R.reverse_linear_recurrence(xs, c, last)[0, 0, 0])(x)
+    np.testing.assert_allclose(grad[:, 0, 0], np.concatenate([[1.0], np.cumprod(c[:-1, 0, 0])]), rtol=1e-5, atol=1e-6)
 
 
 def test_gae_limits():

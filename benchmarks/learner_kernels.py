@@ -11,11 +11,13 @@ This times, per batch size (``T = --horizon`` steps x ``--envs`` envs):
 - ``value fit``: ``jaxpg.value.fit_value`` with the card's settings (10 epochs x 16 minibatches of
   1024 drawn from at most 16384 samples, MLP 128x128), its minibatches gathered one per step or
   all before the loop, with Adam per parameter array or over one flattened
-  vector (``optax.flatten``).
+  vector (``optax.flatten``); and, for scale, the fit with 2x and 4x larger minibatches (half and
+  a quarter of the steps: a different fit).
 
-Every figure is the median of ``--repeats`` synchronised calls after a compiling call. The
-forms compute the same numbers (up to float rounding for the associative scan and the flat Adam;
-printed: GAE's largest difference against the scan, the value fit's final loss).
+Every figure is the median of ``--repeats`` synchronised calls after a compiling call. The GAE
+forms and the first four value-fit forms compute the same numbers (up to float rounding for the
+associative scan and the flat Adam; printed: GAE's largest difference against the scan, the value
+fit's final loss).
 
     python benchmarks/learner_kernels.py --envs 256 1024 4096 16384 65536
 """
@@ -69,12 +71,12 @@ def value_fit_forms(value_fn: ValueFunction, lr: float, epochs: int, batch: int,
     """Jitted value-fit forms, each ``(params, obs [N, D], targets [N], key) -> params``: the same
     minibatches and steps (``fit_value``'s), compiled differently."""
 
-    def library(flat: bool) -> Callable:
+    def library(flat: bool, rows: int = batch) -> Callable:
         def fit(params: Any, obs: jax.Array, targets: jax.Array, key: jax.Array) -> Any:
             opt = optax.flatten(optax.adam(lr)) if flat else optax.adam(lr)
             state = opt.init(params)
             return value_lib.fit_value(
-                value_fn, params, state, opt, obs, targets, key, epochs, batch, samples_per_epoch=per_epoch
+                value_fn, params, state, opt, obs, targets, key, epochs, rows, samples_per_epoch=per_epoch
             )[0]
 
         return jax.jit(fit)
@@ -108,6 +110,9 @@ def value_fit_forms(value_fn: ValueFunction, lr: float, epochs: int, batch: int,
         "minibatches gathered first": gathered_first(False),
         "fit_value, Adam on one flat vector": library(True),
         "gathered first, flat Adam": gathered_first(True),
+        # not the same fit: half and a quarter of the steps on 2x and 4x larger minibatches
+        f"fit_value, minibatches of {2 * batch} (half the steps)": library(False, 2 * batch),
+        f"fit_value, minibatches of {4 * batch} (a quarter of the steps)": library(False, 4 * batch),
     }
 
 

@@ -22,6 +22,9 @@
 #   bash benchmarks/atari_device_session.sh long_wait [SECONDS]  # wait for `long` (at most SECONDS), copy its results to $OUT:
 #                                              # per run its log with the evaluations, metrics.jsonl.gz, and its run
 #                                              # directory with the last checkpoint as run-NAME.tgz.NN (15 MB parts)
+#   bash benchmarks/atari_device_session.sh resume_fg MINUTES [eval]  # continue the A2C run (from .atari-runs, or
+#                                              # left on the machine by the previous call) for MINUTES in the
+#                                              # foreground, optionally evaluate it, and bring it back as long_wait does
 #   To continue those runs in a later call: put the run-*.tgz.* files in .atari-runs/ (git-ignored:
 #   echo /.atari-runs/ >> .git/info/exclude), carry it, and `long` resumes each run it finds there
 #   (python -m jaxpg.cli --resume) for MINUTES more instead of starting afresh.
@@ -123,6 +126,30 @@ _long_one)  # ALGO ENVS MINUTES [flags]: one run of `long`, then its evaluation 
       >>"/tmp/atari-long/$algo.eval.txt"
   done
   touch "/tmp/atari-long/$algo.done"
+  ;;
+resume_fg)  # MINUTES [eval]: continue the A2C run (a2c-16) in the foreground of this call, then bring it back
+  # like long_wait. The run comes from .atari-runs on the first call on a machine and from
+  # /tmp/atari-long on the next ones (the machine keeps it while calls follow each other).
+  minutes=$2 run=/tmp/atari-long/a2c-16
+  mkdir -p /tmp/atari-long
+  if [ ! -e "$run/config.json" ]; then
+    cat .atari-runs/run-a2c-16.tgz.* | tar xzf - -C /tmp/atari-long || { echo "error: no run in .atari-runs"; exit 2; }
+  fi
+  $py -m jaxpg.cli --resume "$run" --minutes "$minutes" --no-progress 2>&1 | grep -v "A.L.E\|Stella" \
+    >>/tmp/atari-long/a2c.log
+  if [ "${3:-}" = eval ]; then
+    for sticky in --sticky --no-sticky; do
+      timeout 240 $py -m jaxpg.evaluate "$run" --ale --episodes 10 $sticky 2>&1 | grep -v "A.L.E\|Stella" \
+        >>/tmp/atari-long/a2c.eval.txt
+    done
+  fi
+  { tail -n 40 /tmp/atari-long/a2c.log; cat /tmp/atari-long/a2c.eval.txt 2>/dev/null; } >"$OUT/resume-a2c.log"
+  tail -n 12 "$OUT/resume-a2c.log"
+  gzip -c "$run/metrics.jsonl" >"$OUT/resume-a2c.metrics.jsonl.gz"
+  last=$(ls "$run/checkpoints" | sort -n | tail -n 1)
+  tar czf - -C /tmp/atari-long a2c-16/config.json a2c-16/metrics.jsonl "a2c-16/checkpoints/$last" \
+    | split -b 15000000 -d - "$OUT/run-a2c-16.tgz."
+  ls "$OUT"
   ;;
 long_wait)  # [SECONDS]
   end=$((SECONDS + ${2:-570}))

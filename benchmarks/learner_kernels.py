@@ -6,7 +6,7 @@ costs 15-17 ms per iteration at every batch size, half of it the value fit's 160
 This times, per batch size (``T = --horizon`` steps x ``--envs`` envs):
 
 - ``gae``: ``jaxpg.returns.gae`` as a reverse ``lax.scan`` (``parallel=False``: one step per loop
-  iteration, and unrolled ``--unroll`` steps) against its default ``lax.associative_scan`` (a
+  iteration, and unrolled ``--unroll`` steps) against ``parallel=True``, a ``lax.associative_scan`` (a
   log-depth tree of whole-batch operations);
 - ``value fit``: ``jaxpg.value.fit_value`` with the card's settings (10 epochs x 16 minibatches of
   1024 drawn from at most 16384 samples, MLP 128x128), its minibatches gathered one per step or
@@ -61,9 +61,9 @@ def gae_forms(unroll: int) -> dict[str, Callable]:
         )
 
     return {
-        "lax.scan": form(False),
+        "lax.scan (the default)": form(False),
         f"lax.scan, unroll {unroll}": form(False, unroll),
-        "associative_scan (the default)": form(True),
+        "associative_scan (parallel=True)": form(True),
     }
 
 

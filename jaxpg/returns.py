@@ -5,10 +5,11 @@ step ``t`` and the value after it is zero; ``truncated[t]`` means the time limit
 ``t`` and the value of ``next_obs[t]`` should be bootstrapped; a step with either is *done*, and
 the next row of that env column starts a new episode. Where both flags are set, termination wins.
 All functions are pure and jittable. The reverse recursions (returns, GAE) are linear,
-``y_t = x_t + c_t y_{t+1}``, and run by default as ``lax.associative_scan`` (a tree of
-``O(log T)`` whole-batch steps; on an H100 GAE over 64 steps took 0.08-0.17 ms this way against
-1.3-1.6 ms as a ``lax.scan`` of 64 steps, BENCHMARKS.md section AE); ``parallel=False`` runs the
-sequential ``lax.scan`` instead (the same numbers up to float rounding).
+``y_t = x_t + c_t y_{t+1}``: by default a reverse ``lax.scan``; with ``parallel=True`` a
+``lax.associative_scan`` (a tree of ``O(log T)`` whole-batch steps, the same numbers up to float
+rounding). On an H100, GAE alone over 64 steps took 0.08-0.17 ms in the associative form against
+1.3-1.6 ms as a scan, but it compiles about a second longer, and in the card's whole training
+iteration the difference was within noise (BENCHMARKS.md section AE), so the scan stays the default.
 """
 
 from __future__ import annotations
@@ -46,7 +47,7 @@ def discounted_returns(
     gamma: ArrayLike,
     next_values: jax.Array | None = None,
     unroll: int = 1,
-    parallel: bool = True,
+    parallel: bool = False,
 ) -> jax.Array:
     """Reward-to-go ``G_t = r_t + gamma G_{t+1}`` within each episode: ``[T, B]``.
 
@@ -63,7 +64,7 @@ def discounted_returns(
       next_values: optional ``[T, B]`` ``V(next_obs)``.
       unroll: with ``parallel=False``, time steps per iteration of the compiled loop (static; the
         result is the same).
-      parallel: static; ``reverse_linear_recurrence`` (default) or a sequential ``lax.scan``.
+      parallel: static; ``reverse_linear_recurrence`` instead of the sequential ``lax.scan``.
     """
     rewards = jnp.asarray(rewards)
     terminated = jnp.asarray(terminated, bool)
@@ -95,7 +96,7 @@ def gae(
     gamma: ArrayLike,
     lam: ArrayLike,
     unroll: int = 1,
-    parallel: bool = True,
+    parallel: bool = False,
 ) -> tuple[jax.Array, jax.Array]:
     """Generalised advantage estimation (Schulman et al., 2016, eq. 16).
 
@@ -110,7 +111,7 @@ def gae(
       gamma, lam: discount and GAE lambda.
       unroll: with ``parallel=False``, time steps per iteration of the compiled loop (static; the
         result is the same).
-      parallel: static; ``reverse_linear_recurrence`` (default) or a sequential ``lax.scan``.
+      parallel: static; ``reverse_linear_recurrence`` instead of the sequential ``lax.scan``.
     Returns ``(advantages [T, B], value_targets [T, B])`` with ``value_targets = advantages + values``
     (the TD(lambda) returns).
     """

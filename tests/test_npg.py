@@ -159,7 +159,7 @@ def test_npg_update_through_the_transform_keeps_its_bits(pendulum):
     assert set(metrics) == set(metrics_ref)
     for k in metrics:
         np.testing.assert_array_equal(np.asarray(metrics[k]), np.asarray(metrics_ref[k]), err_msg=k)
-    # Unrolling the learner's loops (the value fit, CG) changes how they compile, not the
+    # Unrolling the learner's loops (GAE, the value fit, CG) changes how they compile, not the
     # arithmetic: the first iteration agrees to float32 rounding. Rounding then moves CG's later
     # iterates (its residual is ~1e-3 here), so later iterations agree only to that level, and the
     # residual itself, a quantity of that size, only in being small.

@@ -44,6 +44,7 @@ def gae_advantages(
         traj.truncated,
         config.gamma,
         config.gae_lambda,
+        unroll=config.loop_unroll,
     )
     if config.value_target == "returns":
         targets = returns.discounted_returns(
@@ -52,6 +53,7 @@ def gae_advantages(
             traj.truncated,
             config.gamma,
             next_values=next_values,
+            unroll=config.loop_unroll,
         )
     return advantages, targets
 

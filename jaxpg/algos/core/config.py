@@ -47,9 +47,8 @@ class BaseConfig:
     Trust-region guard: an update whose mean KL(old || new) over its batch exceeds
     ``max_update_kl`` is rolled back and counted in ``update_rejected`` (NPG first shrinks its
     step, see ``npg.update``); healthy updates move the policy by 0.001-0.1 nats. 0 turns it off.
-    Compiled loops: the learner's sequential loops (the value fit's minibatch steps, conjugate
-    gradient) run ``loop_unroll`` steps per loop iteration; GAE and the returns have no loop
-    (``jaxpg.returns`` runs them as associative scans).
+    Compiled loops: the learner's sequential loops (GAE's reverse scan over the horizon, the
+    value fit's minibatch steps, conjugate gradient) run ``loop_unroll`` steps per loop iteration.
     The arithmetic is the same (results agree to float rounding); only the compiled program
     changes. 1 (no unrolling) compiles fastest; on one H100 at 1024 Hopper envs 16 gained under
     1 % and cost 10 s more compilation (BENCHMARKS.md, section AA), so it is a knob to try on

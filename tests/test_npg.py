@@ -161,17 +161,13 @@ def test_npg_update_through_the_transform_keeps_its_bits(pendulum):
         np.testing.assert_array_equal(np.asarray(metrics[k]), np.asarray(metrics_ref[k]), err_msg=k)
     # Unrolling the learner's loops (GAE, the value fit, CG) changes how they compile, not the
     # arithmetic: the first iteration agrees to float32 rounding. Rounding then moves CG's later
-    # iterates (its residual is ~1e-3 here), so later iterations agree only to that level, and the
-    # residual itself, a quantity of that size, only in being small.
+    # iterates (its residual is ~1e-3 here), so later iterations agree only to that level.
     unrolled = npg.init(jax.random.PRNGKey(0), pendulum, dataclasses.replace(config, loop_unroll=4))
     ts_unrolled, metrics_unrolled = jax.jit(lambda s: train_lib.scan_updates(npg.update, s, 3))(unrolled)
     for k in metrics:
         got, want = np.asarray(metrics_unrolled[k]), np.asarray(metrics[k])
         np.testing.assert_allclose(got[0], want[0], rtol=1e-5, atol=1e-6, err_msg=k)
-        if k == "cg_residual":
-            assert np.all(got < 1e-2) and np.all(want < 1e-2), (got, want)
-        else:
-            np.testing.assert_allclose(got, want, rtol=2e-2, atol=1e-3, err_msg=k)
+        np.testing.assert_allclose(got, want, rtol=2e-2, atol=1e-3, err_msg=k)
     with pytest.raises(ValueError, match="loop_unroll"):
         dataclasses.replace(config, loop_unroll=0).validate(pendulum)
 

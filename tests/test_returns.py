@@ -102,7 +102,7 @@ def test_gae(use_jit, parallel):
 
 @pytest.mark.parametrize("length", [1, 2, 64, 100])
 def test_reverse_linear_recurrence(length):
-    """The associative form against the loop it replaces, for lengths that are and are not powers
+    """The associative form against the sequential loop, for lengths that are and are not powers
     of two, with trailing batch axes and a bootstrap value; under vmap and grad too."""
     rng = np.random.default_rng(length)
     x = rng.normal(size=(length, 3, 2)).astype(np.float32)
@@ -117,7 +117,7 @@ def test_reverse_linear_recurrence(length):
     np.testing.assert_allclose(jax.jit(R.reverse_linear_recurrence)(x, c, last), want, rtol=1e-5, atol=1e-5)
     no_last = R.reverse_linear_recurrence(x, c)
     np.testing.assert_allclose(no_last[-1], x[-1], rtol=1e-6)
-    # Batched over a leading axis by vmap: the same as the unbatched calls.
+    # vmap over the last axis gives the same as the unbatched call.
     stacked = jax.vmap(R.reverse_linear_recurrence, in_axes=(2, 2, 1), out_axes=2)(x, c, last)
     np.testing.assert_allclose(stacked, want, rtol=1e-5, atol=1e-5)
     # d y_0 / d x_t = prod_{k<t} c_k (the recurrence is linear in x).

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# The GPU measurements of Atari Pong on the ROM (BENCHMARKS.md, section U), in stages that each fit
-# one call of the device tool (10 minutes). Not run yet: the figures are pending.
+# The GPU measurements of Atari Pong on the ROM (BENCHMARKS.md, sections U, V, AD and AG), in stages
+# that each fit one call of the device tool (10 minutes).
 #
 # The device machine reaches no package index: bring ale-py (and jaxtari, for `fps`) as wheels.
 # On the development machine, from the repository root:
@@ -59,6 +59,15 @@ train_and_evaluate() {  # algo num_envs seconds [more flags of experiments/atari
   done
 }
 
+bring_back() {  # RUN_DIR LABEL: to $OUT, LABEL.metrics.jsonl.gz and the run directory with its last checkpoint
+  # as run-NAME.tgz.NN (15 MB parts), which .atari-runs/ takes back for `long` or `resume_fg`
+  local run=${1%/} name last
+  name=$(basename "$run") last=$(ls "$run/checkpoints" | sort -n | tail -n 1)
+  gzip -c "$run/metrics.jsonl" >"$OUT/$2.metrics.jsonl.gz"
+  tar czf - -C "$(dirname "$run")" "$name/config.json" "$name/metrics.jsonl" "$name/checkpoints/$last" \
+    | split -b 15000000 -d - "$OUT/run-$name.tgz."
+}
+
 case "${1:-}" in
 fps)
   $py -m pip install -q --no-index --no-deps wheels/jaxtari-*.whl 2>/dev/null
@@ -105,8 +114,9 @@ long)  # [MINUTES [RUN ...]]: runs (a2c, reinforce_points; default both) in the 
       flags="reinforce_points 32 $minutes --conv-torso nature --policy-hidden 512 --network-init orthogonal --lr 3e-4 --checkpoint-every 250 --log-every 50"
       prio="nice -n 19"
     fi
-    (cd /tmp/atari-long/src && setsid nohup $prio bash benchmarks/atari_device_session.sh _long_one $flags \
-      >/tmp/atari-long/$algo.out 2>&1 </dev/null &)
+    # Started directly (not from a subshell that would keep this call's output open until the run ends).
+    setsid nohup $prio env -C /tmp/atari-long/src bash benchmarks/atari_device_session.sh _long_one $flags \
+      >/tmp/atari-long/$algo.out 2>&1 </dev/null &
   done
   sleep 120
   tail -n 3 /tmp/atari-long/*.log
@@ -145,10 +155,7 @@ resume_fg)  # MINUTES [eval]: continue the A2C run (a2c-16) in the foreground of
   fi
   { tail -n 40 /tmp/atari-long/a2c.log; cat /tmp/atari-long/a2c.eval.txt 2>/dev/null; } >"$OUT/resume-a2c.log"
   tail -n 12 "$OUT/resume-a2c.log"
-  gzip -c "$run/metrics.jsonl" >"$OUT/resume-a2c.metrics.jsonl.gz"
-  last=$(ls "$run/checkpoints" | sort -n | tail -n 1)
-  tar czf - -C /tmp/atari-long a2c-16/config.json a2c-16/metrics.jsonl "a2c-16/checkpoints/$last" \
-    | split -b 15000000 -d - "$OUT/run-a2c-16.tgz."
+  bring_back "$run" resume-a2c
   ls "$OUT"
   ;;
 long_wait)  # [SECONDS]
@@ -167,10 +174,7 @@ long_wait)  # [SECONDS]
     echo "== $algo"; tail -n 10 "$OUT/long-$algo.log"
     run=$(ls -d /tmp/atari-long/$algo-*/ 2>/dev/null | head -n 1)
     [ -n "$run" ] || continue
-    gzip -c "$run/metrics.jsonl" >"$OUT/long-$algo.metrics.jsonl.gz"
-    name=$(basename "$run") last=$(ls "$run/checkpoints" | sort -n | tail -n 1)
-    tar czf - -C /tmp/atari-long "$name/config.json" "$name/metrics.jsonl" "$name/checkpoints/$last" \
-      | split -b 15000000 -d - "$OUT/run-$name.tgz."
+    bring_back "$run" "long-$algo"
   done
   rm -f "$OUT/gpu.txt" "$OUT/cores.txt"
   ls "$OUT"

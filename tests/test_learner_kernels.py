@@ -1,0 +1,68 @@
+"""``benchmarks/learner_kernels.py`` times forms of GAE and of the value fit that it says compute the
+same numbers: they do (on tiny shapes, on the CPU), and the larger-minibatch rows take fewer steps."""
+
+from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import optax
+import pytest
+
+from jaxpg import value as value_lib
+from jaxpg.policies import ValueFunction
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(scope="module")
+def kernels():
+    spec = importlib.util.spec_from_file_location("learner_kernels", ROOT / "benchmarks" / "learner_kernels.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_gae_forms_agree(kernels):
+    k = jax.random.split(jax.random.PRNGKey(0), 5)
+    shape = (16, 5)
+    args = (
+        jax.random.normal(k[0], shape),
+        jax.random.normal(k[1], shape),
+        jax.random.normal(k[2], shape),
+        jax.random.uniform(k[3], shape) < 0.1,
+        jax.random.uniform(k[4], shape) < 0.05,
+    )
+    forms = kernels.gae_forms(unroll=4)
+    assert len(forms) == 3
+    outs = [np.asarray(fn(*args)) for fn in forms.values()]
+    for out in outs[1:]:
+        np.testing.assert_allclose(out, outs[0], rtol=1e-5, atol=1e-5)
+
+
+def test_value_fit_forms_take_the_same_steps(kernels):
+    per_epoch = 0  # epochs of full shuffles, as the card's fit at 256 envs
+    value_fn = ValueFunction(hidden=(8,))
+    obs = jax.random.normal(jax.random.PRNGKey(1), (32, 3))
+    targets = jnp.tanh(obs[:, 0])
+    params = value_fn.init(jax.random.PRNGKey(2), 3)
+    key = jax.random.PRNGKey(3)
+    forms = kernels.value_fit_forms(value_fn, 1e-2, epochs=2, batch=4, per_epoch=per_epoch)
+    names = list(forms)
+    fitted = {name: forms[name](params, obs, targets, key) for name in names}
+    reference = fitted[names[0]]
+    # The first four forms: the same minibatches in the same order, laid out differently.
+    for name in names[1:4]:
+        for a, b in zip(jax.tree.leaves(fitted[name]), jax.tree.leaves(reference), strict=True):
+            np.testing.assert_allclose(a, b, rtol=1e-5, atol=1e-6, err_msg=name)
+    # The larger-minibatch rows are fits of their own: the library's fit at 2x and 4x the rows.
+    for name, rows in zip(names[4:], (8, 16), strict=True):
+        opt = optax.adam(1e-2)
+        want, _, _ = value_lib.fit_value(
+            value_fn, params, opt.init(params), opt, obs, targets, key, 2, rows, samples_per_epoch=per_epoch
+        )
+        for a, b in zip(jax.tree.leaves(fitted[name]), jax.tree.leaves(want), strict=True):
+            np.testing.assert_array_equal(np.asarray(a), np.asarray(b), err_msg=name)

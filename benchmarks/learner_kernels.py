@@ -25,9 +25,9 @@ fit's final loss).
 from __future__ import annotations
 
 import argparse
-import statistics
-import time
+import sys
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 import jax
@@ -38,18 +38,9 @@ from jaxpg import returns
 from jaxpg import value as value_lib
 from jaxpg.policies import ValueFunction
 
-
-def median_seconds(fn: Callable[..., Any], args: tuple, repeats: int) -> tuple[float, float, Any]:
-    """``(compile_and_first_call_s, median_call_s, output)`` of the jitted ``fn(*args)``."""
-    start = time.perf_counter()
-    out = jax.block_until_ready(fn(*args))
-    first = time.perf_counter() - start
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        jax.block_until_ready(fn(*args))
-        times.append(time.perf_counter() - start)
-    return first, statistics.median(times), out
+# A sibling script's timer: the first call's time (compilation), then the median of synchronised calls.
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from train_throughput import time_call  # noqa: E402
 
 
 def gae_forms(unroll: int) -> dict[str, Callable]:
@@ -139,7 +130,7 @@ def main() -> None:
         truncated = jax.random.uniform(k[4], shape) < 0.002
         ref = None
         for name, fn in gaes.items():
-            first, med, out = median_seconds(fn, (rewards, values, next_values, terminated, truncated), args.repeats)
+            first, med, out = time_call(fn, rewards, values, next_values, terminated, truncated, repeats=args.repeats)
             ref = out if ref is None else ref
             rows.append(("gae", envs, name, first, med, float(jnp.max(jnp.abs(out - ref)))))
             print(rows[-1], flush=True)
@@ -148,7 +139,7 @@ def main() -> None:
         params = value_fn.init(jax.random.PRNGKey(1), args.obs_dim)
         ref = None
         for name, fn in fits.items():
-            first, med, out = median_seconds(fn, (params, obs, targets, jax.random.PRNGKey(2)), args.repeats)
+            first, med, out = time_call(fn, params, obs, targets, jax.random.PRNGKey(2), repeats=args.repeats)
             loss = float(value_lib.value_loss(value_fn, out, obs, targets))
             rows.append(("value fit", envs, name, first, med, loss))
             print(rows[-1], flush=True)

@@ -75,7 +75,7 @@ def discounted_returns(
     # Value after a done step: V(next_obs) when truncated, 0 when terminated.
     end_values = jnp.where(truncated & ~terminated, next_values, 0.0)
     if parallel:
-        inputs = rewards + gamma * jnp.where(done, end_values, 0.0)
+        inputs = rewards + gamma * end_values  # end_values is 0 wherever the step is not done
         return reverse_linear_recurrence(inputs, gamma * (1.0 - done.astype(inputs.dtype)), next_values[-1])
 
     def step(future: jax.Array, xs: tuple[jax.Array, ...]) -> tuple[jax.Array, jax.Array]:

@@ -16,6 +16,7 @@
 #   bash benchmarks/atari_device_session.sh ppo [SECONDS]      # PPO with the Nature CNN (preset), 16 envs
 #   bash benchmarks/atari_device_session.sh a2c_cnn [SECONDS [ENVS [flags]]]  # A2C, Nature CNN (--preset atari)
 #   bash benchmarks/atari_device_session.sh envs      # MinPy's comparison on the ROM: 1 2 4 16 64 envs, 100 s each
+#   bash benchmarks/atari_device_session.sh ppo_envs SECONDS N ...  # the comparison with PPO (Nature CNN), SECONDS each
 #   bash benchmarks/atari_device_session.sh long [MINUTES [RUN ...]]  # A2C (a2c: --preset atari, 16 games) and
 #                                              # REINFORCE (reinforce_points: 32 games, Nature CNN), both unless RUNs
 #                                              # are named, in the background (setsid), MINUTES of training each, then ALE/Pong-v5
@@ -91,6 +92,16 @@ envs)
   timeout 590 $py benchmarks/pong.py --task atari_pong --compare-envs 1 2 4 16 64 --seconds 96 \
     --run-dir runs/atari-envs --json "$OUT/atari-envs.json" 2>&1 | grep -v "A.L.E\|Stella" | tee "$OUT/atari-envs.log"
   cp runs/atari-envs/pong_envs.png "$OUT/" 2>/dev/null
+  ;;
+ppo_envs)  # SECONDS N ...: the same comparison with PPO's Atari recipe, one process and JSON per number of games
+  seconds=$2
+  shift 2
+  for n in "$@"; do
+    rm -rf runs/ppo-envs-$n
+    timeout $((${seconds%.*} + 150)) $py benchmarks/pong.py --task atari_pong --algo ppo --compare-envs $n \
+      --seconds $seconds --run-dir runs/ppo-envs-$n --json "$OUT/ppo-envs-$n.json" 2>&1 \
+      | grep -v "A.L.E\|Stella" | tee "$OUT/ppo-envs-$n.log" | tail -4
+  done
   ;;
 long)  # [MINUTES [RUN ...]]: runs (a2c, reinforce_points; default both) in the background, so that they outlive this call
   minutes=${2:-21}

@@ -8,6 +8,8 @@
 #   bash benchmarks/device_session.sh sweep8   # settings around the default, 8 seeds vmapped, to 1.97 M env steps
 #   bash benchmarks/device_session.sh ratio [FIELD=VALUE ...]  # train(+eval)/raw of the card's defaults
 #                                              # (with these preset overrides) at 256-65536 envs
+#   bash benchmarks/device_session.sh sweep1m  # settings around the card's preset, 8 seeds vmapped, to 0.98 M env steps
+#   bash benchmarks/device_session.sh ablation # each phase's cost inside the compiled iteration, at 1024 and 4096 envs
 #   bash benchmarks/device_session.sh trace    # jax.profiler trace of the card's block; phases at 65536 envs
 #   bash benchmarks/device_session.sh ttr      # time to a Hopper return of 3000, NPG and PPO, 3 seeds each
 #   bash benchmarks/device_session.sh env      # raw env throughput table, then Pong figures
@@ -39,6 +41,16 @@ sweep8)
     --settings step07vep10 vnorm std0 vnorm_std0 lam95 vnorm_s10 vep20 vnorm_vep5 \
     --seeds 0 1 2 3 4 5 6 7 --steps 1966080 --marks 1 1.5 1.966 --json "$OUT/sweep8.json" 2>&1 \
     | tee "$OUT/sweep8.log" | grep -v "^WARN"
+  ;;
+sweep1m)
+  timeout 575 $py benchmarks/hopper_sweep.py --impl warp --block 4 \
+    --settings ${SETTINGS:-card card_s085 card_s10 card_h48 card_lam97 card_g995 card_vep15} \
+    --seeds 0 1 2 3 4 5 6 7 --steps 983040 --marks 0.5 0.75 0.983 --json "$OUT/sweep1m.json" 2>&1 \
+    | tee "$OUT/sweep1m.log" | grep -v "^WARN"
+  ;;
+ablation)
+  timeout 575 $py benchmarks/iteration_ablation.py --num-envs ${SIZES:-1024 4096} --iterations 10 --rounds 5 \
+    --json "$OUT/ablation.json" 2>&1 | tee "$OUT/ablation.log" | grep -v "^WARN"
   ;;
 ratio)
   shift

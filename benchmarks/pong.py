@@ -16,7 +16,9 @@ the Atari ROM):
            of envs (the experiment's learning rate unless ``--lr`` is given, no fps measurement),
            and their running reward against wall clock in ``RUN_DIR/pong_envs.png``: more envs
            learn faster in wall-clock time (on one H200 it held from 1 to 1024 envs:
-           BENCHMARKS.md, section J).
+           BENCHMARKS.md, section J). ``--algo ppo`` runs the same comparison with PPO (the
+           experiment's settings, e.g. PPO's Atari recipe on the ROM, which learns there in
+           minutes where MinPy's A2C needs tens of minutes per setting).
 
 Every A2C run is a standard run of the command line (``jaxpg.cli.plan`` of ``experiments/pong.py``
 with ``--minutes``, run by ``jaxpg.session.execute``) in ``RUN_DIR/envs<N>-tmax<T>-lr<LR>-seed<S>``,
@@ -33,6 +35,7 @@ comparison on the Atari ROM (``experiments/atari_pong.py``; needs ``pip install 
     python benchmarks/pong.py --compare-envs 1 2 4 16 64 256 --seconds 300 --run-dir runs/pong-envs
     python benchmarks/pong.py --compare-envs 1 4 16 --seconds 30 --size 40 --run-dir runs/pong-cpu   # a CPU
     python benchmarks/pong.py --task atari_pong --compare-envs 1 2 4 16 64 --seconds 1200 --run-dir runs/atari-envs
+    python benchmarks/pong.py --task atari_pong --algo ppo --compare-envs 1 4 16 64 --seconds 150 --run-dir runs/ppo
     python benchmarks/pong.py --plot docs/pong_a2c_h200.png benchmarks/results/2026-11-22-h200/pong*.json
     python benchmarks/pong.py --fps-envs --train-envs 2048 --lr 1e-3 2e-3 4e-3 --seconds 125   # the lr sweep
 """
@@ -128,11 +131,19 @@ def train_fps(num_envs: int, size: int, per_call: int = 1, iterations: int = 24)
 # A2C runs through the command line, and the running reward from their metrics.
 
 
-def run_name(num_envs: int, horizon: int | None, lr: float | None, seed: int) -> str:
+def run_name(num_envs: int, horizon: int | None, lr: float | None, seed: int, algo: str = "a2c") -> str:
     """The run directory's name under ``--run-dir``: ``envs16-seed0``, with ``-tmax5`` and ``-lr0.002``
-    where they are not the experiment's."""
+    where they are not the experiment's, and the algorithm in front when it is not A2C
+    (``ppo-envs16-seed0``)."""
     tmax = "" if horizon is None else f"-tmax{horizon}"
-    return f"envs{num_envs}{tmax}{'' if lr is None else f'-lr{lr:g}'}-seed{seed}"
+    prefix = "" if algo == "a2c" else f"{algo}-"
+    return f"{prefix}envs{num_envs}{tmax}{'' if lr is None else f'-lr{lr:g}'}-seed{seed}"
+
+
+def experiment_horizon(task: str, algo: str) -> int:
+    """Env steps per iteration and env of ``algo`` in the experiment that trains ``task``."""
+    config = load_experiment(task).config.get(algo, {})
+    return config.get("horizon", algos.get(algo).Config().horizon)
 
 
 def run_argv(
@@ -146,16 +157,18 @@ def run_argv(
     iterations: int | None = None,
     size: int | None = None,
     call_steps: int = 2048,
+    algo: str = "a2c",
 ) -> list[str]:
-    """The experiment's command line of one A2C run: ``iterations``, or ``seconds`` of training.
+    """The experiment's command line of one ``algo`` run (A2C: MinPy's comparison; PPO, the
+    experiment's default on the ROM): ``iterations``, or ``seconds`` of training.
 
     A compiled call (a block, between metrics reaching the host) covers about ``call_steps`` env
     steps (1 to 256 iterations): one iteration at GPU-sized batches, many at small ones, where a
     call's latency would otherwise dominate. Checkpoints only at the end.
     """
-    samples = num_envs * (horizon or a2c_config(num_envs).horizon)
+    samples = num_envs * (horizon or experiment_horizon(task, algo))
     per_call = min(max(round(call_steps / samples), 1), 256)
-    argv = ["--algo", "a2c", "--num-envs", str(num_envs), "--seed", str(seed), "--run-dir", str(run_dir)]
+    argv = ["--algo", algo, "--num-envs", str(num_envs), "--seed", str(seed), "--run-dir", str(run_dir)]
     argv += ["--log-every", str(per_call), "--checkpoint-every", "0", "--no-progress"]
     argv += ["--iterations", str(iterations or NO_LIMIT)]
     if iterations is None:
@@ -207,7 +220,7 @@ def running_reward(records: Sequence[dict[str, Any]], block: int, decay: float =
 
 
 def summarize(run_dir: Path, thresholds: Sequence[float]) -> dict:
-    """One A2C run's results: its settings, seconds of its first block (compilation included),
+    """One run's results: its settings, seconds of its first block (compilation included),
     wall-clock seconds
     and env steps at which the running reward first exceeded each threshold (``None`` where it never
     did), the final running reward, and the curve at most twice a second."""
@@ -230,6 +243,7 @@ def summarize(run_dir: Path, thresholds: Sequence[float]) -> dict:
     last = curve[-1] if curve else {"running_reward": math.nan, "games": 0, "env_steps": 0, "wall_s": 0.0}
     return {
         "run_dir": str(run_dir),
+        "algo": run.algo,
         "num_envs": run.config["num_envs"],
         "seed": run.seeds[0],
         "lr": run.config["lr"],
@@ -251,7 +265,7 @@ def plot(runs: Sequence[dict], out: str | Path, title: str) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    settings = sorted({(r["num_envs"], r.get("horizon", 8), r.get("lr", 1e-3)) for r in runs})
+    settings = sorted({(r["num_envs"], r.get("horizon", 8), r.get("lr", 1e-3), r.get("algo", "a2c")) for r in runs})
     cmap = plt.get_cmap("viridis") if len(settings) > 10 else None
     colors = (
         dict(zip(settings, cmap([i / max(len(settings) - 1, 1) for i in range(len(settings))]), strict=True))
@@ -261,9 +275,9 @@ def plot(runs: Sequence[dict], out: str | Path, title: str) -> None:
     fig, ax = plt.subplots(figsize=(8, 4.5))
     labelled = set()
     for run in runs:
-        key = (run["num_envs"], run.get("horizon", 8), run.get("lr", 1e-3))
+        key = (run["num_envs"], run.get("horizon", 8), run.get("lr", 1e-3), run.get("algo", "a2c"))
         envs = f"{key[0]} env{'s' if key[0] > 1 else ''}"
-        label = None if key in labelled else f"A2C, {envs}, t_max {key[1]}, lr {key[2]:g}"
+        label = None if key in labelled else f"{key[3].upper()}, {envs}, horizon {key[1]}, lr {key[2]:g}"
         labelled.add(key)
         t = [row["wall_s"] for row in run["curve"]]
         reward = [math.nan if row["running_reward"] is None else row["running_reward"] for row in run["curve"]]
@@ -281,14 +295,15 @@ def plot(runs: Sequence[dict], out: str | Path, title: str) -> None:
 
 
 def plot_files(json_paths: Sequence[str], out: str) -> None:
-    """``plot`` of every A2C run in earlier ``--json`` files."""
-    runs, device = [], ""
+    """``plot`` of every run in earlier ``--json`` files (e.g. one file per number of envs)."""
+    runs, device, task = [], "", "pong"
     for path in json_paths:
         with open(path) as f:
             result = json.load(f)
         runs += result["beat"]
-        device = result["device"]
-    plot(runs, out, f"jaxpg Pong from frame differences, {device}: one line per run (seed)")
+        device, task = result["device"], result.get("task", "pong")
+    game = "jaxpg Pong from frame differences" if task == "pong" else "Atari Pong (ALE)"
+    plot(runs, out, f"{game}, {device}: one line per run (seed)")
 
 
 # ---------------------------------------------------------------------------------------------
@@ -307,6 +322,12 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--train-envs", type=int, nargs="*", default=[1024], help="A2C runs with each number of envs")
     parser.add_argument(
         "--compare-envs", type=int, nargs="+", help="MinPy's comparison: A2C runs with each, plot into pong_envs.png"
+    )
+    parser.add_argument(
+        "--algo",
+        choices=("a2c", "ppo"),
+        default="a2c",
+        help="the runs' algorithm (a2c: MinPy's; ppo: the ROM's default)",
     )
     parser.add_argument("--seconds", type=float, default=240.0, help="wall-clock budget of each A2C run")
     parser.add_argument("--iterations", type=int, help="instead of --seconds: exactly this many iterations per run")
@@ -353,12 +374,17 @@ def main(argv: Sequence[str] | None = None) -> int:
         check(args)
         root = args.run_dir or Path("runs") / f"pong-benchmark-{datetime.datetime.now():%Y%m%d-%H%M%S}"
         experiment = load_experiment(args.task)
-        budget = dict(seconds=args.seconds, iterations=args.iterations, size=args.size, call_steps=args.call_steps)
+        budget = dict(
+            seconds=args.seconds, iterations=args.iterations, size=args.size, call_steps=args.call_steps, algo=args.algo
+        )
         plans = [
-            cli.plan(run_argv(root / run_name(n, t_max, lr, seed), args.task, n, seed, lr, t_max, **budget), experiment)
+            cli.plan(
+                run_argv(root / run_name(n, t_max, lr, seed, args.algo), args.task, n, seed, lr, t_max, **budget),
+                experiment,
+            )
             for n in args.compare_envs or args.train_envs
             for t_max in args.t_max or [None]
-            for lr in args.lr or ([None] if compare else [2e-3])
+            for lr in args.lr or ([None] if compare or args.algo != "a2c" else [2e-3])
             for seed in args.seeds
         ]
     except ValueError as e:  # UsageError, or a run the command line refuses
@@ -389,7 +415,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     game = f"jaxpg Pong ({size}x{size} frame differences)" if args.task == "pong" else "Atari Pong (ALE)"
     if compare:
-        plot(beat_rows, root / "pong_envs.png", f"A2C on {game}, {device}")
+        plot(beat_rows, root / "pong_envs.png", f"{args.algo.upper()} on {game}, {device}")
         print(f"wrote {root / 'pong_envs.png'}")
     print(f"\n{game}, {device}")
     if fps_rows:
@@ -405,15 +431,15 @@ def main(argv: Sequence[str] | None = None) -> int:
         )
     print()
     heads = " | ".join(f"running reward > {t:g}" for t in args.thresholds)
-    print(f"| A2C envs | t_max | lr | seed | {heads} | final running reward | games | env steps | first block s |")
-    print("|---|---|---|---|" + "---|" * (len(args.thresholds) + 4))
+    print(f"| algo | envs | horizon | lr | seed | {heads} | final running reward | games | env steps | first block s |")
+    print("|---|---|---|---|---|" + "---|" * (len(args.thresholds) + 4))
     for r in beat_rows:
         cells = [
             f"{v['seconds']:.0f} s ({v['env_steps'] / 1e6:.1f} M steps)" if v else f"not in {r['wall_s']:.0f} s"
             for v in r["reached"].values()
         ]
         print(
-            f"| {r['num_envs']} | {r['horizon']} | {r['lr']:g} | {r['seed']} | {' | '.join(cells)} "
+            f"| {r['algo']} | {r['num_envs']} | {r['horizon']} | {r['lr']:g} | {r['seed']} | {' | '.join(cells)} "
             f"| {r['final_running_reward']:.2f} | {r['games']} "
             f"| {r['env_steps'] / 1e6:.1f} M | {r['first_block_s']:.1f} |"
         )

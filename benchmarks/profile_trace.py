@@ -9,9 +9,15 @@ one call with ``jax.profiler.trace`` and summarises the Perfetto trace it writes
 * the number of kernels per iteration and the mean kernel duration;
 * the kernels with the largest total time.
 
+``--block`` picks what the traced block runs per iteration: ``full`` (``npg.update``, the default),
+``sample`` (only the rollout, ``core.phase_sample``) or ``raw`` (the same env batch stepped with
+uniform random actions, no policy); the differences in kernels per iteration between them are
+what the policy adds to each env step and what the learner adds to each iteration.
+
 The raw trace stays in ``--out`` (open ``*.trace.json.gz`` in https://ui.perfetto.dev).
 
     python benchmarks/profile_trace.py --num-envs 256 --iterations 10 --out /tmp/trace
+    python benchmarks/profile_trace.py --num-envs 1024 --block sample --out /tmp/trace-sample
 """
 
 from __future__ import annotations
@@ -86,12 +92,42 @@ def summarise(trace_file: Path, wall_s: float, iterations: int, top: int) -> Non
         )
 
 
+def iteration_fn(block: str):  # noqa: ANN201
+    """``ts -> (ts, metrics)``: the whole NPG iteration (``full``), its rollout alone (``sample``),
+    or the rollout's env steps with uniform random actions in place of the policy (``raw``)."""
+    import jax.numpy as jnp
+
+    from jaxpg import rollout as rollout_lib
+    from jaxpg.algos import core, npg
+
+    if block == "full":
+        return npg.update
+
+    def iteration(ts):  # noqa: ANN001, ANN202
+        if block == "sample":
+            ts, traj, _ = core.phase_sample(ts)
+            return ts, {"reward": jnp.sum(traj.rewards)}
+
+        def random_act(params, obs, key):  # noqa: ANN001, ANN202
+            del params
+            action = jax.random.uniform(key, (obs.shape[0], ts.env.action_size), minval=-1.0, maxval=1.0)
+            return action, jnp.zeros(obs.shape[0])
+
+        key, step_key = jax.random.split(ts.key)
+        env = core.sampler_env(ts.env, ts.config)
+        env_state, traj = rollout_lib.rollout(env, random_act, None, ts.env_state, step_key, ts.config.horizon)
+        return ts.replace(key=key, env_state=env_state), {"reward": jnp.sum(traj.rewards)}
+
+    return iteration
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--num-envs", type=int, default=256)
     parser.add_argument("--iterations", type=int, default=10, help="iterations in the traced compiled call")
     parser.add_argument("--out", default="/tmp/jaxpg-trace", help="directory for the raw trace")
     parser.add_argument("--top", type=int, default=15)
+    parser.add_argument("--block", choices=("full", "sample", "raw"), default="full", help="what an iteration runs")
     args = parser.parse_args()
 
     from jaxpg import envs
@@ -101,7 +137,7 @@ def main() -> None:
     env = envs.make("hopper", batch=args.num_envs)
     config = npg.Config(**{**npg.PRESETS["hopper"], "num_envs": args.num_envs})
     state = jax.device_put(npg.init(jax.random.PRNGKey(0), env, config), jax.devices()[0])
-    block = train_lib.compiled_block(npg.update, args.iterations, False)
+    block = train_lib.compiled_block(iteration_fn(args.block), args.iterations, False)
     for _ in range(2):  # compile, then once more with the call's own outputs
         state, _ = jax.block_until_ready(block(state))
     out = Path(args.out)
@@ -109,7 +145,10 @@ def main() -> None:
         start = time.perf_counter()
         state, _ = jax.block_until_ready(block(state))
         wall_s = time.perf_counter() - start
-    print(f"hopper npg preset hopper, {args.num_envs} envs x {config.horizon} steps, {jax.devices()[0].device_kind}")
+    print(
+        f"hopper npg preset hopper, block {args.block}, {args.num_envs} envs x {config.horizon} steps, "
+        f"{jax.devices()[0].device_kind}"
+    )
     traces = sorted(out.rglob("*.trace.json.gz"))
     if not traces:
         print(f"no Perfetto trace under {out}")

@@ -108,18 +108,21 @@ def rollout(
     key: jax.Array,
     horizon: int,
     record_fn: RecordFn | None = None,
+    unroll: int = 1,
 ) -> tuple[State, Trajectory]:
     """Continuing sampling of ``horizon`` steps from ``env_state [B]``.
 
     ``env`` must reset itself (``AutoReset``). Returns the env state to continue from and a
     ``Trajectory`` of ``[horizon, B]`` transitions with ``valid`` all ones (``extras``:
-    ``record_fn`` of each step's resulting state, after any automatic reset).
+    ``record_fn`` of each step's resulting state, after any automatic reset). ``unroll`` (static)
+    runs that many env steps per iteration of the compiled loop (``lax.scan``'s ``unroll``): the
+    same numbers, fewer loop iterations for the host to drive on a GPU, a longer compilation.
     """
 
     def body(state: State, step_key: jax.Array) -> tuple[State, dict]:
         return _transition(env, act_fn, params, state, step_key, record_fn)
 
-    env_state, records = jax.lax.scan(body, env_state, jax.random.split(key, horizon))
+    env_state, records = jax.lax.scan(body, env_state, jax.random.split(key, horizon), unroll=unroll)
     valid = jnp.ones_like(records["rewards"])
     return env_state, Trajectory(valid=valid, **records)
 

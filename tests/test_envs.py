@@ -306,6 +306,26 @@ def test_rollout_matches_python_loop(rollout_case):
     np.testing.assert_allclose(float(summary["episode_length"]), loop["episode_length"][done].mean(), rtol=1e-6)
 
 
+def test_rollout_unrolled_gives_the_same_trajectory(pendulum_case):
+    """``rollout(..., unroll=k)`` runs k env steps per loop iteration (7 does not divide the
+    horizon): the same transitions and final state as one step per iteration."""
+    auto, act = pendulum_case["auto"], pendulum_case["act"]
+    env_state = rollout_lib.reset_batch(auto, jax.random.key(3), ROLLOUT_ENVS)
+    outs = [
+        jax.jit(lambda s, k, u=u: rollout_lib.rollout(auto, act, None, s, k, ROLLOUT_STEPS, unroll=u))(
+            env_state, jax.random.key(4)
+        )
+        for u in (1, 7)
+    ]
+    assert np.any(np.asarray(outs[0][1].dones)), "the case should hold episode ends"
+
+    def plain(x: jax.Array) -> np.ndarray:
+        return np.asarray(jax.random.key_data(x) if jnp.issubdtype(x.dtype, jax.dtypes.prng_key) else x)
+
+    for a, b in zip(jax.tree.leaves(outs[0]), jax.tree.leaves(outs[1]), strict=True):
+        np.testing.assert_allclose(plain(a), plain(b), rtol=1e-6, atol=1e-6)
+
+
 def test_rollout_episodes_matches_python_loop(rollout_case):
     """``rollout_episodes`` (episodic, no reset) under jit + vmap: ``valid`` covers each env's first
     episode up to its end, whose statistics are those of a plain loop with the same keys."""

@@ -66,3 +66,33 @@ def test_value_fit_forms_take_the_same_steps(kernels):
         )
         for a, b in zip(jax.tree.leaves(fitted[name]), jax.tree.leaves(want), strict=True):
             np.testing.assert_array_equal(np.asarray(a), np.asarray(b), err_msg=name)
+
+
+def test_iteration_ablation_variants_and_parallel_gae():
+    """``benchmarks/iteration_ablation.py``: its GAE change computes ``core.gae_advantages``'
+    numbers, and it times the cumulative phases plus the changes asked for."""
+    from types import SimpleNamespace
+
+    from jaxpg.algos import core, npg
+
+    spec = importlib.util.spec_from_file_location("iteration_ablation", ROOT / "benchmarks" / "iteration_ablation.py")
+    ablation = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(ablation)
+    k = jax.random.split(jax.random.PRNGKey(1), 5)
+    shape = (12, 4)
+    traj = SimpleNamespace(
+        rewards=jax.random.normal(k[0], shape),
+        terminated=jax.random.uniform(k[1], shape) < 0.1,
+        truncated=jax.random.uniform(k[2], shape) < 0.05,
+    )
+    ts = SimpleNamespace(config=npg.Config(gamma=0.99, gae_lambda=0.9, value_target="gae"))
+    values, next_values = jax.random.normal(k[3], shape), jax.random.normal(k[4], shape)
+    for a, b in zip(
+        ablation.parallel_gae_advantages(ts, traj, values, next_values),
+        core.gae_advantages(ts, traj, values, next_values),
+        strict=True,
+    ):
+        np.testing.assert_allclose(np.asarray(a), np.asarray(b), rtol=1e-5, atol=1e-5)
+    assert list(ablation.variants([])) == list(ablation.PHASES)
+    assert list(ablation.variants(["unroll"]))[4:] == ["raw", f"raw_u{ablation.UNROLL}", f"sample_u{ablation.UNROLL}"]
+    assert ablation.variants(["vmb8"])["vmb8"][1] == {"value_minibatches": 8}

@@ -541,3 +541,17 @@ def test_benchmark_bad_input(tmp_path, capsys, argv, message):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("error: ") and message in err[0], err
     assert not (tmp_path / "new").exists()
+
+
+def test_benchmark_run_argv_per_algorithm(tmp_path):
+    """``--algo ppo`` plans PPO runs with the experiment's own horizon (128 on the ROM), named
+    apart from A2C's; A2C keeps the experiment's t_max."""
+    bench = load_script("benchmarks/pong.py")
+    assert bench.experiment_horizon("atari_pong", "ppo") == 128
+    assert bench.experiment_horizon("pong", "a2c") == 8
+    ppo = bench.run_argv(tmp_path / "r", "atari_pong", 16, seconds=60.0, call_steps=4096, algo="ppo")
+    assert ppo[:2] == ["--algo", "ppo"] and ppo[ppo.index("--log-every") + 1] == "2"
+    a2c = bench.run_argv(tmp_path / "r", "pong", 16, seconds=60.0, call_steps=4096)
+    assert a2c[:2] == ["--algo", "a2c"] and a2c[a2c.index("--log-every") + 1] == "32"
+    assert bench.run_name(16, None, None, 0, "ppo") == "ppo-envs16-seed0"
+    assert bench.run_name(16, None, None, 0) == "envs16-seed0"

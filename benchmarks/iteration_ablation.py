@@ -1,0 +1,243 @@
+"""What each phase of an NPG iteration costs inside the whole compiled iteration, and what a change saves.
+
+Timing phases alone (``experiments/hopper.py --profile``, ``benchmarks/learner_kernels.py``) misses
+how they behave inside the training program, and comparing whole-iteration throughput across
+machines cannot resolve a few percent (BENCHMARKS.md, sections AF and AH). This compiles, in one
+process, the card's NPG iteration (``npg`` preset ``hopper`` at ``--num-envs``) cut after each
+phase, and the whole iteration with each change in ``--changes``, each as a ``lax.scan`` of
+``--iterations`` iterations (one compiled call, as ``jaxpg.train`` runs them), then times them
+in interleaved rounds (every variant once per round, ``--rounds`` rounds, each call synchronised
+and chained on its own outputs), so that drifts of the machine hit every variant alike.
+
+Variants, cumulative (each keeps what it computes alive, so that nothing is eliminated):
+
+  sample      the rollout (``core.phase_sample``): policy and physics for ``horizon`` steps;
+  +advantages value predictions and GAE (``core.phase_advantages``);
+  +policy     the gradient, the conjugate-gradient natural step and the KL backtracking;
+  full        ``npg.update`` as it is (adds the value fit and the iteration's bookkeeping);
+
+and changes of the full iteration (``--changes``):
+
+  gae_parallel  GAE as an associative scan (``returns.gae(..., parallel=True)``, via ``npg.make_update``);
+  vmb8          ``value_minibatches=8`` (half the value fit's Adam steps; a different fit);
+  unroll        the rollout alone: ``raw`` (uniform random actions in place of the policy, the
+                baseline of train/raw), and ``raw`` and ``sample`` with 4 env steps per
+                iteration of the rollout's loop (``rollout(..., unroll=4)``; the same numbers).
+
+Prints per batch size the median ms per iteration of every variant, the difference to the
+previous cumulative variant (the phase's cost in context) or to ``full`` (a change's saving),
+and env steps/s.
+
+    python benchmarks/iteration_ablation.py --num-envs 1024 4096 --iterations 10 --rounds 5
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import statistics
+import time
+from collections.abc import Callable
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+from jax.flatten_util import ravel_pytree
+
+from jaxpg import returns
+from jaxpg import rollout as rollout_lib
+from jaxpg.algos import core, natural_gradient, npg
+
+PHASES = ("sample", "+advantages", "+policy", "full")
+CHANGES = ("gae_parallel", "vmb8", "unroll")
+UNROLL = 4  # env steps per loop iteration of the rollout in the ``unroll`` rows
+
+
+def sample_only(ts: core.TrainState) -> tuple[core.TrainState, dict[str, jax.Array]]:
+    """The rollout of one iteration; the state carries the env state on."""
+    ts, traj, _ = core.phase_sample(ts)
+    return ts, {"reward": jnp.sum(traj.rewards)}
+
+
+def raw_steps(unroll: int = 1) -> Callable:
+    """The rollout's env steps with uniform random actions in place of the policy (what
+    ``train_throughput.py`` calls raw simulation), ``unroll`` steps per loop iteration."""
+
+    def iteration(ts: core.TrainState) -> tuple[core.TrainState, dict[str, jax.Array]]:
+        def random_act(params: Any, obs: jax.Array, key: jax.Array) -> tuple[jax.Array, jax.Array]:
+            del params
+            action = jax.random.uniform(key, (obs.shape[0], ts.env.action_size), minval=-1.0, maxval=1.0)
+            return action, jnp.zeros(obs.shape[0])
+
+        key, step_key = jax.random.split(ts.key)
+        env = core.sampler_env(ts.env, ts.config)
+        env_state, traj = rollout_lib.rollout(
+            env, random_act, None, ts.env_state, step_key, ts.config.horizon, unroll=unroll
+        )
+        return ts.replace(key=key, env_state=env_state), {"reward": jnp.sum(traj.rewards)}
+
+    return iteration
+
+
+def sample_unrolled(unroll: int) -> Callable:
+    """``sample_only`` (continuing sampling, one device) with ``unroll`` env steps per loop iteration."""
+
+    def iteration(ts: core.TrainState) -> tuple[core.TrainState, dict[str, jax.Array]]:
+        key, sample_key, _ = jax.random.split(ts.key, 3)
+        act = core.make_act(ts.policy, ts.obs_stats)
+        env = core.sampler_env(ts.env, ts.config)
+        env_state, traj = rollout_lib.rollout(
+            env, act, ts.params, ts.env_state, sample_key, ts.config.horizon, unroll=unroll
+        )
+        return ts.replace(key=key, env_state=env_state), {"reward": jnp.sum(traj.rewards)}
+
+    return iteration
+
+
+def through_advantages(ts: core.TrainState) -> tuple[core.TrainState, dict[str, jax.Array]]:
+    """The rollout and its advantages and value targets."""
+    ts, traj, _ = core.phase_sample(ts)
+    batch = core.phase_advantages(ts, traj)
+    return ts, {"advantage": jnp.sum(batch.advantages * batch.value_targets)}
+
+
+def through_policy_step(ts: core.TrainState) -> tuple[core.TrainState, dict[str, jax.Array]]:
+    """The rollout, its advantages and NPG's policy step (as ``npg.update_using`` takes it); no
+    value fit."""
+    ts, traj, _ = core.phase_sample(ts)
+    batch = core.phase_advantages(ts, traj)
+    grads = natural_gradient.policy_gradient(ts, batch)
+    natural_step = npg.scale_by_natural_gradient(ts.config.kl_delta, ts.config.cg_iters, ts.config.loop_unroll)
+    fvp = natural_gradient.fisher_operator(ts, *natural_gradient.fisher_subsample(ts, batch))
+    _, solve = natural_step.update(grads, natural_step.init(ts.params), ts.params, fisher_vector_product=fvp)
+    new_params, kl, _ = npg.step_within_kl(ts, batch, solve.direction, solve.step_size, npg.kl_bound(ts.config))
+    return ts.replace(params=new_params), {"kl": kl, "grad_norm": jnp.linalg.norm(ravel_pytree(grads)[0])}
+
+
+def parallel_gae_advantages(
+    ts: core.TrainState, traj: Any, values: jax.Array, next_values: jax.Array
+) -> tuple[jax.Array, jax.Array]:
+    """``core.gae_advantages`` with GAE as an associative scan (lambda-return targets only)."""
+    config = ts.config
+    return returns.gae(
+        traj.rewards,
+        values,
+        next_values,
+        traj.terminated,
+        traj.truncated,
+        config.gamma,
+        config.gae_lambda,
+        parallel=True,
+    )
+
+
+def variants(changes: list[str]) -> dict[str, tuple[Callable, dict[str, Any]]]:
+    """Name -> (update function, config overrides) of every variant timed."""
+    table: dict[str, tuple[Callable, dict[str, Any]]] = {
+        "sample": (sample_only, {}),
+        "+advantages": (through_advantages, {}),
+        "+policy": (through_policy_step, {}),
+        "full": (npg.update, {}),
+    }
+    if "gae_parallel" in changes:
+        table["gae_parallel"] = (npg.make_update(parallel_gae_advantages), {})
+    if "vmb8" in changes:
+        table["vmb8"] = (npg.update, {"value_minibatches": 8})
+    if "unroll" in changes:
+        table["raw"] = (raw_steps(), {})
+        table[f"raw_u{UNROLL}"] = (raw_steps(UNROLL), {})
+        table[f"sample_u{UNROLL}"] = (sample_unrolled(UNROLL), {})
+    return table
+
+
+def measure(num_envs: int, iterations: int, rounds: int, changes: list[str], task: str = "hopper") -> dict[str, Any]:
+    """One batch size: compile every variant, then time them in interleaved rounds."""
+    from jaxpg import envs
+    from jaxpg import train as train_lib
+
+    env = envs.make(task, batch=num_envs)
+    base = npg.Config(**{**npg.PRESETS["hopper"], "num_envs": num_envs})
+    assert base.value_target == "gae", "gae_parallel computes lambda-return targets only"
+    device = jax.devices()[0]
+    states, blocks, compile_s = {}, {}, {}
+    for name, (update, overrides) in variants(changes).items():
+        config = dataclasses.replace(base, **overrides)
+        ts = jax.device_put(npg.init(jax.random.PRNGKey(0), env, config), device)
+        block = jax.jit(lambda t, u=update: train_lib.scan_updates(u, t, iterations))
+        start = time.perf_counter()
+        ts, _ = jax.block_until_ready(block(ts))
+        compile_s[name] = time.perf_counter() - start
+        ts, _ = jax.block_until_ready(block(ts))  # once more on the call's own outputs
+        states[name], blocks[name] = ts, block
+        print(f"  {num_envs} envs: {name} compiled in {compile_s[name]:.1f} s", flush=True)
+    times: dict[str, list[float]] = {name: [] for name in blocks}
+    for _ in range(rounds):
+        for name, block in blocks.items():
+            start = time.perf_counter()
+            states[name], _ = jax.block_until_ready(block(states[name]))
+            times[name].append((time.perf_counter() - start) / iterations)
+    ms = {name: 1e3 * statistics.median(t) for name, t in times.items()}
+    spread = {name: 1e3 * (max(t) - min(t)) for name, t in times.items()}
+    return {
+        "task": task,
+        "num_envs": num_envs,
+        "horizon": base.horizon,
+        "iterations": iterations,
+        "rounds": rounds,
+        "ms_per_iteration": ms,
+        "spread_ms": spread,
+        "compile_s": compile_s,
+        "device": device.device_kind,
+    }
+
+
+def print_table(row: dict[str, Any]) -> None:
+    """The variants of one batch size as a markdown table."""
+    ms, spread = row["ms_per_iteration"], row["spread_ms"]
+    samples = row["num_envs"] * row["horizon"]
+    print(
+        f"\n{row['num_envs']} envs x {row['horizon']} steps, {row['iterations']} iterations per call, "
+        f"median of {row['rounds']} interleaved rounds, {row['device']}"
+    )
+    print("| variant | ms / iteration (spread) | difference | env steps/s | compile s |")
+    print("|---|---|---|---|---|")
+    previous = None
+    for name in ms:
+        if name in PHASES:
+            diff = "" if previous is None else f"{ms[name] - ms[previous]:+.2f} (phase)"
+            previous = name
+        elif name.startswith("raw"):
+            diff = f"{ms[name] - ms['sample']:+.2f} (vs sample)"
+        elif name.startswith("sample_u"):
+            diff = f"{ms[name] - ms['sample']:+.2f} (vs sample)"
+        else:
+            diff = f"{ms[name] - ms['full']:+.2f} (vs full)"
+        print(
+            f"| {name} | {ms[name]:.2f} ({spread[name]:.2f}) | {diff} | {samples / ms[name] * 1e3 / 1e6:.3f} M "
+            f"| {row['compile_s'][name]:.1f} |"
+        )
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--num-envs", type=int, nargs="+", default=[1024, 4096])
+    parser.add_argument("--iterations", type=int, default=10, help="iterations per compiled call")
+    parser.add_argument("--rounds", type=int, default=5, help="interleaved timed calls per variant")
+    parser.add_argument("--changes", nargs="*", default=list(CHANGES), choices=CHANGES)
+    parser.add_argument("--task", default="hopper", help="another env for a quick check (the preset is Hopper's)")
+    parser.add_argument("--json", default=None)
+    args = parser.parse_args()
+    if args.iterations < 1 or args.rounds < 1:
+        parser.error("--iterations and --rounds must be >= 1")
+    rows = []
+    for num_envs in args.num_envs:
+        rows.append(measure(num_envs, args.iterations, args.rounds, args.changes, args.task))
+        print_table(rows[-1])
+        if args.json:
+            with open(args.json, "w") as f:
+                json.dump(rows, f, indent=1)
+
+
+if __name__ == "__main__":
+    main()

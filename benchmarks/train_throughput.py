@@ -4,8 +4,8 @@ For each (impl, num_envs) this measures, in a fresh process (so that peak memory
   raw    env steps/s of the simulation a training iteration needs: the same env (auto-reset
          included), batch and horizon, random actions, ``lax.scan`` over the horizon, each timed
          call continuing from the previous call's env states as training does ("raw from reset":
-         every call from the same reset states, the cheaper first steps of episodes overweighted;
-         this benchmark's baseline before BENCHMARKS.md section AI);
+         every call from the same reset states, this benchmark's baseline before BENCHMARKS.md
+         section AK, where the two agreed within 1 %);
   train  env steps/s of full training iterations (sampling, GAE, policy step, value fit), several
          iterations per compiled call exactly as ``jaxpg.train`` runs them, and one per call;
 and reports their ratio, both compile times and the peak device memory per env.
@@ -119,8 +119,7 @@ def measure(
         return jax.lax.scan(one, state, jax.random.split(key, iterations))
 
     # Raw simulation from the same reset state in every timed call (as this benchmark measured it
-    # up to section AI of BENCHMARKS.md): each call's first steps are the cheap ones right after
-    # a reset, when every hopper stands on its foot ...
+    # up to section AK of BENCHMARKS.md), which might favour the first steps after a reset ...
     raw_compile, raw_fresh_s, _ = time_call(raw, state, jax.random.PRNGKey(1), repeats=repeats)
     raw_fresh_s /= iterations
 

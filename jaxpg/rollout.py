@@ -116,7 +116,8 @@ def rollout(
     ``Trajectory`` of ``[horizon, B]`` transitions with ``valid`` all ones (``extras``:
     ``record_fn`` of each step's resulting state, after any automatic reset). ``unroll`` (static)
     runs that many env steps per iteration of the compiled loop (``lax.scan``'s ``unroll``): the
-    same numbers, fewer loop iterations for the host to drive on a GPU, a longer compilation.
+    same numbers, fewer loop iterations for the host to drive, a longer compilation. (For MuJoCo
+    Warp's Hopper on an H100, 4 was slower than 1: BENCHMARKS.md, section AI.)
     """
 
     def body(state: State, step_key: jax.Array) -> tuple[State, dict]:

@@ -10,6 +10,8 @@
 #                                              # (with these preset overrides) at 256-65536 envs
 #   bash benchmarks/device_session.sh sweep1m  # settings around the card's preset, 8 seeds vmapped, to 0.98 M env steps
 #   bash benchmarks/device_session.sh ablation # each phase's cost inside the compiled iteration, at 1024 and 4096 envs
+#   bash benchmarks/device_session.sh ablation_check  # train_throughput and the ablation at 1024 envs on one machine
+#                                              # (BENCHMARKS.md AI: the two disagree on the rollouts' time)
 #   bash benchmarks/device_session.sh trace    # jax.profiler trace of the card's block; phases at 65536 envs
 #   bash benchmarks/device_session.sh ttr      # time to a Hopper return of 3000, NPG and PPO, 3 seeds each
 #   bash benchmarks/device_session.sh env      # raw env throughput table, then Pong figures
@@ -51,6 +53,12 @@ sweep1m)
 ablation)
   timeout 575 $py benchmarks/iteration_ablation.py --num-envs ${SIZES:-1024 4096} --iterations 10 --rounds 5 \
     --json "$OUT/ablation.json" 2>&1 | tee "$OUT/ablation.log" | grep -v "^WARN"
+  ;;
+ablation_check)
+  timeout 240 $py benchmarks/train_throughput.py --impl warp --preset hopper --horizon 64 --iterations 10 \
+    --repeats 5 --batch-sizes 1024 --json "$OUT/check_ratio.json" 2>&1 | tee "$OUT/check_ratio.log" | grep -v "^WARN\|^#"
+  timeout 330 $py benchmarks/iteration_ablation.py --num-envs 1024 --iterations 10 --rounds 5 --changes unroll \
+    --json "$OUT/check_ablation.json" 2>&1 | tee "$OUT/check_ablation.log" | grep -v "^WARN\|compiled in"
   ;;
 ratio)
   shift

@@ -7,7 +7,10 @@ For each (impl, num_envs) this measures, in a fresh process (so that peak memory
          every call from the same reset states, this benchmark's baseline before BENCHMARKS.md
          section AK, where the two agreed within 1 %);
   train  env steps/s of full training iterations (sampling, GAE, policy step, value fit), several
-         iterations per compiled call exactly as ``jaxpg.train`` runs them, and one per call;
+         iterations per compiled call exactly as ``jaxpg.train`` runs them, and one per call
+         (``iterations_per_call=1``), the two timed alternately from the same state (since
+         BENCHMARKS.md section AK; before, one iteration per call was timed after the scan, on a
+         more trained policy, as one timing of ``3 x iterations`` unsynchronised calls);
 and reports their ratio, both compile times and the peak device memory per env.
 
 With ``--preset NAME`` the algorithm runs that preset (at each batch size) instead of a
@@ -151,8 +154,27 @@ def measure(
     ts2, metrics = jax.block_until_ready(block(ts))
     train_compile = time.perf_counter() - start
     ts2, metrics = jax.block_until_ready(block(ts2))  # warm-up with the call's own outputs
-    train_s, (ts2, metrics) = time_chained(block, ts2, repeats)
-    train_s /= iterations
+    # ... against one iteration per compiled call (jaxpg.train's iterations_per_call=1): the same
+    # number of calls dispatched back to back, synchronised once. The two chains start from the
+    # same state and alternate, so that both time the same stage of training (the physics of a
+    # policy that has learned to hop costs differently from one that falls), and each figure is
+    # the median of `repeats` synchronised groups.
+    single = jax.jit(module.update)
+    ts_single, _ = jax.block_until_ready(single(ts2))
+    ts_single, _ = jax.block_until_ready(single(ts_single))
+    ts_single = ts2
+    scan_times, single_times = [], []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        ts2, metrics = jax.block_until_ready(block(ts2))
+        scan_times.append(time.perf_counter() - start)
+        start = time.perf_counter()
+        for _ in range(iterations):
+            ts_single, _ = single(ts_single)
+        jax.block_until_ready(ts_single)
+        single_times.append(time.perf_counter() - start)
+    train_s = float(np.median(scan_times)) / iterations
+    single_s = float(np.median(single_times)) / iterations
     # The sampling phase alone (the policy acting in the env batch, observation statistics
     # included), iterations of it in one compiled call: what training adds to the simulation
     # (sample - raw) apart from what the learner adds (train - sample).
@@ -170,20 +192,11 @@ def measure(
     ts_s, _ = jax.block_until_ready(sample_block(ts_s))
     sample_s, _ = time_chained(sample_block, ts_s, repeats)
     sample_s /= iterations
-    # ... and one iteration per compiled call (block_size=1), dispatched from the host.
-    single = jax.jit(module.update)
-    ts3, _ = jax.block_until_ready(single(ts2))
-    ts3, _ = jax.block_until_ready(single(ts3))
-    start = time.perf_counter()
-    for _ in range(iterations * repeats):
-        ts3, _ = single(ts3)
-    jax.block_until_ready(ts3)
-    single_s = (time.perf_counter() - start) / (iterations * repeats)
     samples = num_envs * horizon
     eval_s, eval_compile = 0.0, 0.0
     if config.eval_envs > 0:
         evaluate = train_lib.compiled_evaluate(train_lib.evaluate_state, False)
-        eval_compile, eval_s, _ = time_call(evaluate, ts3, repeats=3)
+        eval_compile, eval_s, _ = time_call(evaluate, ts_single, repeats=3)
     with_eval_s = train_s + eval_s / config.eval_every  # per iteration, evaluation amortised
     stats = jax.devices()[0].memory_stats() or {}
     peak = stats.get("peak_bytes_in_use", 0)

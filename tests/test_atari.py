@@ -5,7 +5,6 @@ the one-line error without the ``atari`` extra, a short training run through
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import sys
 from pathlib import Path
@@ -20,6 +19,8 @@ from jaxpg.envs import AutoReset, EpisodeStats
 
 ROOT = Path(__file__).resolve().parents[1]
 ale_py = pytest.importorskip("ale_py")
+
+from script_loader import load_script  # noqa: E402
 
 from jaxpg.envs import atari  # noqa: E402
 
@@ -169,10 +170,7 @@ def test_ale_action_sets():
 
 
 def load_experiment():
-    spec = importlib.util.spec_from_file_location("atari_experiment", ROOT / "experiments" / "atari_pong.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_script("experiments/atari_pong.py")
 
 
 @pytest.mark.parametrize(

@@ -3,21 +3,18 @@
 
 from __future__ import annotations
 
-import importlib.util
 import math
 from pathlib import Path
 
 import pytest
+from script_loader import load_script
 
 ROOT = Path(__file__).resolve().parents[1]
 
 
 @pytest.fixture(scope="module")
 def determinism():
-    spec = importlib.util.spec_from_file_location("gpu_determinism", ROOT / "benchmarks" / "gpu_determinism.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_script("benchmarks/gpu_determinism.py")
 
 
 def rows(**changes):

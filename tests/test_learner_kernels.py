@@ -3,7 +3,6 @@ same numbers: they do (on tiny shapes, on the CPU), and the larger-minibatch row
 
 from __future__ import annotations
 
-import importlib.util
 from pathlib import Path
 
 import jax
@@ -11,6 +10,7 @@ import jax.numpy as jnp
 import numpy as np
 import optax
 import pytest
+from script_loader import load_script
 
 from jaxpg import value as value_lib
 from jaxpg.policies import ValueFunction
@@ -20,10 +20,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 @pytest.fixture(scope="module")
 def kernels():
-    spec = importlib.util.spec_from_file_location("learner_kernels", ROOT / "benchmarks" / "learner_kernels.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_script("benchmarks/learner_kernels.py")
 
 
 def test_gae_forms_agree(kernels):
@@ -75,9 +72,7 @@ def test_iteration_ablation_variants_and_parallel_gae():
 
     from jaxpg.algos import core, npg
 
-    spec = importlib.util.spec_from_file_location("iteration_ablation", ROOT / "benchmarks" / "iteration_ablation.py")
-    ablation = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(ablation)
+    ablation = load_script("benchmarks/iteration_ablation.py")
     k = jax.random.split(jax.random.PRNGKey(1), 5)
     shape = (12, 4)
     traj = SimpleNamespace(

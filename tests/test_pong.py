@@ -6,7 +6,6 @@ REINFORCE's per-point returns, a short A2C run that beats a random policy, and
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import shutil
 import subprocess
@@ -19,6 +18,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from script_loader import load_script
 
 import jaxpg
 from jaxpg import cli, envs, runlog
@@ -29,14 +29,6 @@ from jaxpg.envs.pong import FrameDifference, Pong, PongData
 
 ROOT = Path(__file__).resolve().parents[1]
 SMALL = 16  # frame size for the physics tests: the physics does not depend on it
-
-
-def load_script(script: str):
-    """``experiments/pong.py`` or ``benchmarks/pong.py`` as a module."""
-    spec = importlib.util.spec_from_file_location(script.replace("/", "_")[:-3], ROOT / script)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
 
 
 def random_games(env: Pong, key: jax.Array, num_envs: int, steps: int) -> dict[str, np.ndarray]:

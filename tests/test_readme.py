@@ -17,7 +17,6 @@ A python command of the README that none of these covers fails ``test_every_comm
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import re
 import shlex
@@ -26,6 +25,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from script_loader import load_script
 
 from jaxpg import cli
 
@@ -95,14 +95,6 @@ def test_ci_runs_the_readme_test_command_and_reports_skips():
     ci = [line for line in (ROOT / ".ci" / "run").read_text().splitlines() if "pytest" in line]
     assert len(readme) == 1 and ci == readme, (readme, ci)
     assert re.search(r"&& pytest -q -rs$", ci[0]), ci[0]
-
-
-def load_script(script: str):
-    """``experiments/<name>.py`` as a module."""
-    spec = importlib.util.spec_from_file_location(Path(script).stem, ROOT / script)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
 
 
 def load_experiment(script: str) -> cli.Experiment:

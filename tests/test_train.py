@@ -4,13 +4,13 @@ Hopper command line's defaults hold for every batch size it accepts."""
 from __future__ import annotations
 
 import dataclasses
-import importlib.util
 import threading
 from pathlib import Path
 
 import jax
 import numpy as np
 import pytest
+from script_loader import load_script
 
 import jaxpg.envs as envs
 from jaxpg import cli
@@ -100,10 +100,7 @@ def test_scan_of_k_iterations_gives_the_metrics_of_k_single_calls(state):
 
 
 def _hopper_experiment():
-    spec = importlib.util.spec_from_file_location("hopper_experiment", ROOT / "experiments" / "hopper.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module.EXPERIMENT
+    return load_script("experiments/hopper.py").EXPERIMENT
 
 
 @pytest.mark.parametrize("num_envs", [64, 256, 1024, 4096, 65536])

@@ -1,0 +1,21 @@
+"""The repository's scripts (``experiments/*.py``, ``benchmarks/*.py``) loaded as modules, for tests.
+
+The scripts are not a package: a test loads one by its path from the repository root."""
+
+from __future__ import annotations
+
+import importlib.util
+import types
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def load_script(script: str) -> types.ModuleType:
+    """``script`` (a path from the repository root, e.g. ``"benchmarks/pong.py"``) run as a fresh
+    module named after its path (``benchmarks_pong``), so that ``experiments/pong.py`` and
+    ``benchmarks/pong.py`` stay apart."""
+    spec = importlib.util.spec_from_file_location(script.replace("/", "_").removesuffix(".py"), ROOT / script)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module

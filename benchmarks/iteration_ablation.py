@@ -18,7 +18,7 @@ Variants, cumulative (each keeps what it computes alive, so that nothing is elim
 
 and changes of the full iteration (``--changes``):
 
-  gae_parallel  GAE as an associative scan (``returns.gae(..., parallel=True)``, via ``npg.make_update``);
+  gae_parallel  GAE as an associative scan (``core.gae_advantages`` with ``parallel=True``, via ``npg.make_update``);
   vmb8          ``value_minibatches=8`` (half the value fit's Adam steps; a different fit);
   unroll        the rollout alone: ``raw`` (uniform random actions in place of the policy, the
                 baseline of train/raw), and ``raw`` and ``sample`` with 4 env steps per
@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import functools
 import json
 import statistics
 import time
@@ -45,13 +46,13 @@ import jax
 import jax.numpy as jnp
 from jax.flatten_util import ravel_pytree
 
-from jaxpg import returns
 from jaxpg import rollout as rollout_lib
 from jaxpg.algos import core, natural_gradient, npg
 
 PHASES = ("sample", "+advantages", "+policy", "full")
 CHANGES = ("gae_parallel", "vmb8", "unroll")
 UNROLL = 4  # env steps per loop iteration of the rollout in the ``unroll`` rows
+PARALLEL_GAE = functools.partial(core.gae_advantages, parallel=True)  # GAE as an associative scan
 
 
 def sample_only(ts: core.TrainState) -> tuple[core.TrainState, dict[str, jax.Array]]:
@@ -115,23 +116,6 @@ def through_policy_step(ts: core.TrainState) -> tuple[core.TrainState, dict[str,
     return ts.replace(params=new_params), {"kl": kl, "grad_norm": jnp.linalg.norm(ravel_pytree(grads)[0])}
 
 
-def parallel_gae_advantages(
-    ts: core.TrainState, traj: Any, values: jax.Array, next_values: jax.Array
-) -> tuple[jax.Array, jax.Array]:
-    """``core.gae_advantages`` with GAE as an associative scan (lambda-return targets only)."""
-    config = ts.config
-    return returns.gae(
-        traj.rewards,
-        values,
-        next_values,
-        traj.terminated,
-        traj.truncated,
-        config.gamma,
-        config.gae_lambda,
-        parallel=True,
-    )
-
-
 def variants(changes: list[str]) -> dict[str, tuple[Callable, dict[str, Any]]]:
     """Name -> (update function, config overrides) of every variant timed."""
     table: dict[str, tuple[Callable, dict[str, Any]]] = {
@@ -141,7 +125,7 @@ def variants(changes: list[str]) -> dict[str, tuple[Callable, dict[str, Any]]]:
         "full": (npg.update, {}),
     }
     if "gae_parallel" in changes:
-        table["gae_parallel"] = (npg.make_update(parallel_gae_advantages), {})
+        table["gae_parallel"] = (npg.make_update(PARALLEL_GAE), {})
     if "vmb8" in changes:
         table["vmb8"] = (npg.update, {"value_minibatches": 8})
     if "unroll" in changes:
@@ -158,7 +142,6 @@ def measure(num_envs: int, iterations: int, rounds: int, changes: list[str], tas
 
     env = envs.make(task, batch=num_envs)
     base = npg.Config(**{**npg.PRESETS["hopper"], "num_envs": num_envs})
-    assert base.value_target == "gae", "gae_parallel computes lambda-return targets only"
     device = jax.devices()[0]
     states, blocks, compile_s = {}, {}, {}
     for name, (update, overrides) in variants(changes).items():

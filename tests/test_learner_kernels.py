@@ -66,8 +66,9 @@ def test_value_fit_forms_take_the_same_steps(kernels):
 
 
 def test_iteration_ablation_variants_and_parallel_gae():
-    """``benchmarks/iteration_ablation.py``: its GAE change computes ``core.gae_advantages``'
-    numbers, and it times the cumulative phases plus the changes asked for."""
+    """``benchmarks/iteration_ablation.py``: its GAE change (``core.gae_advantages`` with
+    ``parallel=True``) computes the default's numbers for both value targets, and it times the
+    cumulative phases plus the changes asked for."""
     from types import SimpleNamespace
 
     from jaxpg.algos import core, npg
@@ -80,14 +81,15 @@ def test_iteration_ablation_variants_and_parallel_gae():
         terminated=jax.random.uniform(k[1], shape) < 0.1,
         truncated=jax.random.uniform(k[2], shape) < 0.05,
     )
-    ts = SimpleNamespace(config=npg.Config(gamma=0.99, gae_lambda=0.9, value_target="gae"))
     values, next_values = jax.random.normal(k[3], shape), jax.random.normal(k[4], shape)
-    for a, b in zip(
-        ablation.parallel_gae_advantages(ts, traj, values, next_values),
-        core.gae_advantages(ts, traj, values, next_values),
-        strict=True,
-    ):
-        np.testing.assert_allclose(np.asarray(a), np.asarray(b), rtol=1e-5, atol=1e-5)
+    for target in ("gae", "returns"):
+        ts = SimpleNamespace(config=npg.Config(gamma=0.99, gae_lambda=0.9, value_target=target))
+        for a, b in zip(
+            ablation.PARALLEL_GAE(ts, traj, values, next_values),
+            core.gae_advantages(ts, traj, values, next_values),
+            strict=True,
+        ):
+            np.testing.assert_allclose(np.asarray(a), np.asarray(b), rtol=1e-5, atol=1e-5, err_msg=target)
     assert list(ablation.variants([])) == list(ablation.PHASES)
     assert list(ablation.variants(["unroll"]))[4:] == ["raw", f"raw_u{ablation.UNROLL}", f"sample_u{ablation.UNROLL}"]
     assert ablation.variants(["vmb8"])["vmb8"][1] == {"value_minibatches": 8}

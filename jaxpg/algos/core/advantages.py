@@ -26,14 +26,17 @@ def value_predictions(ts: TrainState, obs: jax.Array) -> jax.Array:
 
 
 def gae_advantages(
-    ts: TrainState, traj: Trajectory, values: jax.Array, next_values: jax.Array
+    ts: TrainState, traj: Trajectory, values: jax.Array, next_values: jax.Array, parallel: bool = False
 ) -> tuple[jax.Array, jax.Array]:
     """The default ``AdvantageFn``: GAE(gamma, gae_lambda) advantages and the value targets
     ``config.value_target`` selects (the lambda-returns, or discounted returns bootstrapped where
     an episode was truncated), all ``[T, B]``.
 
     ``values`` and ``next_values`` are ``V(obs)`` and ``V(next_obs)`` of ``traj`` in return units
-    (``value_predictions``), computed once by ``phase_advantages``.
+    (``value_predictions``), computed once by ``phase_advantages``. ``parallel`` computes both
+    recurrences as associative scans (``returns.gae(..., parallel=True)``: the same numbers to
+    float rounding); bind it with ``functools.partial`` to get an ``AdvantageFn`` for
+    ``npg.make_update``.
     """
     config = ts.config
     advantages, targets = returns.gae(
@@ -45,6 +48,7 @@ def gae_advantages(
         config.gamma,
         config.gae_lambda,
         unroll=config.loop_unroll,
+        parallel=parallel,
     )
     if config.value_target == "returns":
         targets = returns.discounted_returns(
@@ -54,6 +58,7 @@ def gae_advantages(
             config.gamma,
             next_values=next_values,
             unroll=config.loop_unroll,
+            parallel=parallel,
         )
     return advantages, targets
 

@@ -61,9 +61,10 @@ def sample_only(ts: core.TrainState) -> tuple[core.TrainState, dict[str, jax.Arr
     return ts, {"reward": jnp.sum(traj.rewards)}
 
 
-def raw_steps(unroll: int = 1) -> Callable:
-    """The rollout's env steps with uniform random actions in place of the policy (what
-    ``train_throughput.py`` calls raw simulation), ``unroll`` steps per loop iteration."""
+def rollout_only(policy: bool, unroll: int = 1) -> Callable:
+    """The rollout's env steps (continuing sampling, one device), ``unroll`` per loop iteration,
+    acting with the policy as ``core.phase_sample`` does, or with uniform random actions in its
+    place (``policy=False``: what ``train_throughput.py`` calls raw simulation)."""
 
     def iteration(ts: core.TrainState) -> tuple[core.TrainState, dict[str, jax.Array]]:
         def random_act(params: Any, obs: jax.Array, key: jax.Array) -> tuple[jax.Array, jax.Array]:
@@ -72,24 +73,10 @@ def raw_steps(unroll: int = 1) -> Callable:
             return action, jnp.zeros(obs.shape[0])
 
         key, step_key = jax.random.split(ts.key)
+        act, params = (core.make_act(ts.policy, ts.obs_stats), ts.params) if policy else (random_act, None)
         env = core.sampler_env(ts.env, ts.config)
         env_state, traj = rollout_lib.rollout(
-            env, random_act, None, ts.env_state, step_key, ts.config.horizon, unroll=unroll
-        )
-        return ts.replace(key=key, env_state=env_state), {"reward": jnp.sum(traj.rewards)}
-
-    return iteration
-
-
-def sample_unrolled(unroll: int) -> Callable:
-    """``sample_only`` (continuing sampling, one device) with ``unroll`` env steps per loop iteration."""
-
-    def iteration(ts: core.TrainState) -> tuple[core.TrainState, dict[str, jax.Array]]:
-        key, sample_key, _ = jax.random.split(ts.key, 3)
-        act = core.make_act(ts.policy, ts.obs_stats)
-        env = core.sampler_env(ts.env, ts.config)
-        env_state, traj = rollout_lib.rollout(
-            env, act, ts.params, ts.env_state, sample_key, ts.config.horizon, unroll=unroll
+            env, act, params, ts.env_state, step_key, ts.config.horizon, unroll=unroll
         )
         return ts.replace(key=key, env_state=env_state), {"reward": jnp.sum(traj.rewards)}
 
@@ -129,9 +116,9 @@ def variants(changes: list[str]) -> dict[str, tuple[Callable, dict[str, Any]]]:
     if "vmb8" in changes:
         table["vmb8"] = (npg.update, {"value_minibatches": 8})
     if "unroll" in changes:
-        table["raw"] = (raw_steps(), {})
-        table[f"raw_u{UNROLL}"] = (raw_steps(UNROLL), {})
-        table[f"sample_u{UNROLL}"] = (sample_unrolled(UNROLL), {})
+        table["raw"] = (rollout_only(policy=False), {})
+        table[f"raw_u{UNROLL}"] = (rollout_only(policy=False, unroll=UNROLL), {})
+        table[f"sample_u{UNROLL}"] = (rollout_only(policy=True, unroll=UNROLL), {})
     return table
 
 
@@ -190,9 +177,7 @@ def print_table(row: dict[str, Any]) -> None:
         if name in PHASES:
             diff = "" if previous is None else f"{ms[name] - ms[previous]:+.2f} (phase)"
             previous = name
-        elif name.startswith("raw"):
-            diff = f"{ms[name] - ms['sample']:+.2f} (vs sample)"
-        elif name.startswith("sample_u"):
+        elif name.startswith(("raw", "sample_u")):
             diff = f"{ms[name] - ms['sample']:+.2f} (vs sample)"
         else:
             diff = f"{ms[name] - ms['full']:+.2f} (vs full)"

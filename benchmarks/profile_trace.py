@@ -26,6 +26,7 @@ import argparse
 import collections
 import gzip
 import json
+import sys
 import time
 from pathlib import Path
 
@@ -94,31 +95,14 @@ def summarise(trace_file: Path, wall_s: float, iterations: int, top: int) -> Non
 
 def iteration_fn(block: str):  # noqa: ANN201
     """``ts -> (ts, metrics)``: the whole NPG iteration (``full``), its rollout alone (``sample``),
-    or the rollout's env steps with uniform random actions in place of the policy (``raw``)."""
-    import jax.numpy as jnp
+    or the rollout's env steps with uniform random actions in place of the policy (``raw``); the
+    last two as ``iteration_ablation.py`` times them."""
+    from jaxpg.algos import npg
 
-    from jaxpg import rollout as rollout_lib
-    from jaxpg.algos import core, npg
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from iteration_ablation import rollout_only, sample_only
 
-    if block == "full":
-        return npg.update
-
-    def iteration(ts):  # noqa: ANN001, ANN202
-        if block == "sample":
-            ts, traj, _ = core.phase_sample(ts)
-            return ts, {"reward": jnp.sum(traj.rewards)}
-
-        def random_act(params, obs, key):  # noqa: ANN001, ANN202
-            del params
-            action = jax.random.uniform(key, (obs.shape[0], ts.env.action_size), minval=-1.0, maxval=1.0)
-            return action, jnp.zeros(obs.shape[0])
-
-        key, step_key = jax.random.split(ts.key)
-        env = core.sampler_env(ts.env, ts.config)
-        env_state, traj = rollout_lib.rollout(env, random_act, None, ts.env_state, step_key, ts.config.horizon)
-        return ts.replace(key=key, env_state=env_state), {"reward": jnp.sum(traj.rewards)}
-
-    return iteration
+    return {"full": npg.update, "sample": sample_only, "raw": rollout_only(policy=False)}[block]
 
 
 def main() -> None:

@@ -12,6 +12,9 @@
 #   bash benchmarks/device_session.sh ablation # each phase's cost inside the compiled iteration, at 1024 and 4096 envs
 #   bash benchmarks/device_session.sh ablation_check  # train_throughput and the ablation at 1024 envs on one machine
 #                                              # (BENCHMARKS.md AI: the two disagree on the rollouts' time)
+#   bash benchmarks/device_session.sh order_check  # the ablation timed interleaved and grouped (AO); the card's
+#                                              # run, then one evaluation's cost per episodes, early stop or not;
+#                                              # the README's GPU NPG command and its evaluations' share
 #   bash benchmarks/device_session.sh trace    # jax.profiler trace of the card's block; phases at 65536 envs
 #   bash benchmarks/device_session.sh ttr      # time to a Hopper return of 3000, NPG and PPO, 3 seeds each
 #   bash benchmarks/device_session.sh env      # raw env throughput table, then Pong figures
@@ -59,6 +62,18 @@ ablation_check)
     --repeats 5 --batch-sizes 1024 --json "$OUT/check_ratio.json" 2>&1 | tee "$OUT/check_ratio.log" | grep -v "^WARN\|^#"
   timeout 330 $py benchmarks/iteration_ablation.py --num-envs 1024 --iterations 10 --rounds 5 --changes unroll \
     --json "$OUT/check_ablation.json" 2>&1 | tee "$OUT/check_ablation.log" | grep -v "^WARN\|compiled in"
+  ;;
+order_check)
+  timeout 300 $py benchmarks/iteration_ablation.py --num-envs 1024 --iterations 10 --rounds 5 --changes unroll \
+    --order interleaved grouped --json "$OUT/order.json" 2>&1 | tee "$OUT/order.log" | grep -v "^WARN\|compiled in"
+  timeout 150 $py experiments/hopper.py --num-envs 256 --run-dir /tmp/card0 --overwrite --no-progress \
+    > "$OUT/card0.log" 2>&1; tail -4 "$OUT/card0.log"
+  timeout 100 $py benchmarks/eval_cost.py /tmp/card0 --impl warp --episodes 16 64 --json "$OUT/eval_trained.json" \
+    2>&1 | tee "$OUT/eval_trained.log" | grep "^|"
+  timeout 60 $py benchmarks/eval_cost.py --impl warp --episodes 16 --json "$OUT/eval_fresh.json" \
+    2>&1 | tee "$OUT/eval_fresh.log" | grep "^|"
+  timeout 120 $py experiments/hopper.py --preset hopper_gpu --iterations 150 --run-dir /tmp/gpu --overwrite \
+    --no-progress > "$OUT/hopper_gpu.log" 2>&1; grep -v "^WARN" "$OUT/hopper_gpu.log" | tail -5
   ;;
 ratio)
   shift

@@ -7,7 +7,11 @@ process, the card's NPG iteration (``npg`` preset ``hopper`` at ``--num-envs``) 
 phase, and the whole iteration with each change in ``--changes``, each as a ``lax.scan`` of
 ``--iterations`` iterations (one compiled call, as ``jaxpg.train`` runs them), then times them
 in interleaved rounds (every variant once per round, ``--rounds`` rounds, each call synchronised
-and chained on its own outputs), so that drifts of the machine hit every variant alike.
+and chained on its own outputs), so that drifts of the machine hit every variant alike;
+``--order grouped`` times each variant's calls back to back instead (``--order interleaved
+grouped``: both, one after the other, from the same compiled programs), as a training loop
+repeats one program (the two orders disagreed by several ms per iteration on one machine:
+BENCHMARKS.md, section AO).
 
 Variants, cumulative (each keeps what it computes alive, so that nothing is eliminated):
 
@@ -122,8 +126,17 @@ def variants(changes: list[str]) -> dict[str, tuple[Callable, dict[str, Any]]]:
     return table
 
 
-def measure(num_envs: int, iterations: int, rounds: int, changes: list[str], task: str = "hopper") -> dict[str, Any]:
-    """One batch size: compile every variant, then time them in interleaved rounds."""
+def measure(
+    num_envs: int,
+    iterations: int,
+    rounds: int,
+    changes: list[str],
+    task: str = "hopper",
+    orders: tuple[str, ...] = ("interleaved",),
+) -> list[dict[str, Any]]:
+    """One batch size: compile every variant, then, for each of ``orders``, time them in
+    interleaved rounds (``"interleaved"``) or each variant's ``rounds`` calls back to back
+    (``"grouped"``); one row per order."""
     from jaxpg import envs
     from jaxpg import train as train_lib
 
@@ -141,25 +154,38 @@ def measure(num_envs: int, iterations: int, rounds: int, changes: list[str], tas
         ts, _ = jax.block_until_ready(block(ts))  # once more on the call's own outputs
         states[name], blocks[name] = ts, block
         print(f"  {num_envs} envs: {name} compiled in {compile_s[name]:.1f} s", flush=True)
-    times: dict[str, list[float]] = {name: [] for name in blocks}
-    for _ in range(rounds):
-        for name, block in blocks.items():
+    rows = []
+    for order in orders:
+        times: dict[str, list[float]] = {name: [] for name in blocks}
+
+        def timed_call(name: str, times: dict[str, list[float]] = times) -> None:
             start = time.perf_counter()
-            states[name], _ = jax.block_until_ready(block(states[name]))
+            states[name], _ = jax.block_until_ready(blocks[name](states[name]))
             times[name].append((time.perf_counter() - start) / iterations)
-    ms = {name: 1e3 * statistics.median(t) for name, t in times.items()}
-    spread = {name: 1e3 * (max(t) - min(t)) for name, t in times.items()}
-    return {
-        "task": task,
-        "num_envs": num_envs,
-        "horizon": base.horizon,
-        "iterations": iterations,
-        "rounds": rounds,
-        "ms_per_iteration": ms,
-        "spread_ms": spread,
-        "compile_s": compile_s,
-        "device": device.device_kind,
-    }
+
+        if order == "interleaved":  # every variant once per round: all see the machine alike
+            for _ in range(rounds):
+                for name in blocks:
+                    timed_call(name)
+        else:  # "grouped": each variant's calls back to back, as a training loop repeats one program
+            for name in blocks:
+                for _ in range(rounds):
+                    timed_call(name)
+        rows.append(
+            {
+                "task": task,
+                "num_envs": num_envs,
+                "horizon": base.horizon,
+                "iterations": iterations,
+                "rounds": rounds,
+                "order": order,
+                "ms_per_iteration": {name: 1e3 * statistics.median(t) for name, t in times.items()},
+                "spread_ms": {name: 1e3 * (max(t) - min(t)) for name, t in times.items()},
+                "compile_s": compile_s,
+                "device": device.device_kind,
+            }
+        )
+    return rows
 
 
 def print_table(row: dict[str, Any]) -> None:
@@ -168,7 +194,7 @@ def print_table(row: dict[str, Any]) -> None:
     samples = row["num_envs"] * row["horizon"]
     print(
         f"\n{row['num_envs']} envs x {row['horizon']} steps, {row['iterations']} iterations per call, "
-        f"median of {row['rounds']} interleaved rounds, {row['device']}"
+        f"median of {row['rounds']} {row.get('order', 'interleaved')} calls per variant, {row['device']}"
     )
     print("| variant | ms / iteration (spread) | difference | env steps/s | compile s |")
     print("|---|---|---|---|---|")
@@ -193,6 +219,13 @@ def main() -> None:
     parser.add_argument("--iterations", type=int, default=10, help="iterations per compiled call")
     parser.add_argument("--rounds", type=int, default=5, help="interleaved timed calls per variant")
     parser.add_argument("--changes", nargs="*", default=list(CHANGES), choices=CHANGES)
+    parser.add_argument(
+        "--order",
+        nargs="+",
+        default=["interleaved"],
+        choices=("interleaved", "grouped"),
+        help="time the variants in interleaved rounds (default) and/or each one's calls back to back",
+    )
     parser.add_argument("--task", default="hopper", help="another env for a quick check (the preset is Hopper's)")
     parser.add_argument("--json", default=None)
     args = parser.parse_args()
@@ -200,8 +233,9 @@ def main() -> None:
         parser.error("--iterations and --rounds must be >= 1")
     rows = []
     for num_envs in args.num_envs:
-        rows.append(measure(num_envs, args.iterations, args.rounds, args.changes, args.task))
-        print_table(rows[-1])
+        for row in measure(num_envs, args.iterations, args.rounds, args.changes, args.task, tuple(args.order)):
+            rows.append(row)
+            print_table(row)
         if args.json:
             with open(args.json, "w") as f:
                 json.dump(rows, f, indent=1)

@@ -173,6 +173,61 @@ def rollout_episodes_from(
     return Trajectory(**records)
 
 
+def episode_totals_from(
+    env: Env,
+    act_fn: ActFn,
+    params: Any,
+    state: State,
+    key: jax.Array,
+    horizon: int,
+    check_every: int = 50,
+) -> dict[str, jax.Array]:
+    """What ``rollout_episodes_from`` summarises for an evaluation, without keeping the steps, and
+    stopping once every episode has ended.
+
+    Steps ``state [B]`` as ``rollout_episodes_from`` does (the same per-step keys), in chunks of
+    ``check_every`` steps (static) inside a ``lax.while_loop`` that stops after the chunk in which
+    the last episode ended, or at ``horizon``. A policy that falls after 200 steps is evaluated
+    in about 250 steps, not ``horizon``; one that runs to the time limit costs one loop-condition
+    read per chunk more. Returns ``[B]`` each: ``return`` (sum of the rewards up to and including
+    each episode's last step), ``length`` (its steps, float32) and ``task_score`` (the env's
+    ``task_score`` metric at that last step): the same as ``sum(rewards * valid)``,
+    ``sum(valid)`` and ``last_valid(traj, metrics["task_score"])`` of the full rollout, up to the
+    order of the float additions.
+    """
+    chunk = max(1, min(int(check_every), horizon))
+    chunks = -(-horizon // chunk)
+    step_keys = jax.random.split(key, horizon)
+    padding = chunks * chunk - horizon  # steps past the horizon, masked out below
+    step_keys = jnp.concatenate([step_keys, jnp.repeat(step_keys[-1:], padding, axis=0)], axis=0)
+    step_keys = step_keys.reshape((chunks, chunk) + step_keys.shape[1:])
+    batch = state.obs.shape[:1]
+
+    def step(carry: tuple, step_key: jax.Array) -> tuple[tuple, None]:
+        state, alive, total, length, score, t = carry
+        next_state, record = _transition(env, act_fn, params, state, step_key)
+        counted = jnp.logical_and(alive, t < horizon)
+        total = total + jnp.where(counted, record["rewards"], 0.0)
+        length = length + counted.astype(jnp.float32)
+        score = jnp.where(counted, record["metrics"]["task_score"].astype(jnp.float32), score)
+        alive = jnp.logical_and(counted, ~next_state.done)
+        return (next_state, alive, total, length, score, t + 1), None
+
+    def run_chunk(loop: tuple) -> tuple:
+        carry, index = loop
+        carry, _ = jax.lax.scan(step, carry, jax.lax.dynamic_index_in_dim(step_keys, index, keepdims=False))
+        return carry, index + 1
+
+    def any_running(loop: tuple) -> jax.Array:
+        carry, index = loop
+        return jnp.logical_and(index < chunks, jnp.any(carry[1]))
+
+    zeros = jnp.zeros(batch, jnp.float32)
+    carry = (state, jnp.ones(batch, bool), zeros, zeros, zeros, jnp.asarray(0, jnp.int32))
+    (_, _, total, length, score, _), _ = jax.lax.while_loop(any_running, run_chunk, (carry, jnp.asarray(0, jnp.int32)))
+    return {"return": total, "length": length, "task_score": score}
+
+
 def flatten_samples(x: jax.Array) -> jax.Array:
     """``[T, B, ...] -> [B * T, ...]``, env-major: row ``b * T + t`` is env ``b``'s step ``t``.
 

@@ -399,6 +399,36 @@ def test_record_fn_reads_the_state_after_every_step(pendulum_case, jit):
     assert np.any(np.asarray(cont.dones)) and not np.array_equal(cont.extras["obs"], cont.next_obs)
 
 
+@pytest.mark.parametrize("check_every, horizon", [(1, 40), (7, 40), (40, 40), (2, 3)])
+def test_episode_totals_match_the_full_rollout_and_stop_early(rollout_case, check_every, horizon):
+    """``episode_totals_from`` gives each episode's return, length and final task score as the
+    full episodic rollout of ``horizon`` steps sums them, and stops stepping within
+    ``check_every`` steps of the last episode's end (time limit 16 or 5: well before 40; at 3
+    steps every episode is cut by the horizon, and the second chunk of 2 steps one past it)."""
+    env, act = rollout_case["env"], rollout_case["act"]
+    calls = []
+
+    def counted_act(params, obs, key):
+        jax.debug.callback(lambda: calls.append(1))
+        return act(params, obs, key)
+
+    reset_key, steps_key = jax.random.split(jax.random.key(11))
+    state = rollout_lib.reset_batch(env, reset_key, ROLLOUT_ENVS)
+    traj = jax.jit(lambda s, k: rollout_lib.rollout_episodes_from(env, act, None, s, k, horizon))(state, steps_key)
+    totals = jax.jit(lambda s, k: rollout_lib.episode_totals_from(env, counted_act, None, s, k, horizon, check_every))(
+        state, steps_key
+    )
+    jax.effects_barrier()
+    valid = np.asarray(traj.valid)
+    np.testing.assert_allclose(totals["return"], np.sum(np.asarray(traj.rewards) * valid, axis=0), rtol=1e-5)
+    np.testing.assert_array_equal(totals["length"], valid.sum(axis=0))
+    np.testing.assert_array_equal(totals["task_score"], rollout_lib.last_valid(traj, traj.metrics["task_score"]))
+    last_end = int(valid.sum(axis=0).max())
+    assert last_end < horizon or horizon == 3
+    chunk = min(check_every, horizon)
+    assert len(calls) == min(-(-last_end // chunk) * chunk, -(-horizon // chunk) * chunk)
+
+
 def test_evaluate_rollout_matches_a_python_loop_of_the_mean_policy(pendulum_case):
     """``jaxpg.evaluate.rollout`` (mean-policy episodes with their physics states, through
     ``jaxpg.rollout``) against single envs stepped one at a time with the policy's mode."""

@@ -167,7 +167,9 @@ def evaluate(ts: TrainState, key: jax.Array, deterministic: bool = True) -> dict
     """Mean return, length and task score of ``config.eval_envs`` fresh episodes: ``[]`` each.
 
     ``deterministic=True`` runs the mode of the policy (LyceumAI's ``meantraj_reward``). An
-    episode still running after ``eval_horizon`` steps counts with what it reached by then.
+    episode still running after ``eval_horizon`` steps counts with what it reached by then. The
+    rollout stops within 50 steps of the last episode's end (``rollout.episode_totals_from``), so
+    a policy that still falls early is evaluated in a fraction of the time limit's steps.
     Under a mesh with ``k`` env devices the episodes are split too, padded to a multiple of ``k``
     with repeats of the first ones, which the means leave out.
     """
@@ -180,16 +182,16 @@ def evaluate(ts: TrainState, key: jax.Array, deterministic: bool = True) -> dict
 
     def run(params: Any, stats: RunningStats, reset_keys: jax.Array, key: jax.Array, rows: Any) -> Any:
         act = make_act(ts.policy, stats, deterministic, rows=rows)
-        return rollout_lib.rollout_episodes_from(ts.env, act, params, jax.vmap(ts.env.reset)(reset_keys), key, horizon)
+        return rollout_lib.episode_totals_from(ts.env, act, params, jax.vmap(ts.env.reset)(reset_keys), key, horizon)
 
     in_specs = (REPLICATED, REPLICATED, ENVS, REPLICATED)
     args = (ts.params, ts.obs_stats, reset_keys, steps_key)
-    traj = split_over_envs(run, padded, in_specs, TIME_ENVS, *args)
-    traj = jax.tree.map(lambda x: x[:, :count], traj)
+    totals = split_over_envs(run, padded, in_specs, ENVS, *args)
+    totals = jax.tree.map(lambda x: x[:count], totals)
     return {
-        "episode_return": jnp.mean(jnp.sum(traj.rewards * traj.valid, axis=0)),
-        "episode_length": jnp.mean(jnp.sum(traj.valid, axis=0)),
-        "episode_task_score": jnp.mean(rollout_lib.last_valid(traj, traj.metrics["task_score"])),
+        "episode_return": jnp.mean(totals["return"]),
+        "episode_length": jnp.mean(totals["length"]),
+        "episode_task_score": jnp.mean(totals["task_score"]),
         "episodes": jnp.asarray(config.eval_envs, jnp.float32),
     }
 

@@ -12,8 +12,11 @@ after the compiling one:
   full         every episode stepped to the time limit (one chunk of 1000 steps: the work of the
                evaluation before it could stop early);
 
-and the mean return and length reached, so that a faster implementation or device can be
-checked to score the policy alike.
+and the mean return and length reached (with the early stop, and the full evaluation's return),
+so that a faster implementation or device can be checked to score the policy alike. The two
+forms compute the same numbers (tested on the CPU); on a GPU MuJoCo Warp's steps are not
+bit-reproducible from one program to another, so a hopping policy's 1000-step returns differ in
+the last digits or more (BENCHMARKS.md, sections AC and AP).
 
     python benchmarks/eval_cost.py RUN_DIR --impl warp jax --device default cpu --episodes 16 64
     python benchmarks/eval_cost.py --impl warp --episodes 16     # a fresh policy: episodes end early
@@ -106,8 +109,6 @@ def measure(
         full = evaluation(env, policy, episodes, horizon)
         compile_s, early_s, out = time_evaluation(early, params_here, stats_here, repeats)
         _, full_s, out_full = time_evaluation(full, params_here, stats_here, repeats)
-    for name in ("return", "length"):
-        np.testing.assert_allclose(out[name], out_full[name], rtol=1e-4, err_msg=name)
     return {
         "task": task,
         "impl": impl,
@@ -120,6 +121,7 @@ def measure(
         "ms_per_step": 1e3 * full_s / horizon,
         "return_mean": float(np.mean(out["return"])),
         "return_std": float(np.std(out["return"])),
+        "return_full_mean": float(np.mean(out_full["return"])),
         "length_mean": float(np.mean(out["length"])),
         "length_max": float(np.max(out["length"])),
     }
@@ -151,14 +153,14 @@ def main() -> None:
     print(f"\n{task} {env_kwargs or ''}, {args.run_dir or 'fresh policy'}, median of {args.repeats} evaluations")
     print(
         "| impl | device | episodes | compile s | one evaluation s (early stop) | full s | ms per env step (full) "
-        "| mean return | mean / max length |"
+        "| mean return | full: mean return | mean / max length |"
     )
-    print("|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
         print(
             f"| {r['impl']} | {r['device']} | {r['episodes']} | {r['compile_s']:.1f} | {r['eval_s']:.3f} "
             f"| {r['eval_full_s']:.3f} | {r['ms_per_step']:.2f} | {r['return_mean']:.1f} ± {r['return_std']:.1f} "
-            f"| {r['length_mean']:.0f} / {r['length_max']:.0f} |"
+            f"| {r['return_full_mean']:.1f} | {r['length_mean']:.0f} / {r['length_max']:.0f} |"
         )
 
 

@@ -129,7 +129,7 @@ EXPECTED = {
             value_activation="swish",
             network_init="orthogonal",
             eval_envs=32,
-            eval_every=10,
+            eval_every=50,
         ),
         ("hopper",),
     ),

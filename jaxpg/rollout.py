@@ -9,6 +9,10 @@ program) and with the env batch sharded over devices (the batch axis is the one 
 * ``rollout_episodes`` -- *episodic* sampling (LyceumAI, mjrl): every env is reset at the start,
   runs ``horizon`` steps without reset, and ``valid`` masks the steps after its episode ended.
 
+A third, ``episode_totals_from``, steps like ``rollout_episodes_from`` but keeps only each
+episode's return, length and final task score, and stops once every episode has ended: the
+in-run mean-policy evaluation (``jaxpg.algos.core.evaluate``).
+
 The policy enters as ``act_fn(params, obs [B, obs_dim], key) -> (action [B, ...], log_prob [B])``.
 Training, mean-policy evaluation (``jaxpg.algos.core.evaluate``, ``jaxpg.evaluate``) and videos
 all sample through these functions; what a caller needs beyond the transitions (a video needs

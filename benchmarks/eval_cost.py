@@ -55,8 +55,9 @@ def policy_to_evaluate(run_dir: str | None, task: str) -> tuple[str, dict[str, A
 
 
 def evaluation(env: Any, policy: Any, episodes: int, check_every: int) -> Any:
-    """The jitted ``(params, obs_stats, key) -> {return, length}`` ``[episodes]`` of the mean
-    policy from fresh resets, checking every ``check_every`` steps whether all have ended."""
+    """The jitted ``(params, obs_stats, key) -> {return, length, task_score}`` (``[episodes]``
+    each) of the mean policy from fresh resets, checking every ``check_every`` steps whether all
+    have ended."""
     from jaxpg import rollout as rollout_lib
     from jaxpg.algos.core import make_act
 

@@ -10,8 +10,7 @@ in interleaved rounds (every variant once per round, ``--rounds`` rounds, each c
 and chained on its own outputs), so that drifts of the machine hit every variant alike;
 ``--order grouped`` times each variant's calls back to back instead (``--order interleaved
 grouped``: both, one after the other, from the same compiled programs), as a training loop
-repeats one program (the two orders disagreed by several ms per iteration on one machine:
-BENCHMARKS.md, section AO).
+repeats one program (on one machine both orders gave the same rollouts: BENCHMARKS.md, AO).
 
 Variants, cumulative (each keeps what it computes alive, so that nothing is eliminated):
 
@@ -217,7 +216,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--num-envs", type=int, nargs="+", default=[1024, 4096])
     parser.add_argument("--iterations", type=int, default=10, help="iterations per compiled call")
-    parser.add_argument("--rounds", type=int, default=5, help="interleaved timed calls per variant")
+    parser.add_argument("--rounds", type=int, default=5, help="timed calls per variant")
     parser.add_argument("--changes", nargs="*", default=list(CHANGES), choices=CHANGES)
     parser.add_argument(
         "--order",

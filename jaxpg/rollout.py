@@ -191,9 +191,9 @@ def episode_totals_from(
 
     Steps ``state [B]`` as ``rollout_episodes_from`` does (the same per-step keys), in chunks of
     ``check_every`` steps (static) inside a ``lax.while_loop`` that stops after the chunk in which
-    the last episode ended, or at ``horizon``. A policy whose episodes all end by step 200 is evaluated
-    in at most 250 steps, not ``horizon``; one that runs to the time limit costs one loop-condition
-    read per chunk more. Returns ``[B]`` each: ``return`` (sum of the rewards up to and including
+    the last episode ended, or at ``horizon``: with the default 50, episodes that have all ended
+    by step 180 cost 200 steps, not ``horizon``; ones that run to the time limit cost one
+    loop-condition read per chunk more. Returns ``[B]`` each: ``return`` (sum of the rewards up to and including
     each episode's last step), ``length`` (its steps, float32) and ``task_score`` (the env's
     ``task_score`` metric at that last step): the same as ``sum(rewards * valid)``,
     ``sum(valid)`` and ``last_valid(traj, metrics["task_score"])`` of the full rollout, up to the

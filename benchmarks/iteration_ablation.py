@@ -25,7 +25,10 @@ and changes of the full iteration (``--changes``):
   vmb8          ``value_minibatches=8`` (half the value fit's Adam steps; a different fit);
   unroll        the rollout alone: ``raw`` (uniform random actions in place of the policy, the
                 baseline of train/raw), and ``raw`` and ``sample`` with 4 env steps per
-                iteration of the rollout's loop (``rollout(..., unroll=4)``; the same numbers).
+                iteration of the rollout's loop (``rollout(..., unroll=4)``; the same numbers);
+  carry         ``raw``, and ``raw_env``: the same work with ``train_throughput.py``'s loop, whose
+                scan over iterations carries the env state and a key instead of the whole
+                ``TrainState`` (BENCHMARKS.md AO: the two scripts' raw programs differ by 6 %).
 
 Prints per batch size the median ms per iteration of every variant, the difference to the
 previous cumulative variant (the phase's cost in context) or to ``full`` (a change's saving),
@@ -53,7 +56,7 @@ from jaxpg import rollout as rollout_lib
 from jaxpg.algos import core, natural_gradient, npg
 
 PHASES = ("sample", "+advantages", "+policy", "full")
-CHANGES = ("gae_parallel", "vmb8", "unroll")
+CHANGES = ("gae_parallel", "vmb8", "unroll", "carry")
 UNROLL = 4  # env steps per loop iteration of the rollout in the ``unroll`` rows
 PARALLEL_GAE = functools.partial(core.gae_advantages, parallel=True)  # GAE as an associative scan
 
@@ -86,6 +89,31 @@ def rollout_only(policy: bool, unroll: int = 1) -> Callable:
     return iteration
 
 
+def raw_env_block(iterations: int) -> Callable:
+    """``rollout_only(policy=False)``'s work with ``train_throughput.py``'s loop structure: the scan
+    over iterations carries only the env state and a key, not the whole ``TrainState`` (which
+    goes in and out of the call around it)."""
+
+    def block(ts: core.TrainState) -> tuple[core.TrainState, dict[str, jax.Array]]:
+        def random_act(params: Any, obs: jax.Array, key: jax.Array) -> tuple[jax.Array, jax.Array]:
+            del params
+            action = jax.random.uniform(key, (obs.shape[0], ts.env.action_size), minval=-1.0, maxval=1.0)
+            return action, jnp.zeros(obs.shape[0])
+
+        env = core.sampler_env(ts.env, ts.config)
+
+        def one(carry: tuple, _: None) -> tuple[tuple, jax.Array]:
+            env_state, key = carry
+            key, step_key = jax.random.split(key)
+            env_state, traj = rollout_lib.rollout(env, random_act, None, env_state, step_key, ts.config.horizon)
+            return (env_state, key), jnp.sum(traj.rewards)
+
+        (env_state, key), rewards = jax.lax.scan(one, (ts.env_state, ts.key), None, length=iterations)
+        return ts.replace(env_state=env_state, key=key), {"reward": rewards}
+
+    return block
+
+
 def through_advantages(ts: core.TrainState) -> tuple[core.TrainState, dict[str, jax.Array]]:
     """The rollout and its advantages and value targets."""
     ts, traj, _ = core.phase_sample(ts)
@@ -106,9 +134,9 @@ def through_policy_step(ts: core.TrainState) -> tuple[core.TrainState, dict[str,
     return ts.replace(params=new_params), {"kl": kl, "grad_norm": jnp.linalg.norm(ravel_pytree(grads)[0])}
 
 
-def variants(changes: list[str]) -> dict[str, tuple[Callable, dict[str, Any]]]:
+def variants(changes: list[str]) -> dict[str, tuple[Callable | None, dict[str, Any]]]:
     """Name -> (update function, config overrides) of every variant timed."""
-    table: dict[str, tuple[Callable, dict[str, Any]]] = {
+    table: dict[str, tuple[Callable | None, dict[str, Any]]] = {
         "sample": (sample_only, {}),
         "+advantages": (through_advantages, {}),
         "+policy": (through_policy_step, {}),
@@ -118,8 +146,11 @@ def variants(changes: list[str]) -> dict[str, tuple[Callable, dict[str, Any]]]:
         table["gae_parallel"] = (npg.make_update(PARALLEL_GAE), {})
     if "vmb8" in changes:
         table["vmb8"] = (npg.update, {"value_minibatches": 8})
-    if "unroll" in changes:
+    if "unroll" in changes or "carry" in changes:
         table["raw"] = (rollout_only(policy=False), {})
+    if "carry" in changes:
+        table["raw_env"] = (None, {})  # built by raw_env_block: not a per-iteration update
+    if "unroll" in changes:
         table[f"raw_u{UNROLL}"] = (rollout_only(policy=False, unroll=UNROLL), {})
         table[f"sample_u{UNROLL}"] = (rollout_only(policy=True, unroll=UNROLL), {})
     return table
@@ -146,7 +177,10 @@ def measure(
     for name, (update, overrides) in variants(changes).items():
         config = dataclasses.replace(base, **overrides)
         ts = jax.device_put(npg.init(jax.random.PRNGKey(0), env, config), device)
-        block = jax.jit(lambda t, u=update: train_lib.scan_updates(u, t, iterations))
+        if update is None:
+            block = jax.jit(raw_env_block(iterations))
+        else:
+            block = jax.jit(lambda t, u=update: train_lib.scan_updates(u, t, iterations))
         start = time.perf_counter()
         ts, _ = jax.block_until_ready(block(ts))
         compile_s[name] = time.perf_counter() - start

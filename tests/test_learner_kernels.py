@@ -93,3 +93,28 @@ def test_iteration_ablation_variants_and_parallel_gae():
     assert list(ablation.variants([])) == list(ablation.PHASES)
     assert list(ablation.variants(["unroll"]))[4:] == ["raw", f"raw_u{ablation.UNROLL}", f"sample_u{ablation.UNROLL}"]
     assert ablation.variants(["vmb8"])["vmb8"][1] == {"value_minibatches": 8}
+
+
+def test_iteration_ablation_raw_env_block_does_the_raw_variants_work():
+    """``raw_env`` (the ``carry`` change) steps the env batch exactly as the ``raw`` variant does,
+    only with another loop carry: the same env states and rewards after 3 iterations."""
+    import jaxpg.envs as envs
+    from jaxpg import train as train_lib
+    from jaxpg.algos import npg
+
+    ablation = load_script("benchmarks/iteration_ablation.py")
+    assert list(ablation.variants(["carry"]))[4:] == ["raw", "raw_env"]
+    ts = npg.init(
+        jax.random.PRNGKey(3),
+        envs.make("inverted_pendulum", impl="jax"),
+        npg.Config(num_envs=4, horizon=8, eval_envs=0, value_batch_size=8),
+    )
+    by_update, metrics = jax.jit(lambda t: train_lib.scan_updates(ablation.rollout_only(policy=False), t, 3))(ts)
+    by_block, block_metrics = jax.jit(ablation.raw_env_block(3))(ts)
+    for a, b in zip(
+        jax.tree.leaves((by_update.env_state, by_update.key)),
+        jax.tree.leaves((by_block.env_state, by_block.key)),
+        strict=True,
+    ):
+        np.testing.assert_array_equal(np.asarray(a), np.asarray(b))
+    np.testing.assert_array_equal(np.asarray(metrics["reward"]), np.asarray(block_metrics["reward"]))

@@ -5,7 +5,9 @@ For each (impl, num_envs) this measures, in a fresh process (so that peak memory
          included), batch and horizon, random actions, ``lax.scan`` over the horizon, each timed
          call continuing from the previous call's env states as training does ("raw from reset":
          every call from the same reset states, this benchmark's baseline before BENCHMARKS.md
-         section AK, where the two agreed within 1 %);
+         section AK, where the two agreed within 1 %), timed before anything else is compiled,
+         and again after training ("raw after training": with the training programs and states
+         resident too, BENCHMARKS.md AS);
   train  env steps/s of full training iterations (sampling, GAE, policy step, value fit), several
          iterations per compiled call exactly as ``jaxpg.train`` runs them, and one per call
          (``iterations_per_call=1``), the two timed alternately from the same state (since
@@ -137,7 +139,7 @@ def measure(
 
     carry, _ = jax.block_until_ready(raw_chained((state, jax.random.PRNGKey(2))))
     carry, _ = jax.block_until_ready(raw_chained(carry))
-    raw_s, _ = time_chained(raw_chained, carry, repeats)
+    raw_s, (carry, _) = time_chained(raw_chained, carry, repeats)
     raw_s /= iterations
 
     module = algos.get(algo)
@@ -197,6 +199,11 @@ def measure(
     if config.eval_envs > 0:
         evaluate = train_lib.compiled_evaluate(train_lib.evaluate_state, False)
         eval_compile, eval_s, _ = time_call(evaluate, ts_single, repeats=3)
+    # Raw simulation once more, continuing its chain, now that the training programs and states
+    # are resident too (the timings above ran with only the raw program's buffers allocated), so
+    # that train/raw can also be read with both sides timed in the same state of the process.
+    raw_after_s, _ = time_chained(raw_chained, carry, repeats)
+    raw_after_s /= iterations
     with_eval_s = train_s + eval_s / config.eval_every  # per iteration, evaluation amortised
     stats = jax.devices()[0].memory_stats() or {}
     peak = stats.get("peak_bytes_in_use", 0)
@@ -212,6 +219,8 @@ def measure(
         "ratio_fresh": raw_fresh_s / train_s,
         "train_steps_per_s": samples / train_s,
         "ratio": raw_s / train_s,
+        "raw_after_steps_per_s": samples / raw_after_s,
+        "ratio_after": raw_after_s / train_s,
         "sample_steps_per_s": samples / sample_s,
         "ratio_sample": raw_s / sample_s,
         "repeats": repeats,
@@ -292,8 +301,8 @@ def main() -> None:
     print(f"\n{title}, horizon {args.horizon}, fidelity {args.fidelity}, {device}")
     print("| impl | envs | raw env steps/s | train env steps/s | train/raw | compile raw s | compile train s", end="")
     print(" | peak MiB/env | 1 iter/call env steps/s | 1 iter/call train/raw | sampling alone/raw", end="")
-    print(" | raw from reset env steps/s | train/raw from reset |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    print(" | raw from reset env steps/s | train/raw from reset | raw after training env steps/s | train/raw after |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
         print(
             f"| {r['impl']} | {r['num_envs']} | {r['raw_steps_per_s'] / 1e6:.3f} M "
@@ -301,7 +310,7 @@ def main() -> None:
             f"| {r['ratio']:.2f} | {r['raw_compile_s']:.1f} | {r['train_compile_s']:.1f} | "
             f"{r['peak_bytes_per_env'] / 2**20:.3f} | {r['train_single_steps_per_s'] / 1e6:.3f} M "
             f"| {r['ratio_single']:.2f} | {r['ratio_sample']:.2f} | {r['raw_fresh_steps_per_s'] / 1e6:.3f} M "
-            f"| {r['ratio_fresh']:.2f} |"
+            f"| {r['ratio_fresh']:.2f} | {r['raw_after_steps_per_s'] / 1e6:.3f} M | {r['ratio_after']:.2f} |"
         )
     if args.preset:
         print("\nwith evaluation at the preset's cadence (one evaluation per eval_every iterations):")

@@ -7,7 +7,9 @@ For each (impl, num_envs) this measures, in a fresh process (so that peak memory
          every call from the same reset states, this benchmark's baseline before BENCHMARKS.md
          section AK, where the two agreed within 1 %), timed before anything else is compiled,
          and again after training ("raw after training": with the training programs and states
-         resident too, BENCHMARKS.md AS);
+         resident too) and in the rounds that time training, one raw call after each scan and
+         each group of single calls ("raw in the training rounds": both sides timed in the same
+         state of the process and the GPU; BENCHMARKS.md AS);
   train  env steps/s of full training iterations (sampling, GAE, policy step, value fit), several
          iterations per compiled call exactly as ``jaxpg.train`` runs them, and one per call
          (``iterations_per_call=1``), the two timed alternately from the same state (since
@@ -165,7 +167,10 @@ def measure(
     ts_single, _ = jax.block_until_ready(single(ts2))
     ts_single, _ = jax.block_until_ready(single(ts_single))
     ts_single = ts2
-    scan_times, single_times = [], []
+    # Raw simulation is timed a third way in the same rounds (its chain continued), so that raw
+    # and training are also compared in the same state of the process and the GPU: timed alone
+    # before anything else, raw ran 5-8 % faster than after training (BENCHMARKS.md AS).
+    scan_times, single_times, raw_round_times = [], [], []
     for _ in range(repeats):
         start = time.perf_counter()
         ts2, metrics = jax.block_until_ready(block(ts2))
@@ -175,8 +180,12 @@ def measure(
             ts_single, _ = single(ts_single)
         jax.block_until_ready(ts_single)
         single_times.append(time.perf_counter() - start)
+        start = time.perf_counter()
+        carry, _ = jax.block_until_ready(raw_chained(carry))
+        raw_round_times.append(time.perf_counter() - start)
     train_s = float(np.median(scan_times)) / iterations
     single_s = float(np.median(single_times)) / iterations
+    raw_rounds_s = float(np.median(raw_round_times)) / iterations
     # The sampling phase alone (the policy acting in the env batch, observation statistics
     # included), iterations of it in one compiled call: what training adds to the simulation
     # (sample - raw) apart from what the learner adds (train - sample).
@@ -221,6 +230,8 @@ def measure(
         "ratio": raw_s / train_s,
         "raw_after_steps_per_s": samples / raw_after_s,
         "ratio_after": raw_after_s / train_s,
+        "raw_rounds_steps_per_s": samples / raw_rounds_s,
+        "ratio_rounds": raw_rounds_s / train_s,
         "sample_steps_per_s": samples / sample_s,
         "ratio_sample": raw_s / sample_s,
         "repeats": repeats,
@@ -301,8 +312,10 @@ def main() -> None:
     print(f"\n{title}, horizon {args.horizon}, fidelity {args.fidelity}, {device}")
     print("| impl | envs | raw env steps/s | train env steps/s | train/raw | compile raw s | compile train s", end="")
     print(" | peak MiB/env | 1 iter/call env steps/s | 1 iter/call train/raw | sampling alone/raw", end="")
-    print(" | raw from reset env steps/s | train/raw from reset | raw after training env steps/s | train/raw after |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    print(" | raw from reset env steps/s | train/raw from reset", end="")
+    print(" | raw after training env steps/s | train/raw after", end="")
+    print(" | raw in the training rounds env steps/s | train/raw in rounds |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
         print(
             f"| {r['impl']} | {r['num_envs']} | {r['raw_steps_per_s'] / 1e6:.3f} M "
@@ -310,7 +323,8 @@ def main() -> None:
             f"| {r['ratio']:.2f} | {r['raw_compile_s']:.1f} | {r['train_compile_s']:.1f} | "
             f"{r['peak_bytes_per_env'] / 2**20:.3f} | {r['train_single_steps_per_s'] / 1e6:.3f} M "
             f"| {r['ratio_single']:.2f} | {r['ratio_sample']:.2f} | {r['raw_fresh_steps_per_s'] / 1e6:.3f} M "
-            f"| {r['ratio_fresh']:.2f} | {r['raw_after_steps_per_s'] / 1e6:.3f} M | {r['ratio_after']:.2f} |"
+            f"| {r['ratio_fresh']:.2f} | {r['raw_after_steps_per_s'] / 1e6:.3f} M | {r['ratio_after']:.2f} "
+            f"| {r['raw_rounds_steps_per_s'] / 1e6:.3f} M | {r['ratio_rounds']:.2f} |"
         )
     if args.preset:
         print("\nwith evaluation at the preset's cadence (one evaluation per eval_every iterations):")

@@ -310,7 +310,8 @@ def main() -> None:
     device = rows[0]["device"] if rows else ""
     title = " ".join([args.task, args.algo, args.preset or "", *args.set])
     print(f"\n{title}, horizon {args.horizon}, fidelity {args.fidelity}, {device}")
-    print("| impl | envs | raw env steps/s | train env steps/s | train/raw | compile raw s | compile train s", end="")
+    print("| impl | envs | raw env steps/s | train env steps/s | train/raw (raw timed first)", end="")
+    print(" | compile raw s | compile train s", end="")
     print(" | peak MiB/env | 1 iter/call env steps/s | 1 iter/call train/raw | sampling alone/raw", end="")
     print(" | raw from reset env steps/s | train/raw from reset", end="")
     print(" | raw after training env steps/s | train/raw after", end="")

@@ -67,18 +67,26 @@ def sample_only(ts: core.TrainState) -> tuple[core.TrainState, dict[str, jax.Arr
     return ts, {"reward": jnp.sum(traj.rewards)}
 
 
+def uniform_act(action_size: int) -> rollout_lib.ActFn:
+    """``act(params, obs [B, obs_dim], key) -> (action [B, action_size], 0 [B])``: uniform random
+    actions in [-1, 1], the policy ignored (raw simulation)."""
+
+    def act(params: Any, obs: jax.Array, key: jax.Array) -> tuple[jax.Array, jax.Array]:
+        del params
+        action = jax.random.uniform(key, (obs.shape[0], action_size), minval=-1.0, maxval=1.0)
+        return action, jnp.zeros(obs.shape[0])
+
+    return act
+
+
 def rollout_only(policy: bool, unroll: int = 1) -> Callable:
     """The rollout's env steps (continuing sampling, one device), ``unroll`` per loop iteration,
     acting with the policy as ``core.phase_sample`` does, or with uniform random actions in its
     place (``policy=False``: what ``train_throughput.py`` calls raw simulation)."""
 
     def iteration(ts: core.TrainState) -> tuple[core.TrainState, dict[str, jax.Array]]:
-        def random_act(params: Any, obs: jax.Array, key: jax.Array) -> tuple[jax.Array, jax.Array]:
-            del params
-            action = jax.random.uniform(key, (obs.shape[0], ts.env.action_size), minval=-1.0, maxval=1.0)
-            return action, jnp.zeros(obs.shape[0])
-
         key, step_key = jax.random.split(ts.key)
+        random_act = uniform_act(ts.env.action_size)
         act, params = (core.make_act(ts.policy, ts.obs_stats), ts.params) if policy else (random_act, None)
         env = core.sampler_env(ts.env, ts.config)
         env_state, traj = rollout_lib.rollout(
@@ -95,11 +103,7 @@ def raw_env_block(iterations: int) -> Callable:
     goes in and out of the call around it)."""
 
     def block(ts: core.TrainState) -> tuple[core.TrainState, dict[str, jax.Array]]:
-        def random_act(params: Any, obs: jax.Array, key: jax.Array) -> tuple[jax.Array, jax.Array]:
-            del params
-            action = jax.random.uniform(key, (obs.shape[0], ts.env.action_size), minval=-1.0, maxval=1.0)
-            return action, jnp.zeros(obs.shape[0])
-
+        random_act = uniform_act(ts.env.action_size)
         env = core.sampler_env(ts.env, ts.config)
 
         def one(carry: tuple, _: None) -> tuple[tuple, jax.Array]:

@@ -208,9 +208,9 @@ def measure(
     if config.eval_envs > 0:
         evaluate = train_lib.compiled_evaluate(train_lib.evaluate_state, False)
         eval_compile, eval_s, _ = time_call(evaluate, ts_single, repeats=3)
-    # Raw simulation once more, continuing its chain, now that the training programs and states
-    # are resident too (the timings above ran with only the raw program's buffers allocated), so
-    # that train/raw can also be read with both sides timed in the same state of the process.
+    # Raw simulation once more, continuing its chain, in calls of its own after all training (the
+    # first raw timing ran with only the raw program's buffers allocated): with the rounds above,
+    # a second reading of raw timed in the same state of the process as training.
     raw_after_s, _ = time_chained(raw_chained, carry, repeats)
     raw_after_s /= iterations
     with_eval_s = train_s + eval_s / config.eval_every  # per iteration, evaluation amortised

@@ -219,40 +219,67 @@ def test_profile_phases_times_every_phase(small_state):
     assert int(ts.iteration) == int(small_state.iteration) + 1
 
 
+# Metrics of an iteration that discriminate between seeds 1 and 2 (they differ by 10-90 % between
+# the two seeds) and that do not pass through the conjugate-gradient solve.
+SEED_DISCRIMINATING = ("value_loss", "grad_norm", "return_stochastic", "episode_length")
+
+
 def test_same_seed_same_numbers_and_seed_vmap_matches(pendulum):
     """Training is bit-for-bit deterministic for a seed, and two seeds trained in one vmapped
     program give the numbers of training each alone.
 
-    Batched matrix products sum in another order than unbatched ones, and conjugate gradient in
-    float32 amplifies such last-bit differences (its residual is round-off, compared loosely);
-    after the first update an episode can end a step earlier or later. So: every metric of the
-    first iteration agrees to 1e-3, and the update's own diagnostics of the second to 2e-2; a
-    seed mix-up or a shared key would differ by far more.
+    The vmapped program is another program: its batched matrix products may sum in another float32
+    order than the unbatched ones (CPU models and vector widths decide), so its numbers may differ
+    from the unbatched ones in the last bits, and what can be compared depends on what amplifies
+    those bits:
+    - The first iteration starts from the same parameters and keys. Its rollout, advantages and
+      value fit are float32 sums of at most a few thousand terms (relative difference <= ~1e-5),
+      and its policy step solves ``(F + damping I) x = g`` by conjugate gradient, which amplifies a
+      relative perturbation by up to the condition number of ``F + damping I``. With this test's
+      ``cg_damping=1.0`` that number is below ~1e2 (the Fisher matrix of this small Gaussian
+      policy has eigenvalues of order 1-10), so the step's diagnostics differ by <= ~1e-4: every
+      metric is compared with rtol 1e-3 (the CG residual, itself round-off, only against its
+      bound). At the suite's ``cg_damping=1e-2`` the condition number is ~1e4 and the measured KL
+      of vmapped and unvmapped programs was seen to differ by 2.7e-3 on one CPU.
+    - From the second iteration on the two programs step from parameters that may differ in the
+      last bits, and an episode can end a step earlier or later: no float tolerance follows from
+      the computation there. What must hold exactly are the integer states (RNG keys, iteration
+      counters), and what a seed mix-up or a shared key would break is that each seed's metrics
+      lie far closer to its own solo run than to the other seed's (``SEED_DISCRIMINATING``).
     """
-    config = npg.Config(**SMALL)
+    config = npg.Config(**{**SMALL, "cg_damping": 1.0})
     alone = []
     for seed in (1, 2):
         ts = npg.init(jax.random.PRNGKey(seed), pendulum, config)
-        _, metrics = train_lib.compiled_block(npg.update, 2, False)(ts)
-        alone.append(metrics)
+        alone.append(train_lib.compiled_block(npg.update, 2, False)(ts))
     ts = npg.init(jax.random.PRNGKey(1), pendulum, config)
-    _, again = train_lib.compiled_block(npg.update, 2, False)(ts)
-    for key in alone[0]:
-        np.testing.assert_array_equal(alone[0][key], again[key])
+    again_state, again = train_lib.compiled_block(npg.update, 2, False)(ts)
+    for key in alone[0][1]:
+        np.testing.assert_array_equal(alone[0][1][key], again[key], err_msg=key)
+    for a, b in zip(jax.tree.leaves(alone[0][0]), jax.tree.leaves(again_state), strict=True):
+        np.testing.assert_array_equal(np.asarray(a), np.asarray(b))
     stacked = train_lib.init_seeds(npg.init, (1, 2), pendulum, config)
-    _, together = train_lib.compiled_block(npg.update, 2, True)(stacked)
+    together_state, together = train_lib.compiled_block(npg.update, 2, True)(stacked)
     mismatches = []
     for i in range(2):
-        for key in alone[i]:
+        state_alone, metrics_alone = alone[i]
+        np.testing.assert_array_equal(np.asarray(together_state.key[i]), np.asarray(state_alone.key))
+        np.testing.assert_array_equal(np.asarray(together_state.iteration[i]), np.asarray(state_alone.iteration))
+        for key in metrics_alone:
             if key == "cg_residual":
-                tol = 1e-2 * float(alone[i]["grad_norm"][0])
-                assert float(together[key][0, i]) < tol and float(alone[i][key][0]) < tol
+                tol = 1e-2 * float(metrics_alone["grad_norm"][0])
+                assert float(together[key][0, i]) < tol and float(metrics_alone[key][0]) < tol
                 continue
-            if not np.allclose(together[key][0, i], alone[i][key][0], rtol=1e-3, atol=1e-5, equal_nan=True):
-                mismatches.append((i, 0, key, float(together[key][0, i]), float(alone[i][key][0])))
-        for key in ("kl", "value_loss", "grad_norm", "step_length"):
-            if not np.allclose(together[key][1, i], alone[i][key][1], rtol=2e-2):
-                mismatches.append((i, 1, key, float(together[key][1, i]), float(alone[i][key][1])))
+            if not np.allclose(together[key][0, i], metrics_alone[key][0], rtol=1e-3, atol=1e-5, equal_nan=True):
+                mismatches.append((i, 0, key, float(together[key][0, i]), float(metrics_alone[key][0])))
+        other = alone[1 - i][1]
+        for key in SEED_DISCRIMINATING:
+            for it in range(2):
+                own_gap = abs(float(together[key][it, i]) - float(metrics_alone[key][it]))
+                seed_gap = abs(float(other[key][it]) - float(metrics_alone[key][it]))
+                assert seed_gap > 0.05 * abs(float(metrics_alone[key][it])), (key, it)  # the seeds do differ
+                if not own_gap < 0.1 * seed_gap:
+                    mismatches.append((i, it, key, float(together[key][it, i]), float(metrics_alone[key][it])))
     assert not mismatches, mismatches
 
 

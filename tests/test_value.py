@@ -128,7 +128,14 @@ def nested_epochs_reference(params, opt_state, obs, targets, key, epochs, batch_
 
 def test_one_loop_of_all_minibatches_matches_nested_epochs_and_unrolls():
     """``fit_value`` steps through the same minibatches in the same order as nested epoch and
-    minibatch scans (same bits), and ``unroll`` changes only how the loop compiles."""
+    minibatch scans, and ``unroll`` changes only how the loop compiles.
+
+    The three are different XLA programs: the same float32 operations, which the compiler may fuse
+    and order differently on another CPU or JAX version (bit-equal on some machines, not on all).
+    The fit is a contraction (Adam on a convex-ish regression, no chaos), so last-bit differences of
+    each step stay of their size over its 3 x 8 steps: rtol 1e-5 (about 100 float32 ulps), atol
+    1e-6 for parameters near zero. A different minibatch order, what the test guards against, moves
+    them by up to 0.1 (measured: the permutations of another key)."""
     obs, targets = problem()
     params = VF.init(jax.random.key(0), OBS)
     opt_state = OPT.init(params)
@@ -136,8 +143,8 @@ def test_one_loop_of_all_minibatches_matches_nested_epochs_and_unrolls():
     want = jax.jit(nested_epochs_reference, static_argnums=(5, 6))(params, opt_state, obs, targets, key, 3, 32)
     flat = jax.jit(functools.partial(fit, epochs=3))(params, opt_state, obs, targets, key)
     for a, b in zip(jax.tree.leaves(flat[:2]), jax.tree.leaves(want[:2]), strict=True):
-        np.testing.assert_array_equal(np.asarray(a), np.asarray(b))
-    np.testing.assert_allclose(flat[2], want[2], rtol=1e-6)  # the mean loss: a flat sum, not per epoch
+        np.testing.assert_allclose(np.asarray(a), np.asarray(b), rtol=1e-5, atol=1e-6)
+    np.testing.assert_allclose(flat[2], want[2], rtol=1e-5)  # the mean loss: a flat sum, not per epoch
     unrolled = jax.jit(lambda *args: fit_value(VF, *args[:2], OPT, *args[2:], epochs=3, batch_size=32, unroll=5))(
         params, opt_state, obs, targets, key
     )

@@ -22,6 +22,10 @@ ACTIVATIONS = {
 }
 
 
+# The fields of a training batch that ``actor_critic_loss`` reads.
+BATCH_FIELDS = ("obs", "actions", "log_probs", "advantages", "value_targets", "weights")
+
+
 def to_numpy(tree: Any) -> Any:
     """Every leaf of ``tree`` as a float64 NumPy array."""
     return jax.tree.map(lambda x: np.asarray(x, np.float64), tree)

@@ -189,8 +189,9 @@ def actor_critic_loss(
 
     Returns ``(total, diagnostics, grads)``: diagnostics ``policy_loss``, ``value_loss``,
     ``entropy``, ``approx_kl`` (``E_w[(r - 1) - log r]``), ``clip_fraction`` (``E_w[|r - 1| > eps]``)
-    and ``active`` (``[N]``: the unclipped term is the minimum, so the sample has a policy gradient);
-    grads shaped like ``joint``.
+    ``active`` (``[N]``: the unclipped term is the minimum, so the sample has a policy gradient) and
+    ``value_frozen`` (``[N]``: the clipped value error is the larger and constant, so the sample has
+    no value gradient); grads shaped like ``joint``.
     """
     w = batch["weights"]
     c = w / max(w.sum(), 1.0)  # each sample's share of a weighted mean
@@ -235,11 +236,13 @@ def actor_critic_loss(
     targets = batch["value_targets"]
     err = (values - targets) ** 2
     d_values = 2.0 * (values - targets)
+    value_frozen = np.zeros_like(values, bool)
     if value_clip_eps > 0:
         values_clipped = old_values + np.clip(values - old_values, -value_clip_eps, value_clip_eps)
         err_clipped = (values_clipped - targets) ** 2
         inside = np.abs(values - old_values) < value_clip_eps
         d_values = np.where(err >= err_clipped, d_values, 2.0 * (values_clipped - targets) * inside)
+        value_frozen = (err < err_clipped) & ~inside
         err = np.maximum(err, err_clipped)
     value_loss = np.sum(c * err)
     value_grads = mlp_backward(value_layers, value_inputs, (value_coef * c * d_values)[:, None], value_activation)
@@ -253,6 +256,7 @@ def actor_critic_loss(
         "approx_kl": np.sum(c * ((ratio - 1.0) - np.log(ratio))),
         "clip_fraction": clip_fraction,
         "active": active,
+        "value_frozen": value_frozen,
     }
     return total, diagnostics, {"policy": policy_grads, "value": value_grads}
 

@@ -158,6 +158,8 @@ def test_joint_loss_and_gradient_match_numpy(kind, case):
     )
     if clip_eps > 0:  # the batch exercises the clip: some samples lose their policy gradient
         assert 0 < np.sum(~want["active"]) < N and 0 < want["clip_fraction"] < 1
+    if value_clip_eps > 0:  # and the value clip: some samples lose their value gradient
+        assert 0 < np.sum(want["value_frozen"]) < N
 
     loss_and_grad = jax.value_and_grad(actor_critic.loss, argnums=1, has_aux=True)
     (total, diagnostics), grads = loss_and_grad(ts, joint, batch, clip_eps, value_clip_eps, jnp.asarray(old_values))

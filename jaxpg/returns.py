@@ -132,19 +132,30 @@ def gae(
     return advantages, advantages + values
 
 
+def _all_equal(x: jax.Array, valid: jax.Array | None = None) -> jax.Array:
+    """``[]`` bool: the entries of ``x`` (those where ``valid``, same shape, is set) are all one
+    finite value. False when there are none, or when one is NaN or infinite."""
+    high = jnp.max(x if valid is None else jnp.where(valid, x, -jnp.inf))
+    low = jnp.min(x if valid is None else jnp.where(valid, x, jnp.inf))
+    return (high == low) & jnp.isfinite(high)
+
+
 def normalize(x: jax.Array, mask: jax.Array | None = None, eps: float = 1e-8) -> jax.Array:
     """``(x - mean) / (std + eps)`` over all entries (population std).
 
     With ``mask`` (same shape, bool or 0/1) the statistics use only the entries where it is set
-    and the others come out as 0.
+    and the others come out as 0. Entries that are all equal (and finite) have no spread and come
+    out as 0: their float32 mean can miss them by a rounding error, which the division would
+    otherwise blow up to values of size 1.
     """
     if mask is None:
-        return (x - jnp.mean(x)) / (jnp.std(x) + eps)
+        return jnp.where(_all_equal(x), 0.0, (x - jnp.mean(x)) / (jnp.std(x) + eps))
     m = jnp.asarray(mask, x.dtype)
     n = jnp.maximum(jnp.sum(m), 1.0)
     mean = jnp.sum(x * m) / n
     std = jnp.sqrt(jnp.sum(m * jnp.square(x - mean)) / n)
-    return jnp.where(m > 0, (x - mean) / (std + eps), 0.0)
+    valid = m > 0
+    return jnp.where(valid & ~_all_equal(x, valid), (x - mean) / (std + eps), 0.0)
 
 
 def episode_ids(terminated: jax.Array, truncated: jax.Array) -> jax.Array:

@@ -1,8 +1,8 @@
 """NPG and TRPO: the step obeys its trust region, NPG's step as an optax transformation
-(``npg.scale_by_natural_gradient``) matches an explicit solve and gives ``npg.update`` the same bits
-as the CG-then-step code it replaced, updates are guarded, value targets are standardised on
-request. Their learning tests (NPG's ``pendulum_cpu`` preset and TRPO's defaults on
-``inverted_pendulum``, two seeds each) are in ``tests/test_learning.py``.
+(``npg.scale_by_natural_gradient``) matches an explicit solve, one ``npg.update`` matches a float64
+NumPy reference (GAE, policy gradient, dense Fisher, normalised step, KL back-off), updates are
+guarded, value targets are standardised on request. Their learning tests (NPG's ``pendulum_cpu``
+preset and TRPO's defaults on ``inverted_pendulum``, two seeds each) are in ``tests/test_learning.py``.
 """
 
 from __future__ import annotations
@@ -12,12 +12,13 @@ import dataclasses
 import jax
 import jax.numpy as jnp
 import numpy as np
+import numpy_reference as ref
 import optax
 import pytest
 from jax.flatten_util import ravel_pytree
 
 import jaxpg.envs as envs
-from jaxpg import linalg, profiling
+from jaxpg import profiling
 from jaxpg import train as train_lib
 from jaxpg import value as value_lib
 from jaxpg.algos import core, natural_gradient, npg, trpo
@@ -36,17 +37,24 @@ def small_state(pendulum):
 
 
 @pytest.fixture(scope="module")
-def batch_and_direction(small_state):
-    """Phases of one NPG iteration on a small batch: ``(ts, batch, grad, cg_result)``."""
+def sampled_phases(small_state):
+    """Phases of one NPG iteration on a small batch: ``(ts, traj, batch, grad, cg_result)``."""
 
     @jax.jit
     def phases(ts):
         ts, traj, _ = core.phase_sample(ts)
         batch = core.phase_advantages(ts, traj)
         grad = natural_gradient.phase_gradient(ts, batch)
-        return ts, batch, grad, natural_gradient.phase_natural_gradient(ts, batch, grad)
+        return ts, traj, batch, grad, natural_gradient.phase_natural_gradient(ts, batch, grad)
 
     return phases(small_state)
+
+
+@pytest.fixture(scope="module")
+def batch_and_direction(sampled_phases):
+    """``(ts, batch, grad, cg_result)`` of ``sampled_phases``."""
+    ts, _, batch, grad, cg = sampled_phases
+    return ts, batch, grad, cg
 
 
 def test_normalized_step_meets_kl_to_first_order(batch_and_direction):
@@ -112,58 +120,94 @@ def test_scale_by_natural_gradient_is_the_normalised_natural_step(use_jit):
     np.testing.assert_allclose(np.asarray(ravel_pytree(moved)[0]), -flat, rtol=1e-6)
 
 
-def reference_update(ts):
-    """NPG's iteration as it was written before ``scale_by_natural_gradient``: conjugate gradient on
-    the flat Fisher-vector product, then the normalised step and its KL back-off."""
-    config = ts.config
-    old = ts
-    ts, traj, key = core.phase_sample(ts)
-    value_key, _ = jax.random.split(key)
-    batch = core.phase_advantages(ts, traj)
-    flat_params, unravel = ravel_pytree(ts.params)
-    grad = ravel_pytree(jax.grad(natural_gradient.surrogate, argnums=1)(ts, ts.params, batch))[0]
-    obs, weights = natural_gradient.fisher_subsample(ts, batch)
-    fvp = linalg.make_fisher_vector_product(
-        ts.policy, ts.params, obs, weights=weights, damping=config.cg_damping, mode=config.fvp
-    )
-    cg = linalg.conjugate_gradient(lambda v: ravel_pytree(fvp(unravel(v)))[0], grad, config.cg_iters)
-    step = jnp.sqrt(config.kl_delta / jnp.maximum(jnp.dot(grad, cg.x), 1e-20))
-    new_params, kl, fraction = npg.step_within_kl(ts, batch, cg.x, step, npg.kl_bound(config))
-    entropy = core.mean_entropy(ts, ts.params, batch)
-    ts, value_loss = core.phase_value_fit(ts.replace(params=new_params), batch, value_key)
-    metrics = {
-        "entropy": entropy,
-        "step_length": fraction * step,
-        "step_fraction": fraction,
-        "cg_residual": cg.residual_norm,
-        "grad_norm": jnp.linalg.norm(grad),
-        "value_loss": value_loss,
-    }
-    return core.finish_iteration(
-        old, ts, traj, loss=value_loss + kl, kl=kl, metrics=metrics, step_accepted=fraction > 0
-    )
+# kl_delta of the NumPy check below: above max_update_kl (1), which then bounds the step's KL, and
+# large enough that the full normalised step overshoots that bound, so that the back-off halves it.
+BACKOFF_KL_DELTA = 4.0
 
 
-def test_npg_update_through_the_transform_keeps_its_bits(pendulum):
-    """Three iterations of ``npg.update`` (which steps through ``scale_by_natural_gradient``) and of
-    the explicit reference give the same bits: parameters, value parameters and every metric. A
-    large ``kl_delta`` makes the back-off halve some steps; the Fisher products use a subsample."""
+def test_npg_update_matches_numpy_reference(small_state, sampled_phases):
+    """One ``npg.update`` against float64 NumPy: the advantages and value targets are GAE over the
+    value network's predictions, standardised over the valid samples; the policy gradient is
+    ``E_w[A grad log pi]``; the step taken is ``f s x`` where ``x`` solves the dense
+    ``(F + damping I) x = g`` to the residual the solver reports, ``s = sqrt(kl_delta / g'x)`` and
+    ``f`` is the first of ``1, 1/2, 1/4 ...`` whose mean KL (Gaussian closed form) is within
+    ``min(kl_delta, max_update_kl)``; the reported KL and entropy are NumPy's."""
+    config = small_state.config
+    new, metrics = jax.jit(npg.update_with_kl_delta)(small_state, BACKOFF_KL_DELTA)
+    ts, traj, batch, grad, _ = sampled_phases  # the same key, so the batch the update sampled
+    assert float(metrics["update_rejected"]) == 0.0
+
+    # GAE, [T, B] time-major, then flattened env-major as the batch is.
+    value_params = ref.to_numpy(ts.value_params)
+    obs, next_obs = np.asarray(traj.obs, np.float64), np.asarray(traj.next_obs, np.float64)
+    values = ref.mlp_forward(value_params, obs.reshape(-1, obs.shape[-1]), config.value_activation)[0]
+    next_values = ref.mlp_forward(value_params, next_obs.reshape(-1, obs.shape[-1]), config.value_activation)[0]
+    values, next_values = values.reshape(obs.shape[:2]), next_values.reshape(obs.shape[:2])
+    rewards, terminated, truncated = (np.asarray(a) for a in (traj.rewards, traj.terminated, traj.truncated))
+    assert terminated.any()  # episodes end inside the batch
+    advantages = ref.gae(rewards, values, next_values, terminated, truncated, config.gamma, config.gae_lambda)
+    valid = np.asarray(traj.valid, bool)
+    targets = advantages + values
+    advantages = np.where(valid, (advantages - advantages[valid].mean()) / advantages[valid].std(), 0.0)
+    # float32 recursions over 32 steps of values and returns of size ~10: errors ~1e-5.
+    np.testing.assert_allclose(np.asarray(batch.advantages), advantages.T.reshape(-1), rtol=1e-4, atol=1e-4)
+    np.testing.assert_allclose(np.asarray(batch.value_targets), targets.T.reshape(-1), rtol=1e-4, atol=1e-4)
+
+    params = ref.to_numpy(ts.params)
+    numpy_batch = {name: np.asarray(getattr(batch, name), np.float64) for name in ref.BATCH_FIELDS}
+    act = config.policy_activation
+    dist = ref.policy_forward("gaussian", params, numpy_batch["obs"], act)
+    var = np.exp(2.0 * dist["log_std"])
+    residual = numpy_batch["actions"] - dist["mean"]
+    c = numpy_batch["weights"] / numpy_batch["weights"].sum()
+    ca = (c * numpy_batch["advantages"])[:, None]
+    upstream = {"mean": ca * residual / var, "log_std": ca * (residual**2 / var - 1.0)}
+    want_grad = ref.flat(ref.policy_backward("gaussian", params, dist, upstream, act))
+    grad_norm = np.linalg.norm(want_grad)
+    # Sums over 256 samples through two 64-unit layers in float32: ~1e-5 of the gradient's norm.
+    np.testing.assert_allclose(np.asarray(grad), want_grad, rtol=0, atol=1e-4 * grad_norm)
+    np.testing.assert_allclose(float(metrics["grad_norm"]), grad_norm, rtol=1e-4)
+
+    fraction, step_length = float(metrics["step_fraction"]), float(metrics["step_length"])
+    assert 0 < fraction < 1  # the back-off halved the step at least once
+    step_size = step_length / fraction
+    taken = ref.flat(ref.to_numpy(new.params)) - ref.flat(params)
+    direction = taken / step_length
+    # The normalised step length, written out: s = sqrt(kl_delta / g'x).
+    np.testing.assert_allclose(step_size, np.sqrt(BACKOFF_KL_DELTA / (want_grad @ direction)), rtol=1e-3)
+    fisher = ref.gaussian_fisher(params, numpy_batch["obs"], numpy_batch["weights"], act)
+    solve_residual = np.linalg.norm(fisher @ direction + config.cg_damping * direction - want_grad)
+    # Ten float32 CG iterations: the residual is what the solver reports, to float32 drift of its
+    # recursion (~1e-3 of ||g||), and small.
+    assert abs(solve_residual - float(metrics["cg_residual"])) < 2e-3 * grad_norm
+    assert solve_residual < 2e-2 * grad_norm
+
+    bound = min(BACKOFF_KL_DELTA, config.max_update_kl) if config.max_update_kl > 0 else BACKOFF_KL_DELTA
+    kls = []
+    for k in range(npg.BACKTRACKS):
+        candidate = ref.unflat(ref.flat(params) + 0.5**k * step_size * direction, params)
+        kls.append(c @ ref.kl("gaussian", dist, ref.policy_forward("gaussian", candidate, numpy_batch["obs"], act)))
+    first = int(np.argmax(np.array(kls) <= bound))
+    assert kls[first] <= bound and all(kl > 1.01 * bound for kl in kls[:first])  # clear decisions
+    assert fraction == 0.5**first
+    # KL of ~0.1 from float32 distributions: cancellations leave ~1e-6 absolute.
+    np.testing.assert_allclose(float(metrics["kl"]), kls[first], rtol=1e-4, atol=1e-6)
+    np.testing.assert_allclose(float(metrics["entropy"]), np.mean(ref.entropy("gaussian", dist)), rtol=1e-6)
+
+
+def test_loop_unroll_changes_compilation_not_arithmetic(pendulum):
+    """Unrolling the learner's loops (GAE, the value fit, CG) changes how they compile, not the
+    arithmetic: the first iteration agrees to float32 rounding. Rounding then moves CG's later
+    iterates (its residual is ~1e-3 here), so later iterations agree only to that level. A large
+    ``kl_delta`` makes the back-off halve some steps; the Fisher products use a subsample."""
     config = npg.Config(**{**SMALL, "kl_delta": 0.5, "fisher_samples": 100, "eval_envs": 0})
-    initial = npg.init(jax.random.PRNGKey(0), pendulum, config)
-    run = lambda update: jax.jit(lambda s: train_lib.scan_updates(update, s, 3))(initial)  # noqa: E731
-    (ts, metrics), (ts_ref, metrics_ref) = run(npg.update), run(reference_update)
+    run = lambda c: jax.jit(lambda s: train_lib.scan_updates(npg.update, s, 3))(  # noqa: E731
+        npg.init(jax.random.PRNGKey(0), pendulum, c)
+    )
+    _, metrics = run(config)
+    _, metrics_unrolled = run(dataclasses.replace(config, loop_unroll=4))
     assert np.any(np.asarray(metrics["step_fraction"]) < 1)
-    got, want = jax.tree.leaves((ts.params, ts.value_params)), jax.tree.leaves((ts_ref.params, ts_ref.value_params))
-    for a, b in zip(got, want, strict=True):
-        np.testing.assert_array_equal(np.asarray(a), np.asarray(b))
-    assert set(metrics) == set(metrics_ref)
-    for k in metrics:
-        np.testing.assert_array_equal(np.asarray(metrics[k]), np.asarray(metrics_ref[k]), err_msg=k)
-    # Unrolling the learner's loops (GAE, the value fit, CG) changes how they compile, not the
-    # arithmetic: the first iteration agrees to float32 rounding. Rounding then moves CG's later
-    # iterates (its residual is ~1e-3 here), so later iterations agree only to that level.
-    unrolled = npg.init(jax.random.PRNGKey(0), pendulum, dataclasses.replace(config, loop_unroll=4))
-    ts_unrolled, metrics_unrolled = jax.jit(lambda s: train_lib.scan_updates(npg.update, s, 3))(unrolled)
+    assert set(metrics) == set(metrics_unrolled)
     for k in metrics:
         got, want = np.asarray(metrics_unrolled[k]), np.asarray(metrics[k])
         np.testing.assert_allclose(got[0], want[0], rtol=1e-5, atol=1e-6, err_msg=k)

@@ -6,6 +6,7 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 import numpy as np
+import numpy_reference as ref
 import optax
 import pytest
 
@@ -20,6 +21,8 @@ TINY_CONFIGS = {
     "a2c": a2c.Config(**TINY, optimizer="rmsprop"),
 }
 ALGOS = {"ppo": ppo, "a2c": a2c}
+# One optimizer step per iteration, from the sampling parameters, with an entropy bonus.
+ONE_STEP_PPO = ppo.Config(**TINY, num_minibatches=1, num_epochs=1, value_clip_eps=0.2, entropy_coef=0.02)
 
 
 @pytest.fixture(scope="module")
@@ -86,16 +89,78 @@ def test_vmapped_seeds_match_single_seeds(name, cartpole):
             np.testing.assert_allclose(np.asarray(b)[i], np.asarray(s), rtol=1e-5, atol=1e-6)
 
 
+def numpy_joint_loss(ts, batch, clip_eps=0.0, value_clip_eps=0.0):
+    """``numpy_reference.actor_critic_loss`` of ``ts``'s categorical policy and value network on
+    ``batch``, the old value predictions being the current ones (as at sampling time):
+    ``(total, diagnostics, grads)`` in float64."""
+    config = ts.config
+    numpy_batch = {name: np.asarray(getattr(batch, name), np.float64) for name in ref.BATCH_FIELDS}
+    numpy_batch["actions"] = np.asarray(batch.actions)
+    joint = ref.to_numpy(actor_critic.joint_params(ts))
+    values, _ = ref.mlp_forward(joint["value"], numpy_batch["obs"], config.value_activation)
+    return ref.actor_critic_loss(
+        "categorical",
+        joint,
+        numpy_batch,
+        clip_eps,
+        value_clip_eps,
+        values[:, 0],
+        config.value_coef,
+        config.entropy_coef,
+        config.policy_activation,
+        config.value_activation,
+    )
+
+
+def check_metrics(metrics, want, want_total, grads):
+    """The loss diagnostics of a single optimizer step from the sampling parameters: float32
+    forward and backward passes of a batch of 32 through 8-unit networks differ from float64 by
+    some tens of roundings of O(1) terms (below 1e-5)."""
+    for name in ("policy_loss", "value_loss", "entropy"):
+        np.testing.assert_allclose(float(metrics[name]), want[name], rtol=1e-5, atol=1e-5, err_msg=name)
+    np.testing.assert_allclose(float(metrics["loss"]), want_total, rtol=1e-5, atol=1e-5)
+    np.testing.assert_allclose(float(metrics["grad_norm"]), np.linalg.norm(ref.flat(grads)), rtol=1e-5, atol=1e-5)
+
+
 def test_metrics(cartpole):
-    """PPO reports its optimisation diagnostics next to the common sampling metrics."""
-    ts = ppo.init(jax.random.PRNGKey(0), cartpole, TINY_CONFIGS["ppo"])
-    _, metrics = jax.jit(ppo.update)(ts)
-    for key in ("kl", "approx_kl", "entropy", "clip_fraction", "policy_loss", "value_loss", "grad_norm"):
-        assert np.isfinite(float(metrics[key])), key
-    for key in ("env_steps", "return_stochastic", "update_rejected", "physics_overflow"):
+    """One PPO step (one epoch of one minibatch) from the sampling parameters, against NumPy: its
+    diagnostics are the joint loss's at ratio 1 (policy loss ``-E[A]``, value error, entropy, the
+    gradient's norm; nothing clipped, approximate KL 0), the parameters move by the optimizer's step
+    on the NumPy gradient, and the reported KL is the exact mean KL between the old and the new
+    policy on the batch. The common sampling metrics are reported beside them."""
+    config = ONE_STEP_PPO
+    ts = ppo.init(jax.random.PRNGKey(0), cartpole, config)
+    new, metrics = jax.jit(ppo.update)(ts)
+    assert float(metrics["update_rejected"]) == 0.0
+
+    sampled, traj, _ = core.phase_sample(ts)
+    batch = actor_critic.phase_advantages(sampled, traj)
+    want_total, want, grads = numpy_joint_loss(sampled, batch, config.clip_eps, config.value_clip_eps)
+    check_metrics(metrics, want, want_total, grads)
+    # At ratio 1 nothing is clipped and the approximate KL is 0 up to float32 rounding of the
+    # log-probabilities (~1e-7, squared by the estimator).
+    assert float(metrics["clip_fraction"]) == 0.0 and abs(float(metrics["approx_kl"])) < 1e-6
+
+    joint = actor_critic.joint_params(sampled)
+    updates, _ = ppo.optimizer(config).update(jax.tree.map(jnp.float32, grads), sampled.opt_state, joint)
+    expected = optax.apply_updates(joint, updates)
+    # Adam's first step is lr * g / (|g| + eps): a gradient error dg moves it by at most
+    # lr * dg / eps = 100 dg, and dg (float32 against float64) stays below 1e-6.
+    for got, want_leaf in zip(jax.tree.leaves((new.params, new.value_params)), jax.tree.leaves(expected), strict=True):
+        np.testing.assert_allclose(np.asarray(got), np.asarray(want_leaf), rtol=0, atol=1e-4)
+
+    obs = np.asarray(batch.obs, np.float64)
+    old_dist = ref.policy_forward("categorical", ref.to_numpy(ts.params), obs, config.policy_activation)
+    new_dist = ref.policy_forward("categorical", ref.to_numpy(new.params), obs, config.policy_activation)
+    weights = np.asarray(batch.weights, np.float64)
+    want_kl = np.sum(weights * ref.kl("categorical", old_dist, new_dist)) / weights.sum()
+    assert want_kl > 0
+    # A KL of ~1e-4 from float32 logits: ``sum p (log p - log q)`` cancels to ~1e-7 absolute.
+    np.testing.assert_allclose(float(metrics["kl"]), want_kl, rtol=1e-3, atol=1e-7)
+
+    for key in ("env_steps", "return_stochastic", "update_rejected", "physics_overflow", "learning_rate"):
         assert key in metrics
     assert not set(train_lib.EVAL_METRICS) & set(metrics)  # evaluation runs between calls
-    assert float(metrics["kl"]) >= 0.0 and 0.0 <= float(metrics["clip_fraction"]) <= 1.0
 
 
 def test_clip_fraction_and_ratio_at_sampling_params(cartpole):
@@ -115,28 +180,28 @@ def test_clip_fraction_and_ratio_at_sampling_params(cartpole):
         np.testing.assert_allclose(np.asarray(a), np.asarray(b), rtol=1e-5, atol=1e-7)
 
 
-def test_a2c_step_is_the_shared_loss_without_clipping(cartpole):
-    """An A2C update is one step of its optimizer on the shared actor-critic loss with no clipping,
-    whose policy term at the sampling parameters (ratio 1) is ``-E[A]``, and reports that loss's
-    terms."""
+def test_a2c_step_is_one_optimizer_step_on_the_numpy_loss(cartpole):
+    """An A2C update against NumPy: its reported loss terms are the unclipped joint loss at the
+    sampling parameters (policy term ``-E[A]``, value error, entropy, gradient norm), and the
+    parameters move by one step of its optimizer (clipping, then RMSprop) on the NumPy gradient."""
     config = TINY_CONFIGS["a2c"]
     ts = a2c.init(jax.random.PRNGKey(3), cartpole, config)
     new, metrics = jax.jit(a2c.update)(ts)
 
     sampled, traj, _ = core.phase_sample(ts)
     batch = actor_critic.phase_advantages(sampled, traj)
+    want_total, want, grads = numpy_joint_loss(sampled, batch)
+    assert abs(want["policy_loss"]) > 0.1  # advantages not normalised: -E[A] is no accidental 0
+    np.testing.assert_allclose(want["policy_loss"], -np.mean(np.asarray(batch.advantages, np.float64)), rtol=1e-6)
+    check_metrics(metrics, want, want_total, grads)
+
     joint = actor_critic.joint_params(sampled)
-    (total, aux), grads = jax.value_and_grad(actor_critic.loss, argnums=1, has_aux=True)(sampled, joint, batch)
-    updates, _ = a2c.optimizer(config).update(grads, sampled.opt_state, joint)
+    updates, _ = a2c.optimizer(config).update(jax.tree.map(jnp.float32, grads), sampled.opt_state, joint)
     expected = optax.apply_updates(joint, updates)
-    for got, want in zip(jax.tree.leaves((new.params, new.value_params)), jax.tree.leaves(expected), strict=True):
-        np.testing.assert_allclose(np.asarray(got), np.asarray(want), rtol=1e-5, atol=1e-6)
-    for name in ("loss", "policy_loss", "value_loss", "entropy"):
-        np.testing.assert_allclose(float(metrics[name]), float({**aux, "loss": total}[name]), rtol=1e-5, err_msg=name)
-    np.testing.assert_allclose(
-        float(aux["policy_loss"]), -float(core.weighted_mean(batch.advantages, batch.weights)), rtol=1e-5, atol=1e-7
-    )
-    assert float(aux["clip_fraction"]) == 0.0
+    # RMSprop's first step is lr * g / sqrt((1 - decay) g^2 + eps), at most lr / sqrt(eps) ~ 1
+    # times a gradient error, which stays below 1e-6 (float32 against float64).
+    for got, want_leaf in zip(jax.tree.leaves((new.params, new.value_params)), jax.tree.leaves(expected), strict=True):
+        np.testing.assert_allclose(np.asarray(got), np.asarray(want_leaf), rtol=0, atol=1e-5)
     moved = jax.tree.map(lambda a, b: bool(jnp.any(a != b)), ts.params, new.params)
     assert any(jax.tree.leaves(moved))
 

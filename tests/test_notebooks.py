@@ -258,3 +258,70 @@ def test_recorded_digests_place_every_visible_edit():
     assert edited(with_png, lambda cell: setattr(cell, "source", cell.source + " ")) == [f"code of cell {with_png}"]
     for n in number:
         assert edited(n, invisible) == [], n
+
+
+def test_full_mode_run_records_the_digests_of_what_it_wrote(kernel_env, tmp_path):
+    """``notebooks_full.run`` executes a notebook and records, after the execution, the digests of
+    the code and outputs it writes and the repository's ``HEAD``: the committed notebooks' check
+    then holds for what it wrote, and the recorded outputs are the executed ones, not the empty
+    ones it read."""
+    nb = nbformat.v4.new_notebook()
+    nb.cells = [
+        nbformat.v4.new_markdown_cell("# t\n\n**Executed** never."),
+        nbformat.v4.new_code_cell("print(6 * 7)"),
+        nbformat.v4.new_code_cell("6 * 7"),
+    ]
+    source, written = tmp_path / "nb.ipynb", tmp_path / "out" / "nb.ipynb"
+    written.parent.mkdir()
+    nbformat.write(nb, source)
+    notebooks_full.run(source, written, CELL_TIMEOUT_S)
+    out = nbformat.read(written, as_version=4)
+    recorded = out.metadata[notebooks_full.PROVENANCE]
+    assert out.cells[1].outputs[0].text == "42\n" and out.cells[2].outputs[0].data["text/plain"] == "42"
+    assert recorded["recorded"] == "after execution"
+    assert not changed_cells(recorded, notebooks_full.content_digests(out), out)
+    assert recorded["outputs_sha256"] != notebooks_full.content_digests(nb)["outputs_sha256"]
+    assert recorded["library_commit"] == notebooks_full.git("rev-parse", "HEAD")
+
+
+def test_stamp_finds_the_commit_that_introduced_the_outputs(tmp_path, monkeypatch):
+    """``--stamp``'s ``commit_of_outputs``, in a repository made here: outputs executed on a branch
+    and merged, then code edited on top; the commit is the branch's that changed the outputs, not
+    the merge or the code edit after it, nor the earlier outputs' commit. Uncommitted outputs have
+    none."""
+    monkeypatch.setattr(notebooks_full, "ROOT", tmp_path)
+    path = tmp_path / "nb.ipynb"
+
+    def git(*args: str) -> str:
+        out = notebooks_full.git("-c", "user.name=t", "-c", "user.email=t@t", *args)
+        assert out is not None, args
+        return out
+
+    def commit(code: str, printed: str, message: str) -> str:
+        nb = nbformat.v4.new_notebook()
+        nb.cells = [nbformat.v4.new_code_cell(code)]
+        nb.cells[0].outputs = [nbformat.v4.new_output("stream", name="stdout", text=printed)]
+        nbformat.write(nb, path)
+        git("add", "nb.ipynb")
+        git("commit", "-q", "-m", message)
+        return git("rev-parse", "HEAD")
+
+    git("init", "-q", "-b", "main")
+    commit("print(1)", "1\n", "first outputs")
+    git("checkout", "-q", "-b", "run")
+    executed = commit("print(2)", "2\n", "executed")
+    git("checkout", "-q", "main")
+    (tmp_path / "other.txt").write_text("x")
+    git("add", "other.txt")
+    git("commit", "-q", "-m", "elsewhere")
+    git("merge", "-q", "--no-ff", "-m", "merge", "run")
+    assert notebooks_full.commit_of_outputs(path) == executed
+    commit("print(1 + 1)", "2\n", "code edited, outputs kept")
+    assert notebooks_full.commit_of_outputs(path) == executed
+    record = notebooks_full.stamp_provenance(path)
+    assert record["library_commit"] == executed and record["recorded"] == "stamped without executing"
+    nb = nbformat.read(path, as_version=4)
+    assert not changed_cells(nb.metadata[notebooks_full.PROVENANCE], notebooks_full.content_digests(nb), nb)
+    nb.cells[0].outputs[0].text = "3\n"
+    nbformat.write(nb, path)
+    assert notebooks_full.commit_of_outputs(path) is None

@@ -179,12 +179,20 @@ def commit_of_outputs(path: Path) -> str | None:
 
 def stamp_provenance(path: Path) -> dict[str, Any]:
     """Record ``provenance`` in the notebook at ``path`` without executing it: its code and outputs as
-    they are, with the commit that introduced these outputs (``commit_of_outputs``) for the
-    library's. Rewrites only the metadata; returns what it recorded."""
+    they are (so it vouches that the current code produced them), with the commit that introduced
+    these outputs (``commit_of_outputs``) for the library's. A record that still matches the
+    notebook is kept as it is. Rewrites only the metadata (through a temporary file, so that a
+    failed write leaves the notebook whole); returns the record."""
     nb = nbformat.read(path, as_version=4)
+    old = nb.metadata.get(PROVENANCE)
+    digests = content_digests(nb)
+    if old and all(old.get(key) == digests[key] for key in digests):
+        return old
     record = provenance(nb, commit_of_outputs(path), None, "stamped without executing")
     nb.metadata[PROVENANCE] = record
-    nbformat.write(nb, path)
+    partial = path.with_name(path.name + ".partial")
+    nbformat.write(nb, partial)
+    os.replace(partial, path)
     return record
 
 

@@ -5,7 +5,9 @@
   README's ``python -m jaxpg.evaluate runs/pendulum ... --gymnasium`` replays it in Gymnasium's
   InvertedPendulum-v5 and must reach the same.
 * The GPU training commands are planned as the CLI plans them (flags, preset, config validated
-  against the task, env built) without training, which needs a GPU.
+  against the task, env built) without training, which needs a GPU; each flag lands in the plan
+  as typed, and what the README's text says a command trains (``README_CLAIMS``: algorithm,
+  batch, preset values, iterations, env steps ...) is what it plans.
 * ``python -m jaxpg.evaluate`` of a Pong run is run by ``tests/test_pong.py`` on a tiny run.
 * The Pong benchmark's commands (``benchmarks/pong.py``, its own command line) pass that
   script's argument checks; ``tests/test_pong.py`` runs its comparison mode on the CPU.
@@ -17,6 +19,7 @@ A python command of the README that none of these covers fails ``test_every_comm
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import re
 import shlex
@@ -89,12 +92,72 @@ def test_every_command_is_covered():
 
 
 def test_ci_runs_the_readme_test_command_and_reports_skips():
-    """``.ci/run`` runs the README's second command word for word, and that command's pytest prints
-    the reason of every skip (``-rs``), so that a skipped check is seen in CI's log."""
-    readme = [line for line in (ROOT / "README.md").read_text().splitlines() if "pytest" in line]
+    """``.ci/run`` runs the README's second command word for word (the one command line of the
+    README's code blocks that runs pytest), and that command's pytest prints the reason of every
+    skip (``-rs``), so that a skipped check is seen in CI's log."""
+    blocks = re.findall(r"```bash\n(.*?)```", (ROOT / "README.md").read_text(), flags=re.S)
+    readme = [line for block in blocks for line in block.splitlines() if "pytest" in line]
     ci = [line for line in (ROOT / ".ci" / "run").read_text().splitlines() if "pytest" in line]
     assert len(readme) == 1 and ci == readme, (readme, ci)
     assert re.search(r"&& pytest -q -rs$", ci[0]), ci[0]
+
+
+# What the README's text says its training commands train: (a phrase of the README, the values it
+# states). The phrase must be in the README (whitespace aside), so that this table follows the
+# text; the values must be in the command's plan (``planned_values``). ``M env steps`` is
+# num_envs x horizon x iterations in millions, as rounded in the phrase.
+HOPPER = "python experiments/hopper.py --num-envs 256 --run-dir runs/hopper"
+README_CLAIMS: dict[str, list[tuple[str, dict]]] = {
+    HOPPER: [
+        ("`python experiments/hopper.py --num-envs 256` trains NPG with the `hopper` preset", {"algo": "npg"}),
+        ("256 envs x 64 steps per iteration", {"num_envs": 256, "horizon": 64}),
+        (
+            "a normalised step with `--kl-delta 0.07`, observation normalisation",
+            {"kl_delta": 0.07, "normalize_observations": True},
+        ),
+        ("an initial log-std of 0 (std 1)", {"log_std_init": 0.0}),
+        (
+            "a 128x128 value function fitted for 10 epochs of 16 minibatches",
+            {"value_hidden": [128, 128], "value_epochs": 10, "value_minibatches": 16},
+        ),
+        ("standardised value targets (`--normalize-value-targets`", {"normalize_value_targets": True}),
+        ("at most 16384 samples an epoch", {"value_epoch_samples": 16384}),
+        ("Fisher-vector products use at most 16384 samples", {"fisher_samples": 16384}),
+        ("for 120 iterations (1.97 M env steps)", {"iterations": 120, "M env steps": "1.97"}),
+        (
+            "The mean policy is evaluated (16 episodes) after the last iteration and every 120 iterations",
+            {"eval_envs": 16, "eval_every": 120},
+        ),
+    ],
+    "python experiments/pong.py --num-envs 16 --size 40 --minutes 5 --run-dir runs/pong-cpu": [
+        ("`--algo a2c` (default): A2C with GAE", {"algo": "a2c", "value_target": "gae"}),
+        ("`--size 40` draws smaller frames", {"observation_size": 40 * 40}),
+    ],
+    "python experiments/pong.py --num-envs 1024 --lr 2e-3 --minutes 3 --run-dir runs/pong-a2c": [
+        ("The policy sees 80x80 frame differences", {"observation_size": 80 * 80}),
+    ],
+    "python experiments/atari_pong.py --run-dir runs/atari-ppo": [
+        (
+            "`--algo ppo` (default) is PPO's Atari recipe with the Nature convolutional network",
+            {"algo": "ppo", "conv_torso": "nature"},
+        ),
+        ("2500 iterations, 5.1 M steps", {"iterations": 2500, "M env steps": "5.1"}),
+        ("PPO, Nature CNN, 16 games", {"num_envs": 16}),
+    ],
+    "python experiments/atari_pong.py --algo a2c --preset atari --iterations 130500 --checkpoint-every 2000 "
+    "--log-every 500 --run-dir runs/atari-a2c": [
+        (
+            "A2C (`--preset atari`), Nature CNN, 16 games, t_max 5",
+            {"algo": "a2c", "conv_torso": "nature", "num_envs": 16, "horizon": 5},
+        ),
+    ],
+    "python experiments/atari_pong.py --algo a2c --num-envs 16 --iterations 2000 --run-dir runs/atari-a2c-cpu": [
+        (
+            "keep MinPy's 6400-200 network unless given a torso",
+            {"conv_torso": "none", "observation_size": 6400, "policy_hidden": [200]},
+        ),
+    ],
+}
 
 
 def load_experiment(script: str) -> cli.Experiment:
@@ -102,15 +165,92 @@ def load_experiment(script: str) -> cli.Experiment:
     return load_script(script).EXPERIMENT
 
 
-@pytest.mark.parametrize("command", [c for c in readme_python_commands() if is_planned(c) and not is_distributed(c)])
-def test_training_commands_plan(command, tmp_path):
+def plan_command(command: str, run_dir: Path) -> cli.Plan:
+    """``cli.plan`` of a README training command, as its script or ``-m jaxpg.cli`` would plan it,
+    with its ``--run-dir`` moved to ``run_dir``."""
     words = shlex.split(command)
     argv = words[3:] if words[1] == "-m" else words[2:]
     experiment = cli.Experiment() if words[1] == "-m" else load_experiment(words[1])
     if "--run-dir" in argv:
-        argv[argv.index("--run-dir") + 1] = str(tmp_path / "run")
-    planned = cli.plan(argv, experiment)
-    assert planned.config.num_envs >= 1 and planned.run.iterations >= 1
+        argv[argv.index("--run-dir") + 1] = str(run_dir)
+    return cli.plan(argv, experiment)
+
+
+def planned_values(planned: cli.Plan) -> dict:
+    """Everything a flag or the README can name, by its flag's name (``num_envs`` for
+    ``--num-envs``): the run's settings, the algorithm's config, the task's keyword arguments, the
+    ``minutes`` of ``--minutes``, the env's ``observation_size`` and the ``M env steps`` trained."""
+    run = planned.run
+    config = planned.config
+    values = {**run.env_kwargs, **dataclasses.asdict(config)}
+    values.update(
+        task=run.task,
+        algo=run.algo,
+        preset=run.preset,
+        iterations=run.iterations,
+        checkpoint_every=run.checkpoint_every,
+        log_every=run.log_every,
+        observation_size=planned.env.observation_size,
+        minutes=None if planned.time_limit_s is None else planned.time_limit_s / 60,
+    )
+    values["M env steps"] = config.num_envs * config.horizon * run.iterations / 1e6
+    return values
+
+
+def typed_flags(command: str) -> dict[str, list[str]]:
+    """``{name: words}`` for each ``--flag word...`` of ``command`` (``num_envs`` for ``--num-envs``),
+    ``--run-dir`` left out."""
+    flags: dict[str, list[str]] = {}
+    for word in shlex.split(command):
+        if word.startswith("--"):
+            words = flags.setdefault(word[2:].replace("-", "_"), [])
+        elif flags:
+            words.append(word)
+    flags.pop("run_dir", None)
+    return flags
+
+
+def as_typed(words: list[str], like: object) -> object:
+    """The words a flag was given, read as the type of the planned value ``like``."""
+    if isinstance(like, bool):
+        return not words or words == ["true"]
+    if isinstance(like, list | tuple):
+        return [type(like[0])(w) for w in words] if like else words
+    assert len(words) == 1, words
+    return type(like)(words[0])
+
+
+PLANNED = [c for c in readme_python_commands() if is_planned(c) and not is_distributed(c)]
+
+
+@pytest.mark.parametrize("command", PLANNED)
+def test_training_commands_plan_what_the_readme_says(command, tmp_path):
+    """Planned as the CLI plans it (flags, preset, config checked against the task, env built),
+    without training: every flag of the command is in the plan as typed (no preset or experiment
+    default overrides it), and every value the README's text states for the command
+    (``README_CLAIMS``) is the planned one."""
+    values = planned_values(plan_command(command, tmp_path / "run"))
+    for name, words in typed_flags(command).items():
+        assert name in values, f"--{name.replace('_', '-')} is not in the plan"
+        planned = values[name]
+        assert as_typed(words, planned) == (list(planned) if isinstance(planned, tuple) else planned), (
+            f"--{name.replace('_', '-')} {' '.join(words)} planned as {planned!r}"
+        )
+    readme = " ".join((ROOT / "README.md").read_text().split())
+    for phrase, claimed in README_CLAIMS.get(command, []):
+        assert phrase in readme, f"the README no longer says: {phrase!r} (update README_CLAIMS)"
+        for name, want in claimed.items():
+            got = values[name]
+            if name == "M env steps":
+                got = f"{got:.{len(want.split('.')[1])}f}"
+            elif isinstance(got, tuple):
+                got = list(got)
+            assert got == want, f"README: {phrase!r}; planned {name} = {got!r}"
+
+
+def test_readme_claims_name_readme_commands():
+    """Every command of ``README_CLAIMS`` is a planned README command, so none is left unchecked."""
+    assert set(README_CLAIMS) <= set(PLANNED), set(README_CLAIMS) - set(PLANNED)
 
 
 @pytest.mark.parametrize("command", [c for c in readme_python_commands() if is_pong_benchmark(c)])

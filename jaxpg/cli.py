@@ -204,6 +204,15 @@ def _positive(text: str) -> int:
     return value
 
 
+def _keep_count(text: str) -> int:
+    """``--keep-checkpoints``: at least 1, since the latest checkpoint (what ``--resume`` continues)
+    is kept whatever the count."""
+    value = int(text)
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be >= 1 (the latest checkpoint is always kept), got {value}")
+    return value
+
+
 def build_parser(experiment: Experiment, algo: str, config_cls: type | None, config_defaults: dict[str, Any]) -> Parser:
     """The full parser: run flags plus the ``Config`` flags of ``algo``."""
     from jaxpg import algos, envs
@@ -253,7 +262,9 @@ def build_parser(experiment: Experiment, algo: str, config_cls: type | None, con
         help=f"iterations between checkpoints; 0: only at the end (default: {experiment.checkpoint_every})",
     )
     run.add_argument(
-        "--keep-checkpoints", type=_positive, help="latest checkpoints to keep, besides the best (default: 3)"
+        "--keep-checkpoints",
+        type=_keep_count,
+        help="latest checkpoints to keep (>= 1), besides the best; the final one always survives (default: 3)",
     )
     run.add_argument("--log-every", type=int, help=f"iterations per summary line (default: {experiment.log_every})")
     run.add_argument(

@@ -593,6 +593,22 @@ def _latest(values: np.ndarray) -> float:
     return math.nan
 
 
+def checkpoint_score(metrics: dict[str, np.ndarray], evaluated: bool) -> float:
+    """The score a checkpoint saved after a block is ranked by for "best", one kind per run so that
+    like is compared with like: when the run evaluates its mean policy (``evaluated``: eval_envs >
+    0), the ``return_mean_policy`` of the block's last iteration (the checkpoint's), ``-inf`` when
+    that iteration was not evaluated; otherwise the latest measured ``return_stochastic`` of the
+    block. Means over seeds; ``-inf`` when nothing was measured."""
+    if evaluated:
+        if "return_mean_policy" not in metrics:
+            return -math.inf
+        last = np.asarray(metrics["return_mean_policy"], np.float64)[-1:]
+        value = _latest(last)
+    else:
+        value = _latest(metrics["return_stochastic"]) if "return_stochastic" in metrics else math.nan
+    return -math.inf if math.isnan(value) else value
+
+
 def latest_score(metrics: dict[str, np.ndarray]) -> float:
     """The score a checkpoint is ranked by: the latest measured ``return_mean_policy`` of the
     block (mean over seeds), falling back to ``return_stochastic``; ``-inf`` when neither was."""

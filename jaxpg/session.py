@@ -270,7 +270,7 @@ class _Callbacks:
         self.checkpoints.save(
             step,
             ts,
-            score=runlog.latest_score(metrics),
+            score=runlog.checkpoint_score(metrics, evaluated=getattr(self.plan.config, "eval_envs", 0) > 0),
             metrics=last_metrics,
             info={"task": self.run.task, "algo": self.run.algo, "seeds": self.run.seeds},
         )
@@ -673,7 +673,8 @@ def _report_end(plan_: Plan, callbacks: _Callbacks) -> None:
         from jaxpg import checkpoint as ckpt_lib
 
         checkpoints = ckpt_lib.Checkpointer(run_dir / runlog.CHECKPOINT_DIR, keep=None)
-        best, latest = checkpoints.best_step(), checkpoints.latest_step()
+        # Both verified: a damaged step is skipped (with a warning line), never recommended.
+        best, latest = checkpoints.resolve_step("best"), checkpoints.resolve_step("latest")
         if best is not None and best != latest:
             score = checkpoints.score(best)
             _print(f"best checkpoint: iteration {best} (return {score:.1f}); evaluate it with --step best")

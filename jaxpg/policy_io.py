@@ -39,7 +39,9 @@ def checkpoint_expectations(run: runlog.RunConfig) -> dict[str, Any]:
 
 def load_run_config(run_dir: str | os.PathLike) -> runlog.RunConfig:
     """The ``RunConfig`` of ``run_dir``; ``RunDirError`` (one line) for a path that is a file,
-    missing or not a run directory."""
+    missing, too long to exist or not a run directory, or a ``config.json`` with a value of the
+    wrong type."""
+    runlog.check_path(run_dir, "run directory")
     path = Path(run_dir)
     if path.exists() and not path.is_dir():
         raise runlog.RunDirError(f"{str(run_dir)!r} is a file, not a run directory (give the directory a run wrote)")

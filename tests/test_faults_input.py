@@ -11,9 +11,12 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import re
+import signal
 import subprocess
 import sys
 import textwrap
+import time
 from pathlib import Path
 
 import numpy as np
@@ -52,9 +55,6 @@ BAD_FLAGS = [
     (["--seed", "-1"], "argument --seed: must be an integer in [0, 4294967295]"),
     (["--seeds", "1", "4294967296"], "argument --seeds: must be an integer in [0, 4294967295]"),
     (["--keep-checkpoints", "0"], "argument --keep-checkpoints: must be >= 1"),
-    (["--num-envs", "1000000000000"], "lower --num-envs, --horizon or the network sizes"),
-    (["--value-hidden", "1000000", "1000000"], "lower --num-envs, --horizon or the network sizes"),
-    (["--policy-hidden", "10000000", "10000000"], "lower --num-envs, --horizon or the network sizes"),
 ]
 
 
@@ -67,11 +67,28 @@ def test_bad_flags_are_one_line_and_write_nothing(flags, message, tmp_path, caps
     assert not run_dir.exists()
 
 
-def test_memory_refusal_says_how_much_is_needed_and_available(tmp_path, capsys):
-    assert cli.main(["--num-envs", "1000000000000", "--run-dir", str(tmp_path / "new")]) == 2
-    line = one_error(capsys, "needs at least")
-    # Rollout of 10^12 envs x 128 steps of float32 observations (4 numbers) alone: 2 PB.
-    assert " PiB " in line and "available" in line, line
+TOO_LARGE = [
+    # Rollout of 10^12 envs x 128 steps, 9 float32 numbers per sample: 4.1 PiB.
+    (["--num-envs", "1000000000000"], "needs at least 4.1 PiB of memory"),
+    # 10^12 weights of the value network's second layer: 3.6 TiB.
+    (["--value-hidden", "1000000", "1000000"], "needs at least 3.6 TiB of memory"),
+    (["--policy-hidden", "10000000", "10000000"], "needs at least 363.8 TiB of memory"),
+]
+
+
+@pytest.mark.parametrize(("flags", "message"), TOO_LARGE, ids=[" ".join(f) for f, _ in TOO_LARGE])
+def test_sizes_that_cannot_fit_in_memory_are_refused_when_planning(flags, message, tmp_path):
+    """``plan`` (not ``main``: were the check missing, main would try to train them) refuses them
+    in one line saying what is needed, what there is and what to lower."""
+    argv = ["--env", "inverted_pendulum", "--run-dir", str(tmp_path / "new"), *flags]
+    with pytest.raises(cli.UsageError) as e:
+        cli.plan(argv, cli.Experiment())
+    line = str(e.value)
+    assert "\n" not in line and message in line, line
+    assert re.search(
+        r"but (this host|each .+) has [\d.]+ [KMGTP]?i?B available; lower --num-envs, --horizon or the network", line
+    )
+    assert not (tmp_path / "new").exists()
 
 
 def test_memory_lower_bound_counts_parameters_and_the_rollout_by_hand():
@@ -209,3 +226,55 @@ def test_non_finite_floats_in_a_config_are_refused_by_validate():
         config = algos.get("npg").Config(**{name: value})
         with pytest.raises(ValueError, match=f"^{name} must be a finite number, got {value}$"):
             config.validate(env)
+
+
+# --------------------------------------------------------------------------- interrupts
+
+STUCK_SCRIPT = textwrap.dedent(
+    """
+    import sys
+    import jax
+    from jaxpg import cli, session
+
+    def stuck(*args, **kwargs):
+        # float32 x stops growing at 2**24 and stays >= 0: a compiled call that never returns.
+        loop = jax.jit(lambda: jax.lax.while_loop(lambda x: x >= 0, lambda x: x + 1.0, 0.0))
+        compiled = loop.lower().compile()
+        print("stuck", flush=True)
+        jax.block_until_ready(compiled())
+
+    session.initial_state = stuck
+    sys.exit(cli.main(["--env", "inverted_pendulum", "--iterations", "2", "--run-dir", sys.argv[1]]))
+    """
+)
+
+
+def test_a_run_stuck_in_a_compiled_call_still_stops_on_sigint(tmp_path):
+    """Python cannot run its signal handler while the main thread waits in a compiled call; the
+    watcher thread ends the process once the handler has not run for a few seconds."""
+    run_dir = tmp_path / "run"
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    proc = subprocess.Popen(
+        [sys.executable, "-c", STUCK_SCRIPT, str(run_dir)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=env,
+    )
+    try:
+        lines = []
+        while not lines or lines[-1] != "stuck":
+            line = proc.stdout.readline()
+            assert line, "the process ended before its compiled call: " + proc.stderr.read()[-3000:]
+            lines.append(line.strip())
+        time.sleep(0.5)  # into the compiled call
+        proc.send_signal(signal.SIGINT)
+        # A guard against a hang, not a speed requirement: the watcher acts after 5 s.
+        _, err = proc.communicate(timeout=120)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.communicate()
+        pytest.fail("SIGINT did not stop a run stuck in a compiled call")
+    assert proc.returncode == 130, err[-3000:]
+    assert err.splitlines()[-1].startswith("SIGINT: stopped at once: a compiled call or compilation did not return")
+    assert not run_dir.exists()  # the state is built before the run directory is touched

@@ -19,10 +19,20 @@ Orbax writes a step into a temporary directory, writes the commit marker
 writing loses that checkpoint only. Only committed steps count: leftover temporary directories
 and step directories without the commit marker are ignored.
 
-Damage: ``"latest"`` and ``"best"`` (and ``latest_step``) mean the newest (best) checkpoint that
-reads back completely: its items are present, its ``meta`` parses and every array of ``state``
-and ``policy`` reads. A damaged step is skipped with one ``warning:`` line on stderr naming it and
-why; nothing on disk is changed. A step asked for by number is not replaced by another.
+Checksums: once a step is committed and its policy reads back, the writer adds
+``jaxpg_sha256.json`` to the step directory (written to a temporary file and renamed, so it is
+whole or absent): the sha256 of every other file of the step. ``meta`` records that a manifest
+follows (``"checksums": "sha256"``), so a step whose manifest never got written is damaged, not
+mistaken for an old one. Steps written before manifests existed (no manifest, no such key in
+``meta``) still load, read without byte verification; that is said once per ``Checkpointer`` on
+stderr (a ``note:`` line).
+
+Damage: every read of a step's arrays checks the whole step: its items are present, its ``meta``
+parses, every array of ``state`` and ``policy`` reads, then every file matches its checksum
+(flipped bytes that still parse are caught here). ``"latest"`` and ``"best"`` (and
+``latest_step``) mean the newest (best) checkpoint that passes; a damaged step is skipped with one
+``warning:`` line on stderr naming it and why; nothing on disk is changed. A step asked for by
+number is not replaced by another: it is restored if it passes, else one ``CheckpointError``.
 The arrays read while checking a step are kept until it is restored, so that a restore right
 after ``latest_step`` reads the files once.
 
@@ -30,8 +40,9 @@ Saving: after writing a step the policy item is read back and compared with what
 step that does not read back is removed. Disk-full, permission and read-only-file-system errors
 become one-line ``CheckpointError``s saying what to do. Every ``CheckpointError`` is one line.
 
-Retention: the ``keep`` latest steps plus the best one (highest ``score``: the latest
-``return_mean_policy``, falling back to ``return_stochastic``).
+Retention: the ``keep`` latest steps plus the best one (highest ``score``, which the caller
+computes, e.g. ``jaxpg.runlog.checkpoint_score``); the newest step is always kept, whatever
+``keep`` is, so that the final checkpoint of a run survives.
 
 Several processes (``jaxpg.distributed``): every process calls ``save``, which gathers the
 state to the host (a collective: arrays split over processes are all-gathered); process 0 alone
@@ -45,6 +56,7 @@ from __future__ import annotations
 import contextlib
 import errno
 import gc
+import hashlib
 import json
 import logging
 import math
@@ -66,6 +78,8 @@ ITEMS = (STATE, POLICY, META)
 COMMIT_MARKER = "commit_success.txt"  # what Orbax writes into a step just before it renames it
 STEP_METADATA = "_CHECKPOINT_METADATA"
 SPECS_KEY = {STATE: "state_leaves", POLICY: "policy_leaves"}
+MANIFEST = "jaxpg_sha256.json"  # sha256 of every other file of a step, written once it is complete
+CHECKSUMS_KEY = "checksums"  # in meta: the writer adds a manifest to this step
 MAX_REASON = 160  # characters of an Orbax/TensorStore error kept in a message
 
 
@@ -247,6 +261,58 @@ def _abstract_items(specs: list[dict[str, Any]]) -> dict[str, np.ndarray]:
     }
 
 
+def file_sha256(path: Path) -> str:
+    """The sha256 of the bytes of ``path`` (hex), read in 1 MiB pieces."""
+    digest = hashlib.sha256()
+    with path.open("rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def step_digests(step_dir: Path) -> dict[str, str]:
+    """``{path relative to step_dir: sha256}`` of every file of a step directory except the manifest."""
+    files = (p for p in step_dir.rglob("*") if p.is_file() and not p.name.startswith(MANIFEST))
+    return {p.relative_to(step_dir).as_posix(): file_sha256(p) for p in sorted(files)}
+
+
+def write_manifest(step_dir: Path) -> None:
+    """Write ``step_dir/MANIFEST`` atomically (a temporary file, flushed to disk, then renamed)."""
+    data = {"format": 1, "algorithm": "sha256", "files": step_digests(step_dir)}
+    tmp = step_dir / (MANIFEST + ".tmp")
+    with tmp.open("w") as f:
+        json.dump(data, f, indent=1, sort_keys=True)
+        f.flush()
+        os.fsync(f.fileno())
+    os.replace(tmp, step_dir / MANIFEST)
+
+
+def manifest_problem(step_dir: Path) -> str | None:
+    """Why the files of ``step_dir`` do not match its manifest (one short line), or ``None`` when
+    they all do. A missing manifest is the caller's to judge (an older checkpoint, or a save that
+    did not finish)."""
+    step = step_dir.name
+    try:
+        files = json.loads((step_dir / MANIFEST).read_text())["files"]
+        entries = sorted(files.items())
+    except (OSError, ValueError, KeyError, TypeError, AttributeError):
+        return "its checksum manifest is unreadable"
+    for rel, digest in entries:
+        if (
+            not isinstance(rel, str)
+            or not isinstance(digest, str)
+            or ".." in Path(rel).parts
+            or Path(rel).is_absolute()
+        ):
+            return "its checksum manifest is unreadable"
+        path = step_dir / rel
+        if not path.is_file():
+            return f"{step}/{rel} is missing"
+        if file_sha256(path) != digest:
+            return f"{step}/{rel} does not match its sha256 checksum (its bytes changed after the save)"
+    return None
+
+
 class Checkpointer:
     """Saves and restores ``TrainState``s under ``directory`` (a run's ``checkpoints/``).
 
@@ -297,6 +363,7 @@ class Checkpointer:
         self._scores: dict[int, float] = {}
         self._damage: dict[int, str | None] = {}  # step -> why it does not read back (None: it does)
         self._read: dict[int, dict[str, Any]] = {}  # arrays and meta read while checking a step
+        self._noted_unverified = False  # the note about steps without a checksum manifest was printed
 
     # ---- queries
 
@@ -327,7 +394,11 @@ class Checkpointer:
                 value = self.read_meta(step).get("score")
             except CheckpointError:
                 value = None
-            self._scores[step] = -math.inf if value is None else float(value)
+            try:
+                number = -math.inf if value is None else float(value)
+            except (TypeError, ValueError):
+                number = -math.inf
+            self._scores[step] = number if not math.isnan(number) else -math.inf
         return self._scores[step]
 
     def best_step(self) -> int | None:
@@ -362,7 +433,8 @@ class Checkpointer:
     def damage(self, step: int) -> str | None:
         """Why ``step`` does not read back completely (one short line), or ``None`` if it does.
 
-        Reads the whole step: its ``meta``, and every array of ``state`` and ``policy``."""
+        Reads the whole step: its ``meta`` and every array of ``state`` and ``policy``, then checks
+        every file against the step's checksum manifest."""
         if step not in self._damage:
             try:
                 self._read = {step: self._read_step(step)}  # kept for the restore that follows
@@ -445,7 +517,27 @@ class Checkpointer:
             if not isinstance(specs, list):
                 raise _Damaged(f"its {META} item lacks {key}")
             read[item] = self._read_arrays(step, item, specs)
+        self._verify_checksums(step, meta)
         return read
+
+    def _verify_checksums(self, step: int, meta: dict[str, Any]) -> None:
+        """``_Damaged`` unless every file of ``step`` matches its manifest; a step without one
+        passes if its ``meta`` does not promise one (an older jaxpg wrote it: noted once)."""
+        step_dir = self.directory / str(step)
+        if (step_dir / MANIFEST).is_file():
+            problem = manifest_problem(step_dir)
+            if problem is not None:
+                raise _Damaged(problem)
+            return
+        if meta.get(CHECKSUMS_KEY):
+            raise _Damaged("its checksum manifest is missing (the save did not finish)")
+        if not self._noted_unverified:
+            self._noted_unverified = True
+            print(
+                f"note: checkpoint {step} in {self.directory} has no checksum manifest (written by an older "
+                "jaxpg): its bytes cannot be verified",
+                file=sys.stderr,
+            )
 
     # ---- save
 
@@ -481,6 +573,7 @@ class Checkpointer:
                 k: (float(v) if v is not None and math.isfinite(float(v)) else None) for k, v in (metrics or {}).items()
             },
             **(info or {}),
+            CHECKSUMS_KEY: "sha256",
             "state_leaves": leaf_specs(train_state),
             "policy_leaves": leaf_specs(policy),
         }
@@ -504,6 +597,15 @@ class Checkpointer:
                 f"cannot save checkpoint {step} in {self.directory}{where}: {_save_advice(code)}"
             ) from None
         self._check_saved_policy(step, policy_items, meta[SPECS_KEY[POLICY]])
+        try:
+            write_manifest(self.directory / str(step))
+        except OSError as e:
+            self._remove_step(step)
+            code = e.errno if e.errno in _ERRNO_TEXT else None
+            advice = _save_advice(code) if code is not None else _first_line(e, self.directory)
+            raise CheckpointError(
+                f"cannot save the checksums of checkpoint {step} in {self.directory}: {advice}"
+            ) from None
         self._scores[step] = score
         self._apply_retention()
 
@@ -566,7 +668,7 @@ class Checkpointer:
         if self.keep is None:
             return
         steps = self.steps()
-        keep = set(steps[-self.keep :]) if self.keep > 0 else set()
+        keep = set(steps[-max(self.keep, 1) :])  # the newest step always survives (a run's final checkpoint)
         best = self.best_step()
         if best is not None:
             keep.add(best)
@@ -592,11 +694,12 @@ class Checkpointer:
                 raise CheckpointError(f"{where} is of {key} {meta[key]!r}, this run's is {value!r}")
         expected = leaf_specs(target)
         _check_specs(meta.get(SPECS_KEY[item], []), expected, where)
-        cached = self._read.pop(step, {})
-        try:
-            arrays = cached[item] if item in cached else self._read_arrays(step, item, expected)
-        except _Damaged as e:
-            raise CheckpointError(f"{where} is damaged ({e}); steps: {self.steps()}") from None
+        if step not in self._read:  # not checked yet (asked for by number): check the whole step now
+            self._damage.pop(step, None)
+        reason = self.damage(step)
+        if reason is not None:
+            raise CheckpointError(f"{where} is damaged ({reason}); steps: {self.steps()}")
+        arrays = self._read.pop(step)[item]
         abstract, treedef = jax.tree.flatten(target)
         # Via NumPy: uncommitted arrays, like a fresh init's, so jit reuses its compiled step.
         leaves = [

@@ -37,6 +37,8 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import datetime
+import math
+import os
 import sys
 import typing
 from collections.abc import Sequence
@@ -125,6 +127,34 @@ def _show(value: Any) -> str:
     return repr(value) if isinstance(value, str) else str(value)
 
 
+def finite_float(text: str) -> float:
+    """A float flag's value: any number but ``nan`` and ``inf`` (``ArgumentTypeError`` otherwise)."""
+    value = float(text)
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"must be a finite number, got {text}")
+    return value
+
+
+finite_float.__name__ = "float"  # argparse names the type in "invalid float value: 'x'"
+
+
+def seed_value(text: str) -> int:
+    """A training seed: an integer in ``[0, runlog.MAX_SEED]``, so that distinct seeds give
+    distinct 32-bit PRNG keys (``ArgumentTypeError`` otherwise)."""
+    value = int(text)
+    if not 0 <= value <= runlog.MAX_SEED:
+        raise argparse.ArgumentTypeError(f"must be an integer in [0, {runlog.MAX_SEED}] (a 32-bit seed), got {text}")
+    return value
+
+
+seed_value.__name__ = "int"
+
+
+def _parser_type(tp: type) -> Any:
+    """The argparse ``type`` of a field of type ``tp``: floats must be finite."""
+    return finite_float if tp is float else tp
+
+
 def _optional(parse: Any) -> Any:
     def parse_optional(text: str) -> Any:
         return None if text.lower() in ("none", "null") else parse(text)
@@ -167,7 +197,7 @@ def add_config_flags(parser: argparse.ArgumentParser, config_cls: type, defaults
         if base is tuple or origin is tuple:
             args = typing.get_args(base)
             elem = args[0] if args and args[0] in (int, float, str) else str
-            group.add_argument(_flag(name), nargs="*", type=elem, metavar=elem.__name__.upper(), **kwargs)
+            group.add_argument(_flag(name), nargs="*", type=_parser_type(elem), metavar=elem.__name__.upper(), **kwargs)
             continue
         if origin is typing.Literal:
             group.add_argument(_flag(name), choices=typing.get_args(base), **kwargs)
@@ -176,7 +206,7 @@ def add_config_flags(parser: argparse.ArgumentParser, config_cls: type, defaults
         if choices and not optional:
             group.add_argument(_flag(name), choices=choices, **kwargs)
             continue
-        parse = base if base in (int, float, str) else str
+        parse = _parser_type(base) if base in (int, float, str) else str
         if optional:
             parse = _optional(parse)
         metavar = getattr(base, "__name__", "VALUE").upper()
@@ -194,13 +224,22 @@ def add_env_flags(parser: argparse.ArgumentParser, experiment: Experiment) -> No
         if kind is bool:
             group.add_argument(_flag(name), action=argparse.BooleanOptionalAction, **kwargs)
         else:
-            group.add_argument(_flag(name), type=kind, metavar=kind.__name__.upper(), **kwargs)
+            group.add_argument(_flag(name), type=_parser_type(kind), metavar=kind.__name__.upper(), **kwargs)
 
 
 def _positive(text: str) -> int:
     value = int(text)
     if value < 0:
         raise argparse.ArgumentTypeError(f"must be >= 0, got {value}")
+    return value
+
+
+def _keep_count(text: str) -> int:
+    """``--keep-checkpoints``: at least 1, since the latest checkpoint (what ``--resume`` continues)
+    is kept whatever the count."""
+    value = int(text)
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be >= 1 (the latest checkpoint is always kept), got {value}")
     return value
 
 
@@ -225,10 +264,10 @@ def build_parser(experiment: Experiment, algo: str, config_cls: type | None, con
     )
     run.add_argument("--algo", help=f"algorithm: {', '.join(algos.ALGORITHMS)} (default: {experiment.algo})")
     seeds = run.add_mutually_exclusive_group()
-    seeds.add_argument("--seed", type=int, help=f"training seed (default: {experiment.seed})")
+    seeds.add_argument("--seed", type=seed_value, help=f"training seed (default: {experiment.seed})")
     seeds.add_argument(
         "--seeds",
-        type=int,
+        type=seed_value,
         nargs="+",
         metavar="SEED",
         help="several seeds, trained together in one vmapped program",
@@ -243,7 +282,7 @@ def build_parser(experiment: Experiment, algo: str, config_cls: type | None, con
     run.add_argument("--overwrite", action="store_true", default=None, help="replace an existing run directory")
     run.add_argument(
         "--minutes",
-        type=float,
+        type=finite_float,
         help="stop after this many minutes of training, counted from the end of the first compiled "
         "block (which compiles): a checkpoint is written and --resume continues (default: no limit)",
     )
@@ -253,7 +292,9 @@ def build_parser(experiment: Experiment, algo: str, config_cls: type | None, con
         help=f"iterations between checkpoints; 0: only at the end (default: {experiment.checkpoint_every})",
     )
     run.add_argument(
-        "--keep-checkpoints", type=_positive, help="latest checkpoints to keep, besides the best (default: 3)"
+        "--keep-checkpoints",
+        type=_keep_count,
+        help="latest checkpoints to keep (>= 1), besides the best; the final one always survives (default: 3)",
     )
     run.add_argument("--log-every", type=int, help=f"iterations per summary line (default: {experiment.log_every})")
     run.add_argument(
@@ -422,6 +463,77 @@ def _check_sharding(config: Any, explicit: bool | None) -> bool:
     return shard and count > 1
 
 
+def _format_bytes(count: float) -> str:
+    """``count`` bytes in binary units: ``'1.5 GiB'``."""
+    for unit in ("B", "KiB", "MiB", "GiB", "TiB", "PiB"):
+        if count < 1024 or unit == "PiB":
+            return f"{count:.0f} {unit}" if unit == "B" else f"{count:.1f} {unit}"
+        count /= 1024
+    raise AssertionError("unreachable")
+
+
+def _host_available_bytes() -> int | None:
+    """Memory the host can give a process now (``MemAvailable`` of ``/proc/meminfo``, else the
+    free physical pages); ``None`` where neither is known."""
+    try:
+        with open("/proc/meminfo") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (OSError, ValueError, AttributeError):
+        return None
+
+
+def available_memory() -> tuple[int, str, bool] | None:
+    """``(bytes, where, shared)``: the free memory of the smallest local accelerator (its
+    allocator's limit minus what is in use; ``shared`` False: each device holds its own share),
+    or on CPU the host's available memory (``shared`` True: every CPU device draws on it);
+    ``None`` when the platform does not say."""
+    import jax
+
+    devices = jax.local_devices()
+    if devices[0].platform == "cpu":
+        host = _host_available_bytes()
+        return None if host is None else (host, "this host", True)
+    free = []
+    for device in devices:
+        stats = device.memory_stats() or {}
+        if "bytes_limit" not in stats:
+            return None
+        free.append(int(stats["bytes_limit"]) - int(stats.get("bytes_in_use", 0)))
+    return min(free), f"each {devices[0].device_kind}", False
+
+
+def check_memory(config: Any, env: Any, num_seeds: int, shares: int) -> None:
+    """``UsageError`` (one line: how much is needed, how much there is, what to lower) when the
+    config's ``memory_lower_bound`` for ``num_seeds`` seeds, its batch split over ``shares``
+    devices, exceeds the memory available (``available_memory``), so that an absurd size is
+    refused up front instead of hanging in an allocation."""
+    memory = available_memory()
+    if memory is None:
+        return
+    available, where, shared = memory
+    bound = config.memory_lower_bound(env)
+    batch = bound["rollout"] + bound["env_states"]
+    if shared:  # every device's share, and a copy of the parameters per device, in one memory
+        need = num_seeds * (bound["parameters"] * shares + batch)
+    else:
+        need = num_seeds * (bound["parameters"] + -(-batch // shares))
+    if need <= available:
+        return
+    seeds = f" for {num_seeds} seeds" if num_seeds > 1 else ""
+    raise UsageError(
+        f"this configuration needs at least {_format_bytes(need)} of memory{seeds} (parameters "
+        f"{_format_bytes(bound['parameters'])}, rollout of {config.num_envs} envs x {config.horizon} steps "
+        f"{_format_bytes(bound['rollout'])}, env states {_format_bytes(bound['env_states'])}) but {where} has "
+        f"{_format_bytes(available)} available; lower --num-envs, --horizon or the network sizes"
+    )
+
+
 def plan_fresh(args: argparse.Namespace, experiment: Experiment, module: Any, algo: str) -> Plan:
     task = args.task or experiment.task
     _check_task(task, experiment)
@@ -450,6 +562,7 @@ def plan_fresh(args: argparse.Namespace, experiment: Experiment, module: Any, al
     env_kwargs["batch"] = per_device * num_seeds
     env = _make_env(task, env_kwargs)
     config.validate(env)
+    check_memory(config, env, num_seeds, shares)
     seeds = list(args.seeds) if args.seeds else [experiment.seed if args.seed is None else args.seed]
     if len(set(seeds)) != len(seeds):
         raise UsageError(f"--seeds must be distinct, got {' '.join(map(str, seeds))}")
@@ -473,6 +586,7 @@ def plan_fresh(args: argparse.Namespace, experiment: Experiment, module: Any, al
     )
     run.shard = shard
     run_dir = Path(args.run_dir) if args.run_dir else _default_run_dir(task, algo)
+    runlog.check_path(run_dir, "--run-dir")
     _check_fresh_run_dir(run_dir, bool(args.overwrite))
     return Plan(run=run, run_dir=run_dir, module=module, env=env, config=config, overwrite=bool(args.overwrite))
 
@@ -506,6 +620,7 @@ def plan_resume(args: argparse.Namespace, run: RunConfig, run_dir: Path) -> Plan
     if run.log_every < 1:
         raise UsageError(f"--log-every must be >= 1, got {run.log_every}")
     run.shard = _check_sharding(config, args.shard if args.shard is not None else (run.shard or None))
+    check_memory(config, env, len(run.seeds), _device_count() if run.shard else 1)
     runlog.check_unlocked(run_dir)
     checkpoints = ckpt_lib.Checkpointer(run_dir / runlog.CHECKPOINT_DIR, keep=None)
     step = checkpoints.latest_step()
@@ -538,6 +653,7 @@ def plan(argv: Sequence[str], experiment: Experiment) -> Plan:
     pre = _pre_parse(argv)
     resume_run = None
     if pre.resume is not None:
+        runlog.check_path(pre.resume, "--resume")
         resume_run = RunConfig.load(pre.resume)
         algo = resume_run.algo
     else:
@@ -580,6 +696,23 @@ def videos_requested(argv: Sequence[str], experiment: Experiment) -> bool:
         return False  # the full parser reports the bad value
 
 
+def check_backend() -> None:
+    """``UsageError`` (one line) when JAX cannot start a device: the platform ``JAX_PLATFORMS``
+    names is not installed or has no usable device."""
+    import jax
+
+    try:
+        jax.devices()
+    except Exception as e:  # noqa: BLE001 - JAX raises RuntimeError, or AssertionError for a platform it lacks
+        lines = str(e).strip().splitlines()
+        reason = lines[0] if lines else "no such platform is installed here"
+        platforms = os.environ.get("JAX_PLATFORMS")
+        what = f"the platform JAX_PLATFORMS={platforms} asks for" if platforms else "any device"
+        raise UsageError(
+            f"JAX cannot use {what} ({reason}); set JAX_PLATFORMS to one this machine has (e.g. cpu), or unset it"
+        ) from None
+
+
 def main(argv: Sequence[str] | None = None, experiment: Experiment | None = None) -> int:
     """Entry point of ``python -m jaxpg.cli`` and the experiment scripts; returns the exit status."""
     from jaxpg import compile_cache
@@ -592,6 +725,7 @@ def main(argv: Sequence[str] | None = None, experiment: Experiment | None = None
     compile_cache.enable()  # a second run of the same program loads it instead of compiling
     try:
         start_processes(argv)
+        check_backend()
         plan_ = plan(argv, experiment)
     except ValueError as e:  # UsageError, RunDirError, CheckpointError, Config.validate, DistributedError
         message = str(e).strip().splitlines()

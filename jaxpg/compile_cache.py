@@ -14,6 +14,8 @@ Where: ``$JAXPG_COMPILATION_CACHE`` if set (``off`` turns the cache off), else J
 from __future__ import annotations
 
 import os
+import sys
+import tempfile
 from pathlib import Path
 
 ENV_VAR = "JAXPG_COMPILATION_CACHE"
@@ -38,18 +40,36 @@ def enable(directory: str | os.PathLike | None = None, min_compile_seconds: floa
     Args:
       directory: where to keep compiled programs (default: ``cache_dir()``).
       min_compile_seconds: only programs that took at least this long to compile are stored.
-    Call it before the first compilation; an unwritable directory leaves the cache off.
+    Call it before the first compilation. A directory that cannot be created or written (tried by
+    creating and removing a temporary file in it) leaves the cache off, with one ``warning:``
+    line on stderr saying so.
     """
     import jax
 
     path = Path(directory).expanduser() if directory is not None else cache_dir()
     if path is None:
         return None
-    try:
-        path.mkdir(parents=True, exist_ok=True)
-    except OSError:
+    problem = _unusable(path)
+    if problem is not None:
+        print(
+            f"warning: compilation cache {path} is not usable ({problem}); compiling without it "
+            f"(set {ENV_VAR} to a writable directory, or off)",
+            file=sys.stderr,
+        )
         return None
     jax.config.update("jax_compilation_cache_dir", str(path))
     jax.config.update("jax_persistent_cache_min_compile_time_secs", min_compile_seconds)
     jax.config.update("jax_persistent_cache_min_entry_size_bytes", 0)
     return path
+
+
+def _unusable(path: Path) -> str | None:
+    """Why ``path`` cannot hold the cache (its creation or a test file in it fails), or ``None``."""
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+        fd, probe = tempfile.mkstemp(dir=path, prefix=".jaxpg-write-test-")
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as e:
+        return e.strerror or str(e)
+    return None

@@ -15,7 +15,9 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import sys
+import tempfile
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
@@ -237,8 +239,35 @@ def _video_problem(run: Any, gymnasium: bool) -> str | None:
     return video_lib.gl_problem() if needs_gl else None
 
 
+def output_problem(path: Path) -> str | None:
+    """Why no file can be written at ``path`` (one short line), or ``None`` when one can: its
+    nearest existing ancestor must be a writable directory (tried by creating and removing a
+    temporary file or directory there) and ``path`` itself no directory. Leaves nothing behind."""
+    try:
+        if path.is_dir():
+            return "it is a directory"
+        existing = path.parent
+        while not existing.exists() and existing != existing.parent:
+            existing = existing.parent
+        if not existing.is_dir():
+            return f"{existing} is not a directory"
+        if path.exists():
+            with path.open("ab"):  # opened for appending, nothing written: the file is unchanged
+                pass
+        elif existing == path.parent:
+            fd, tmp = tempfile.mkstemp(dir=existing, prefix=".jaxpg-write-test-")
+            os.close(fd)
+            os.unlink(tmp)
+        else:
+            os.rmdir(tempfile.mkdtemp(dir=existing, prefix=".jaxpg-write-test-"))
+    except OSError as e:
+        return f"cannot write there ({e.strerror or e})"
+    return None
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     from jaxpg import video as video_lib
+    from jaxpg.cli import UsageError, check_backend, seed_value
 
     parser = argparse.ArgumentParser(
         prog="python -m jaxpg.evaluate",
@@ -258,8 +287,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--sample", action="store_true", help="sample actions instead of the most probable one")
     parser.add_argument("--video", metavar="OUT", help="render the first episode to OUT (.mp4 or .gif)")
     parser.add_argument("--step", default="latest", help="checkpoint: 'latest' (default), 'best' or an iteration")
-    parser.add_argument("--seed", type=int, default=0, help="seed of the evaluation episodes (default: 0)")
-    parser.add_argument("--train-seed", type=int, help="which of the run's training seeds (default: the first)")
+    parser.add_argument("--seed", type=seed_value, default=0, help="seed of the evaluation episodes (default: 0)")
+    parser.add_argument("--train-seed", type=seed_value, help="which of the run's training seeds (default: the first)")
     args = parser.parse_args(argv)
     if args.video:  # MuJoCo is not imported yet: choose a GL backend that loads, only for a video
         video_lib.configure_gl()
@@ -274,6 +303,15 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
     if args.ale and (args.gymnasium or args.video):
         print("error: --ale plays ALE/Pong-v5 alone: drop --gymnasium and --video", file=sys.stderr)
+        return 2
+    problem = output_problem(Path(args.video)) if args.video else None
+    if problem is not None:  # checked before the evaluation, which may take long
+        print(f"error: --video {args.video}: {problem}", file=sys.stderr)
+        return 2
+    try:
+        check_backend()
+    except UsageError as e:
+        print(f"error: {e}", file=sys.stderr)
         return 2
     try:
         from jaxpg import policy_io

@@ -39,7 +39,9 @@ def checkpoint_expectations(run: runlog.RunConfig) -> dict[str, Any]:
 
 def load_run_config(run_dir: str | os.PathLike) -> runlog.RunConfig:
     """The ``RunConfig`` of ``run_dir``; ``RunDirError`` (one line) for a path that is a file,
-    missing or not a run directory."""
+    missing, too long to exist or not a run directory, or a ``config.json`` with a value of the
+    wrong type."""
+    runlog.check_path(run_dir, "run directory")
     path = Path(run_dir)
     if path.exists() and not path.is_dir():
         raise runlog.RunDirError(f"{str(run_dir)!r} is a file, not a run directory (give the directory a run wrote)")
@@ -150,14 +152,16 @@ def load_policy(
 
     Args:
       run_dir: a run directory written by ``jaxpg.cli`` (``experiments/*.py``).
-      step: checkpoint step; ``None``/``"latest"`` (default) or ``"best"`` (highest mean-policy
-        return) or an iteration number.
+      step: checkpoint step; ``None``/``"latest"`` (default) or ``"best"`` (highest score: the
+        mean-policy return of the checkpoint's iteration, or the stochastic return in a run without
+        evaluations, ``runlog.checkpoint_score``) or an iteration number.
       seed: which of the run's training seeds (default: the first).
       deterministic: act with the mode of the policy (the "mean policy"); ``False`` samples.
       clip: clip continuous actions to the env's bounds, as the training env does.
       sample_seed: PRNG seed of the sampled actions when not deterministic.
-    Returns a ``LoadedPolicy``. ``"latest"`` and ``"best"`` take the newest (best) checkpoint that
-    reads back completely; a damaged one is skipped with one ``warning:`` line on stderr.
+    Returns a ``LoadedPolicy`` (its ``step`` says which checkpoint). ``"latest"`` and ``"best"`` take
+    the newest (best) checkpoint that reads back completely and matches its checksums; a damaged one
+    is skipped with one ``warning:`` line on stderr.
     Raises ``ValueError`` (``RunDirError``/``CheckpointError``) with one line when the run or
     checkpoint is missing, foreign, damaged or does not fit, or ``run_dir`` is a file.
     """

@@ -43,6 +43,7 @@ CHECKPOINT_DIR = "checkpoints"
 VIDEO_DIR = "videos"
 CURVES_FILE = "curves.png"
 FORMAT_VERSION = 1
+MAX_SEED = 2**32 - 1  # PRNG seeds are 32 bits (JAX without x64): larger ones would collide with smaller ones
 
 
 class RunDirError(ValueError):
@@ -123,7 +124,10 @@ class RunConfig:
 
     @classmethod
     def load(cls, run_dir: str | os.PathLike) -> RunConfig:
-        """Read ``run_dir/config.json``; ``RunDirError`` for a missing or foreign directory."""
+        """Read ``run_dir/config.json``; ``RunDirError`` (one line) for a missing or foreign
+        directory, a path too long to exist, or a field of the wrong type (``coerce``; seeds must
+        be distinct and in ``[0, MAX_SEED]``)."""
+        check_path(run_dir, "run directory")
         run_dir = Path(run_dir)
         if not run_dir.is_dir():
             raise RunDirError(f"run directory {str(run_dir)!r} does not exist")
@@ -138,8 +142,66 @@ class RunConfig:
             raise RunDirError(f"{path} is not a jaxpg run configuration")
         if data["format"] > FORMAT_VERSION:
             raise RunDirError(f"{path} was written by a newer jaxpg (format {data['format']})")
-        names = {f.name for f in dataclasses.fields(cls)}
-        return cls(**{k: v for k, v in data.items() if k in names})
+        types_ = field_types(cls)
+        values = {}
+        for name, value in data.items():
+            if name not in types_:
+                continue
+            try:
+                values[name] = coerce(types_[name], value)
+            except ValueError as e:
+                raise RunDirError(f"{path}: {name} {e}") from None
+        missing = [f.name for f in dataclasses.fields(cls) if f.name not in values and _no_default(f)]
+        if missing:
+            raise RunDirError(f"{path} lacks {', '.join(missing)}")
+        seeds = values["seeds"]
+        if not seeds or len(set(seeds)) != len(seeds):
+            raise RunDirError(f"{path}: seeds must be distinct integers, at least one, got {seeds}")
+        bad = [s for s in seeds if not 0 <= s <= MAX_SEED]
+        if bad:
+            raise RunDirError(f"{path}: seeds must be integers in [0, {MAX_SEED}], got {bad[0]}")
+        return cls(**values)
+
+
+def _no_default(field: dataclasses.Field) -> bool:
+    return field.default is dataclasses.MISSING and field.default_factory is dataclasses.MISSING
+
+
+def check_path(path: str | os.PathLike, what: str) -> None:
+    """``RunDirError`` (one line) when ``path`` cannot exist on this system: a name in it longer
+    than the file system's limit (``NAME_MAX``, 255 bytes on Linux) or the whole path longer than
+    ``PATH_MAX``. ``what`` names the path in the message (``--run-dir``)."""
+    path = Path(path)
+    anchor = Path(path.absolute().anchor)
+    for parent in path.absolute().parents:  # the nearest existing ancestor tells the file system
+        try:
+            if parent.is_dir():
+                anchor = parent
+                break
+        except OSError:
+            continue
+    name_max, path_max = _pathconf(anchor, "PC_NAME_MAX", 255), _pathconf(anchor, "PC_PATH_MAX", 4096)
+    shown = str(path) if len(str(path)) <= 60 else str(path)[:28] + "..." + str(path)[-28:]
+    for part in path.parts:
+        length = len(os.fsencode(part))
+        if length > name_max:
+            raise RunDirError(
+                f"{what}: a name in {shown!r} is {length} bytes long, longer than the {name_max} "
+                "this file system allows; choose a shorter name"
+            )
+    length = len(os.fsencode(str(path.absolute())))
+    if length >= path_max:
+        raise RunDirError(
+            f"{what}: {shown!r} is {length} bytes long, longer than the {path_max - 1} this system allows"
+        )
+
+
+def _pathconf(path: Path, name: str, default: int) -> int:
+    try:
+        value = os.pathconf(path, name)
+    except (OSError, ValueError, AttributeError):
+        return default
+    return value if value > 0 else default
 
 
 def _resolve_hints(cls: type) -> dict[str, Any]:
@@ -161,22 +223,63 @@ def strip_optional(tp: Any) -> tuple[Any, bool]:
     return tp, False
 
 
-def coerce(tp: Any, value: Any) -> Any:
-    """``value`` (e.g. from JSON, where tuples are lists) as the field type ``tp``."""
+def _describe(tp: Any) -> str:
+    """What a value of the field type ``tp`` is, in words (for messages)."""
     tp, optional = strip_optional(tp)
+    origin = typing.get_origin(tp) or tp
+    if origin in (tuple, list):
+        args = [a for a in typing.get_args(tp) if a is not Ellipsis]
+        plural = {int: "integers", float: "numbers", str: "strings"}.get(args[0] if args else None)
+        text = f"a list of {plural}" if plural else "a list"
+    else:
+        names = {int: "an integer", float: "a number", str: "a string", bool: "true or false", dict: "an object"}
+        text = names.get(origin, getattr(tp, "__name__", str(tp)))
+    return text + (" or null" if optional else "")
+
+
+def coerce(tp: Any, value: Any) -> Any:
+    """``value`` (e.g. from JSON, where tuples are lists) as the field type ``tp``; ``ValueError``
+    (``"must be an integer, got 'abc'"``) when it is not of that type: an integer for ``int``
+    (a float only when whole), a number for ``float``, ``true``/``false`` for ``bool``, a list for
+    tuples and lists, an object for ``dict``, one of the values of a ``Literal``."""
+    base, optional = strip_optional(tp)
     if value is None:
-        return None
-    origin = typing.get_origin(tp)
-    if tp is tuple or origin is tuple:
-        args = typing.get_args(tp)
-        elem = args[0] if args else Any
-        return tuple(coerce(elem, v) for v in value)
-    if tp is bool:
-        return bool(value)
-    if tp is int and isinstance(value, (int, float)) and not isinstance(value, bool):
+        if optional or base is Any:
+            return None
+        raise ValueError(f"must be {_describe(tp)}, got null")
+    origin = typing.get_origin(base) or base
+    wrong = ValueError(f"must be {_describe(tp)}, got {value!r}")
+    if origin in (tuple, list):
+        if not isinstance(value, (list, tuple)):
+            raise wrong
+        args = [a for a in typing.get_args(base) if a is not Ellipsis]
+        try:
+            items = [coerce(args[0], v) for v in value] if args else list(value)
+        except ValueError:
+            raise wrong from None
+        return tuple(items) if origin is tuple else items
+    if origin is typing.Literal:
+        if value not in typing.get_args(base):
+            raise ValueError(f"must be one of {', '.join(map(repr, typing.get_args(base)))}, got {value!r}")
+        return value
+    if base is bool:
+        if isinstance(value, bool) or (isinstance(value, int) and value in (0, 1)):
+            return bool(value)
+        raise wrong
+    if base is int:
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise wrong
+        if isinstance(value, float) and not (math.isfinite(value) and value.is_integer()):
+            raise wrong
         return int(value)
-    if tp is float and isinstance(value, (int, float)):
+    if base is float:
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise wrong
         return float(value)
+    if base is str or origin is dict:
+        if not isinstance(value, origin):
+            raise wrong
+        return value
     return value
 
 
@@ -201,13 +304,20 @@ def current_field_names(cls: type, values: dict[str, Any]) -> dict[str, Any]:
 def config_from_dict(cls: type, values: dict[str, Any]) -> Any:
     """``cls(**values)`` with JSON values coerced to the field types, old field names mapped to
     the current ones (``current_field_names``); ``RunDirError`` names a field the config class
-    does not have (a run written by another version of the algorithm)."""
+    does not have (a run written by another version of the algorithm) or a value of the wrong type
+    (``coerce``). Values are checked by ``Config.validate`` after."""
     values = current_field_names(cls, values)
     types_ = field_types(cls)
     unknown = sorted(set(values) - set(types_))
     if unknown:
         raise RunDirError(f"saved config has fields {cls.__module__}.Config does not know: {', '.join(unknown)}")
-    return cls(**{k: coerce(types_[k], v) for k, v in values.items()})
+    coerced = {}
+    for name, value in values.items():
+        try:
+            coerced[name] = coerce(types_[name], value)
+        except ValueError as e:
+            raise RunDirError(f"saved config field {name} {e}") from None
+    return cls(**coerced)
 
 
 def _jsonable(value: Any) -> Any:
@@ -591,6 +701,22 @@ def _latest(values: np.ndarray) -> float:
         if not np.all(np.isnan(row)):
             return float(np.nanmean(row))
     return math.nan
+
+
+def checkpoint_score(metrics: dict[str, np.ndarray], evaluated: bool) -> float:
+    """The score a checkpoint saved after a block is ranked by for "best", one kind per run so that
+    like is compared with like: when the run evaluates its mean policy (``evaluated``: eval_envs >
+    0), the ``return_mean_policy`` of the block's last iteration (the checkpoint's), ``-inf`` when
+    that iteration was not evaluated; otherwise the latest measured ``return_stochastic`` of the
+    block. Means over seeds; ``-inf`` when nothing was measured."""
+    if evaluated:
+        if "return_mean_policy" not in metrics:
+            return -math.inf
+        last = np.asarray(metrics["return_mean_policy"], np.float64)[-1:]
+        value = _latest(last)
+    else:
+        value = _latest(metrics["return_stochastic"]) if "return_stochastic" in metrics else math.nan
+    return -math.inf if math.isnan(value) else value
 
 
 def latest_score(metrics: dict[str, np.ndarray]) -> float:

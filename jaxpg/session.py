@@ -26,6 +26,7 @@ import os
 import shutil
 import signal
 import sys
+import threading
 import time
 from collections.abc import Sequence
 from pathlib import Path
@@ -270,7 +271,7 @@ class _Callbacks:
         self.checkpoints.save(
             step,
             ts,
-            score=runlog.latest_score(metrics),
+            score=runlog.checkpoint_score(metrics, evaluated=getattr(self.plan.config, "eval_envs", 0) > 0),
             metrics=last_metrics,
             info={"task": self.run.task, "algo": self.run.algo, "seeds": self.run.seeds},
         )
@@ -411,13 +412,25 @@ class _Interrupts:
     signal asks to stop after the current call (``requested``) and a second SIGINT stops at once;
     before that (building the state, compiling) any of them stops at once (``KeyboardInterrupt``),
     so that an interrupted start leaves nothing behind. Only in a single-process run: several
-    processes must agree on when to stop, which they cannot here."""
+    processes must agree on when to stop, which they cannot here.
+
+    Python runs signal handlers only between its own instructions, so while the main thread waits
+    in a compiled call or a compilation that does not return, they would not run at all. A
+    watcher thread sees every signal as it arrives (``signal.set_wakeup_fd``); when one that
+    should stop at once (before the first call has finished, or a second signal) is not handled
+    within ``HARD_STOP_S`` seconds, it prints one line and ends the process at once (status
+    128 + signal). A run directory it leaves keeps a stale lock, which the next run takes over."""
+
+    HARD_STOP_S = 5.0
 
     def __init__(self) -> None:
         self.requested: int | None = None
         self.graceful = False
         self.at_once = False  # a stop at once was raised (it may have been swallowed or wrapped)
         self.previous: dict[int, Any] = {}
+        self.handled = 0  # signals the Python-level handler has run for
+        self._wakeup: tuple[int, int] | None = None  # the pipe the C-level handler writes signals to
+        self._previous_wakeup_fd = -1
 
     def __enter__(self) -> _Interrupts:
         import jax
@@ -425,9 +438,45 @@ class _Interrupts:
         if jax.process_count() == 1:
             for signum in (signal.SIGINT, signal.SIGTERM):
                 self.previous[signum] = signal.signal(signum, self._handle)
+            if threading.current_thread() is threading.main_thread():
+                read_fd, write_fd = os.pipe()
+                os.set_blocking(write_fd, False)
+                self._previous_wakeup_fd = signal.set_wakeup_fd(write_fd, warn_on_full_buffer=False)
+                self._wakeup = (read_fd, write_fd)
+                threading.Thread(target=self._watch, args=(read_fd,), daemon=True, name="jaxpg-interrupts").start()
         self.previous_unraisablehook = sys.unraisablehook
         sys.unraisablehook = self._unraisable
         return self
+
+    def _watch(self, read_fd: int) -> None:
+        """The watcher thread: counts the SIGINT/SIGTERM that arrive and ends the process when
+        one that should stop at once is left unhandled (the main thread is stuck outside Python)."""
+        arrived = 0
+        while True:
+            try:
+                data = os.read(read_fd, 64)
+            except OSError:
+                data = b""
+            if not data:  # __exit__ closed the pipe's other end
+                os.close(read_fd)
+                return
+            signums = [b for b in data if b in (signal.SIGINT, signal.SIGTERM)]
+            if not signums:
+                continue
+            arrived += len(signums)
+            if self.graceful and arrived < 2:
+                continue  # the current call finishes, then a checkpoint is written: that may take long
+            deadline = time.monotonic() + self.HARD_STOP_S
+            while time.monotonic() < deadline and self.handled < arrived:
+                time.sleep(0.05)
+            if self.handled < arrived and self._wakeup is not None:
+                name = signal.Signals(signums[-1]).name
+                os.write(
+                    2,
+                    f"\n{name}: stopped at once: a compiled call or compilation did not return to Python within "
+                    f"{self.HARD_STOP_S:g} s (continue from the latest checkpoint, if any, with --resume)\n".encode(),
+                )
+                os._exit(_exit_status(signums[-1]))
 
     def _unraisable(self, report: Any) -> None:
         """Python's report of an exception it could not raise (one raised in a garbage-collection
@@ -436,6 +485,7 @@ class _Interrupts:
             self.previous_unraisablehook(report)
 
     def _handle(self, signum: int, frame: Any) -> None:
+        self.handled += 1
         at_once = not self.graceful or (self.requested is not None and signum == signal.SIGINT)
         self.requested = signum if self.requested is None else self.requested
         if at_once:
@@ -460,6 +510,11 @@ class _Interrupts:
             raise
 
     def __exit__(self, *exc: Any) -> None:
+        if self._wakeup is not None:
+            signal.set_wakeup_fd(self._previous_wakeup_fd)
+            _, write_fd = self._wakeup
+            self._wakeup = None
+            os.close(write_fd)  # the watcher reads the end of the pipe, closes its end and returns
         for signum, handler in self.previous.items():
             signal.signal(signum, handler)
         sys.unraisablehook = self.previous_unraisablehook
@@ -673,7 +728,8 @@ def _report_end(plan_: Plan, callbacks: _Callbacks) -> None:
         from jaxpg import checkpoint as ckpt_lib
 
         checkpoints = ckpt_lib.Checkpointer(run_dir / runlog.CHECKPOINT_DIR, keep=None)
-        best, latest = checkpoints.best_step(), checkpoints.latest_step()
+        # Both verified: a damaged step is skipped (with a warning line), never recommended.
+        best, latest = checkpoints.resolve_step("best"), checkpoints.resolve_step("latest")
         if best is not None and best != latest:
             score = checkpoints.score(best)
             _print(f"best checkpoint: iteration {best} (return {score:.1f}); evaluate it with --step best")

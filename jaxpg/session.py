@@ -10,9 +10,11 @@ evaluation between compiled calls, videos, curves, interrupts and the end-of-run
     status = jaxpg.session.execute(plan)    # 0: trained; 130/143: interrupted, checkpoint written
 
 What ``execute`` guarantees: the initial state is built (and compiled) before the run directory
-is touched; ``--overwrite`` moves the old run aside until the new one has a checkpoint; SIGINT /
-SIGTERM finish the current compiled call, write a checkpoint and exit with 130 / 143; write and
-checkpoint errors are one ``error:`` line with status 2; process 0 alone writes files.
+is touched, and the directory is locked before anything is written in it; ``--overwrite`` moves
+the old run aside until the new one has a checkpoint (``recover_replaced`` finishes that for a
+process killed before); SIGINT / SIGTERM finish the current compiled call, write a checkpoint and
+exit with 130 / 143; write and checkpoint errors are one ``error:`` line with status 2, which says
+what is on disk; process 0 alone writes files.
 """
 
 from __future__ import annotations

@@ -12,8 +12,9 @@ booleans as ``--x/--no-x``); precedence, lowest first: ``Config`` defaults, the 
 defaults, ``--preset``, explicit flags.
 
 A run directory (see ``jaxpg.runlog``) gets ``config.json``, ``metrics.jsonl``, TensorBoard
-events, ``curves.png``, Orbax ``checkpoints/`` and ``videos/``. An existing run directory is only
-replaced with ``--overwrite`` or continued with ``--resume``; a resumed run continues from its
+events, ``curves.png``, Orbax ``checkpoints/`` and, with ``--video-every``, ``videos/``. An existing
+run directory is only replaced with ``--overwrite`` (a jaxpg run and nothing else:
+``runlog.check_replaceable``) or continued with ``--resume``; a resumed run continues from its
 latest checkpoint and produces the same metrics, bit for bit on the same device, as a run that
 was never interrupted (the iteration where an earlier process ended also holds that process's
 final evaluation of the mean policy: every run evaluates its last iteration).
@@ -45,7 +46,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from jaxpg import algos, runlog
+from jaxpg import algos, runlog, session
 from jaxpg.runlog import RunConfig
 from jaxpg.session import Plan, execute
 
@@ -383,6 +384,7 @@ def _pre_parse(argv: Sequence[str]) -> argparse.Namespace:
     pre.add_argument("--task", "--env", dest="task")
     pre.add_argument("--algo")
     pre.add_argument("--resume")
+    pre.add_argument("--run-dir")
     pre.add_argument("--preset")
     args, _ = pre.parse_known_args(argv)
     return args
@@ -423,6 +425,8 @@ def _default_run_dir(task: str, algo: str) -> Path:
 
 
 def _check_fresh_run_dir(run_dir: Path, overwrite: bool) -> None:
+    """A new run may go into ``run_dir`` if it is missing or empty; with ``--overwrite``, also if it
+    is a jaxpg run that no live process writes (``runlog.check_replaceable``)."""
     if not run_dir.exists():
         return
     if not run_dir.is_dir():
@@ -430,12 +434,8 @@ def _check_fresh_run_dir(run_dir: Path, overwrite: bool) -> None:
     if not any(run_dir.iterdir()):
         return
     if not overwrite:
-        raise UsageError(
-            f"run directory {str(run_dir)!r} exists; "
-            f"pass --overwrite to replace it or --resume {run_dir} to continue it"
-        )
-    if not (run_dir / runlog.CONFIG_FILE).is_file():
-        raise UsageError(f"refusing to --overwrite {str(run_dir)!r}: it is not a jaxpg run directory (no config.json)")
+        raise UsageError(session.exists_message(run_dir))
+    runlog.check_replaceable(run_dir)
     runlog.check_unlocked(run_dir)
 
 
@@ -571,12 +571,16 @@ def plan_fresh(args: argparse.Namespace, experiment: Experiment, module: Any, al
     log_every = experiment.log_every if args.log_every is None else args.log_every
     if log_every < 1:
         raise UsageError(f"--log-every must be >= 1, got {log_every}")
+    iterations = experiment.iterations if args.iterations is None else args.iterations
+    if iterations < 1:
+        # It would leave a run directory without a checkpoint: nothing to resume or evaluate.
+        raise UsageError(f"--iterations must be >= 1 for a new run, got {iterations}")
     run = RunConfig(
         task=task,
         algo=algo,
         config=runlog.config_to_dict(config),
         seeds=seeds,
-        iterations=experiment.iterations if args.iterations is None else args.iterations,
+        iterations=iterations,
         env_kwargs=env_kwargs,
         log_every=log_every,
         checkpoint_every=experiment.checkpoint_every if args.checkpoint_every is None else args.checkpoint_every,
@@ -622,11 +626,23 @@ def plan_resume(args: argparse.Namespace, run: RunConfig, run_dir: Path) -> Plan
     run.shard = _check_sharding(config, args.shard if args.shard is not None else (run.shard or None))
     check_memory(config, env, len(run.seeds), _device_count() if run.shard else 1)
     runlog.check_unlocked(run_dir)
+    no_checkpoint = UsageError(
+        f"cannot resume {str(run_dir)!r}: it has no checkpoints (it stopped before its first one, so there is "
+        "nothing to resume); start it again with --overwrite"
+    )
+    if not (run_dir / runlog.CHECKPOINT_DIR).is_dir():
+        raise no_checkpoint
     checkpoints = ckpt_lib.Checkpointer(run_dir / runlog.CHECKPOINT_DIR, keep=None)
     step = checkpoints.latest_step()
     if step is None:
-        raise UsageError(f"cannot resume {str(run_dir)!r}: it has no checkpoint yet")
+        raise no_checkpoint
     metrics_path = run_dir / runlog.METRICS_FILE
+    damaged = runlog.damaged_metrics_line(metrics_path) if metrics_path.is_file() else None
+    if damaged is not None:
+        raise UsageError(
+            f"cannot resume {str(run_dir)!r}: line {damaged} of its metrics.jsonl is not a JSON record "
+            "(a resume would drop it); repair or delete that line, then resume"
+        )
     logged = max((int(r.get("iteration", 0)) for r in runlog.read_metrics(metrics_path)), default=0)
     if logged < step:
         state = "is missing" if not metrics_path.exists() else f"ends at iteration {logged}"
@@ -726,12 +742,30 @@ def main(argv: Sequence[str] | None = None, experiment: Experiment | None = None
     try:
         start_processes(argv)
         check_backend()
+        recover_run_dir(argv)
         plan_ = plan(argv, experiment)
     except ValueError as e:  # UsageError, RunDirError, CheckpointError, Config.validate, DistributedError
         message = str(e).strip().splitlines()
         print(f"error: {message[0] if message else type(e).__name__}", file=sys.stderr)
         return 2
+    except OSError as e:
+        print(f"error: cannot put the run directory back in order: {e}", file=sys.stderr)
+        return 2
     return execute(plan_)
+
+
+def recover_run_dir(argv: Sequence[str]) -> None:
+    """Before planning: put back the run that an ``--overwrite`` of the command's run directory
+    (``--run-dir`` or ``--resume``) moved aside, if its process ended before the new run's first
+    checkpoint, or point to it (``session.recover_replaced``). Process 0 alone; the others wait."""
+    from jaxpg import distributed
+
+    pre = _pre_parse(argv)
+    target = pre.resume if pre.resume is not None else pre.run_dir
+    if target is not None and distributed.is_primary():
+        for line in session.recover_replaced(target):
+            print(line, file=sys.stderr)
+    distributed.barrier("jaxpg: run directory recovered")
 
 
 DEFAULT_EPILOG = """\

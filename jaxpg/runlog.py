@@ -9,7 +9,12 @@ Layout of a run directory (``jaxpg.cli`` writes it, ``jaxpg.load_policy`` and
     tensorboard/     tensorboardX event files of the same scalars, one sub-directory per seed
     curves.png       returns over iterations (jaxpg.plotting)
     checkpoints/     Orbax checkpoints of the whole TrainState (jaxpg.checkpoint)
-    videos/          rollouts of the mean policy (jaxpg.video)
+    videos/          rollouts of the mean policy (jaxpg.video), only with --video-every
+    profile.json     phase timings, only with --profile
+    .jaxpg.lock      the process writing the directory, while it runs
+
+A directory holding only these (and their temporary ``*.tmp`` files) whose ``config.json`` reads
+as a ``RunConfig`` is a jaxpg run (``check_replaceable``): ``--overwrite`` replaces nothing else.
 
 Iterations are counted from 1: the record with ``iteration == n`` describes the n-th update, and
 the checkpoint of step ``n`` holds the state after it.
@@ -25,6 +30,7 @@ import json
 import math
 import os
 import platform
+import shlex
 import subprocess
 import sys
 import types
@@ -42,8 +48,15 @@ TENSORBOARD_DIR = "tensorboard"
 CHECKPOINT_DIR = "checkpoints"
 VIDEO_DIR = "videos"
 CURVES_FILE = "curves.png"
+PROFILE_FILE = "profile.json"
+LOCK_FILE = ".jaxpg.lock"
 FORMAT_VERSION = 1
 MAX_SEED = 2**32 - 1  # PRNG seeds are 32 bits (JAX without x64): larger ones would collide with smaller ones
+# Everything a run writes at the top of its directory, temporary files of atomic writes included.
+RUN_ENTRIES = frozenset(
+    {CONFIG_FILE, METRICS_FILE, TENSORBOARD_DIR, CHECKPOINT_DIR, VIDEO_DIR, CURVES_FILE, PROFILE_FILE, LOCK_FILE}
+    | {CONFIG_FILE + ".tmp", METRICS_FILE + ".tmp", PROFILE_FILE + ".tmp", "curves.tmp.png"}
+)
 
 
 class RunDirError(ValueError):
@@ -130,15 +143,18 @@ class RunConfig:
         check_path(run_dir, "run directory")
         run_dir = Path(run_dir)
         if not run_dir.is_dir():
+            if run_dir.exists():
+                raise RunDirError(f"{str(run_dir)!r} is not a run directory (it is a file)")
             raise RunDirError(f"run directory {str(run_dir)!r} does not exist")
         path = run_dir / CONFIG_FILE
         if not path.is_file():
             raise RunDirError(f"{str(run_dir)!r} is not a jaxpg run directory (it has no {CONFIG_FILE})")
         try:
             data = json.loads(path.read_text())
-        except (OSError, json.JSONDecodeError) as e:
+        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
             raise RunDirError(f"cannot read {path}: {e}") from None
-        if not isinstance(data, dict) or "format" not in data or "task" not in data or "algo" not in data:
+        required = {"format": int, "task": str, "algo": str, "config": dict, "seeds": list, "iterations": int}
+        if not isinstance(data, dict) or any(not isinstance(data.get(k), t) for k, t in required.items()):
             raise RunDirError(f"{path} is not a jaxpg run configuration")
         if data["format"] > FORMAT_VERSION:
             raise RunDirError(f"{path} was written by a newer jaxpg (format {data['format']})")
@@ -202,6 +218,31 @@ def _pathconf(path: Path, name: str, default: int) -> int:
     except (OSError, ValueError, AttributeError):
         return default
     return value if value > 0 else default
+
+
+def foreign_entries(run_dir: str | os.PathLike) -> list[str]:
+    """The names at the top of ``run_dir`` that a jaxpg run does not write (``RUN_ENTRIES``), sorted."""
+    return sorted(name for name in os.listdir(run_dir) if name not in RUN_ENTRIES)
+
+
+def check_replaceable(run_dir: str | os.PathLike, shown: str | os.PathLike | None = None) -> None:
+    """``RunDirError`` (one line) unless ``run_dir`` is a jaxpg run that ``--overwrite`` may
+    replace: its ``config.json`` reads as a ``RunConfig`` and it holds nothing else than what a
+    run writes (``RUN_ENTRIES``). ``shown``: the name to print (default ``run_dir``)."""
+    name = str(run_dir if shown is None else shown)
+    if not (Path(run_dir) / CONFIG_FILE).is_file():
+        raise RunDirError(f"refusing to --overwrite {name!r}: it is not a jaxpg run directory (no {CONFIG_FILE})")
+    try:
+        RunConfig.load(run_dir)
+    except RunDirError as e:
+        raise RunDirError(f"refusing to --overwrite {name!r}: it is not a jaxpg run directory ({e})") from None
+    foreign = foreign_entries(run_dir)
+    if foreign:
+        listed = ", ".join(foreign[:5]) + (f" and {len(foreign) - 5} more" if len(foreign) > 5 else "")
+        raise RunDirError(
+            f"refusing to --overwrite {name!r}: besides a jaxpg run it holds {listed}, which a run does not write; "
+            "move them out or choose another --run-dir"
+        )
 
 
 def _resolve_hints(cls: type) -> dict[str, Any]:
@@ -408,8 +449,6 @@ def provenance(argv: Sequence[str] | None = None) -> dict[str, Any]:
 
 
 def _shell_quote(arg: str) -> str:
-    import shlex
-
     return shlex.quote(arg)
 
 
@@ -486,8 +525,29 @@ def read_metrics(path: str | os.PathLike) -> list[dict[str, Any]]:
                 record = json.loads(line)
             except json.JSONDecodeError:
                 continue
+            if not isinstance(record, dict):
+                continue
             records.append({OLD_METRIC_NAMES.get(k, k): v for k, v in record.items()})
     return records
+
+
+def damaged_metrics_line(path: str | os.PathLike) -> int | None:
+    """The number (from 1) of the first line of a ``metrics.jsonl`` that is not a JSON object,
+    blank lines and a torn last line (no newline at its end: a process killed while writing it)
+    aside; ``None`` when every line reads."""
+    with Path(path).open("rb") as f:
+        lines = f.read().split(b"\n")
+    # The piece after the last newline is a torn line (or empty): a resume drops it.
+    for number, line in enumerate(lines[:-1], start=1):
+        if not line.strip():
+            continue
+        try:
+            record = json.loads(line)
+        except ValueError:  # JSONDecodeError, or bytes that are not UTF-8
+            return number
+        if not isinstance(record, dict):
+            return number
+    return None
 
 
 def truncate_metrics(run_dir: str | os.PathLike, last_iteration: int) -> float:
@@ -732,10 +792,8 @@ def latest_score(metrics: dict[str, np.ndarray]) -> float:
 
 # --------------------------------------------------------------------------- one writer per run directory
 
-LOCK_FILE = ".jaxpg.lock"
 
-
-def _pid_alive(pid: int) -> bool:
+def pid_alive(pid: int) -> bool:
     try:
         os.kill(pid, 0)
     except ProcessLookupError:
@@ -756,7 +814,7 @@ def lock_holder(run_dir: str | os.PathLike) -> dict[str, Any] | None:
         return None
     except (OSError, ValueError, KeyError, TypeError):
         return None  # a torn lock file: its writer died while writing it
-    if host == platform.node() and (pid == os.getpid() or not _pid_alive(pid)):
+    if host == platform.node() and (pid == os.getpid() or not pid_alive(pid)):
         return None
     return holder
 
@@ -765,9 +823,11 @@ def check_unlocked(run_dir: str | os.PathLike) -> None:
     """``RunDirError`` (one line) when another live process writes ``run_dir``."""
     holder = lock_holder(run_dir)
     if holder is not None:
+        lock = Path(run_dir) / LOCK_FILE
         raise RunDirError(
             f"run directory {str(run_dir)!r} is in use by process {holder['pid']} on {holder['host']} "
-            f"(since {holder.get('started', '?')}); wait for it to finish or stop it"
+            f"(since {holder.get('started', '?')}); wait for it to finish or stop it (if that process is gone, "
+            f"delete {shlex.quote(str(lock))})"
         )
 
 
@@ -783,27 +843,43 @@ class RunLock:
     def __init__(self, run_dir: str | os.PathLike):
         self.path = Path(run_dir) / LOCK_FILE
         self.held = False
+        self.record = json.dumps(
+            {
+                "pid": os.getpid(),
+                "host": platform.node(),
+                "started": datetime.datetime.now().astimezone().isoformat(timespec="seconds"),
+            }
+        )
 
-    def acquire(self) -> None:
-        record = {
-            "pid": os.getpid(),
-            "host": platform.node(),
-            "started": datetime.datetime.now().astimezone().isoformat(timespec="seconds"),
-        }
+    def acquire(self) -> dict[str, Any] | None:
+        """Take the lock (``RunDirError`` when a live process holds it); returns the record of the
+        stale lock it took over (``{}`` for an unreadable one), ``None`` when there was none."""
+        stale = None
         for _ in range(2):
             try:
                 fd = os.open(self.path, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o644)
             except FileExistsError:
                 check_unlocked(self.path.parent)
+                try:
+                    stale = json.loads(self.path.read_text())
+                except (OSError, ValueError):
+                    stale = {}
+                stale = stale if isinstance(stale, dict) else {}
                 self.path.unlink(missing_ok=True)  # stale: its process has ended
                 continue
             with os.fdopen(fd, "w") as f:
-                f.write(json.dumps(record))
+                f.write(self.record)
             self.held = True
             atexit.register(self.release)
-            return
+            return stale
         check_unlocked(self.path.parent)
         raise RunDirError(f"cannot lock run directory {str(self.path.parent)!r}")
+
+    def copy_to(self, directory: str | os.PathLike) -> None:
+        """Write this lock's record into ``directory`` as well (a directory about to take the
+        locked one's place, so that it is never unlocked)."""
+        with open(Path(directory) / LOCK_FILE, "x") as f:
+            f.write(self.record)
 
     def release(self) -> None:
         if self.held:

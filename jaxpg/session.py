@@ -10,9 +10,11 @@ evaluation between compiled calls, videos, curves, interrupts and the end-of-run
     status = jaxpg.session.execute(plan)    # 0: trained; 130/143: interrupted, checkpoint written
 
 What ``execute`` guarantees: the initial state is built (and compiled) before the run directory
-is touched; ``--overwrite`` moves the old run aside until the new one has a checkpoint; SIGINT /
-SIGTERM finish the current compiled call, write a checkpoint and exit with 130 / 143; write and
-checkpoint errors are one ``error:`` line with status 2; process 0 alone writes files.
+is touched, and the directory is locked before anything is written in it; ``--overwrite`` moves
+the old run aside until the new one has a checkpoint (``recover_replaced`` finishes that for a
+process killed before); SIGINT / SIGTERM finish the current compiled call, write a checkpoint and
+exit with 130 / 143; write and checkpoint errors are one ``error:`` line with status 2, which says
+what is on disk; process 0 alone writes files.
 """
 
 from __future__ import annotations
@@ -23,6 +25,8 @@ import datetime
 import functools
 import json
 import os
+import re
+import shlex
 import shutil
 import signal
 import sys
@@ -52,6 +56,7 @@ class Plan:
     overwrite: bool = False
     replaced: Path | None = None  # the old run that --overwrite moved aside
     created: bool = False  # this run created its directory
+    fresh: bool = False  # a new run found its directory empty, made it, or moved the old run aside
     profile: bool = False
     progress: bool | None = None
     command: list[str] = dataclasses.field(default_factory=list)
@@ -331,55 +336,225 @@ class _Silent:
         pass
 
 
-def prepare_run_dir(plan_: Plan) -> float:
-    """Create (or replace, or reopen) the run directory; returns the wall-time offset.
+REPLACED = ".replaced-"  # RUN.replaced-PID: the run that process PID's --overwrite moved aside
+NEW = ".new-"  # RUN.new-PID: the empty, locked directory that takes RUN's place
 
-    ``--overwrite`` moves the old run aside (``plan_.replaced``) instead of deleting it: it is
-    deleted once the new run has written a checkpoint, and put back if the new run stops before
-    (``finish_run_dir``), so that nothing on disk is lost to a run that never got going.
+
+def resume_command(run_dir: str | os.PathLike) -> str:
+    """The command that continues ``run_dir``, quoted for a POSIX shell."""
+    return f"python -m jaxpg.cli --resume {shlex.quote(str(run_dir))}"
+
+
+def has_checkpoint(run_dir: str | os.PathLike) -> bool:
+    """Whether ``run_dir`` holds a committed checkpoint (a step ``--resume`` could start from);
+    ``True`` as well when its checkpoint directory cannot be read, so that nothing is taken for
+    empty that is not known to be."""
+    from jaxpg import checkpoint as ckpt_lib
+
+    directory = Path(run_dir) / runlog.CHECKPOINT_DIR
+    if not directory.is_dir():
+        return False
+    try:
+        checkpoints = ckpt_lib.Checkpointer(directory, keep=None)
+        try:
+            return bool(checkpoints.steps())
+        finally:
+            checkpoints.close()
+    except (OSError, ckpt_lib.CheckpointError):
+        return True
+
+
+def is_replaceable(run_dir: str | os.PathLike) -> bool:
+    """``runlog.check_replaceable`` as a yes or no."""
+    try:
+        runlog.check_replaceable(run_dir)
+    except (OSError, runlog.RunDirError):
+        return False
+    return True
+
+
+def exists_message(run_dir: Path) -> str:
+    """Why a new run cannot go into the existing, non-empty ``run_dir``, and what to do instead."""
+    if not is_replaceable(run_dir):
+        return f"run directory {str(run_dir)!r} exists and is not a jaxpg run; choose another --run-dir"
+    if not has_checkpoint(run_dir):
+        return (
+            f"run directory {str(run_dir)!r} holds a run that has no checkpoint (it stopped before its first one, "
+            "so there is nothing to resume); pass --overwrite to start it again"
+        )
+    return (
+        f"run directory {str(run_dir)!r} exists; pass --overwrite to replace it or --resume "
+        f"{shlex.quote(str(run_dir))} to continue it"
+    )
+
+
+def prepare_run_dir(plan_: Plan, lock: runlog.RunLock) -> float:
+    """Lock the run directory, then create (or replace, or reopen) it; returns the wall-time offset.
+
+    ``lock`` is taken before anything is written, so that a second writer is refused without
+    having changed a byte. A new run then checks the directory again (another process may have
+    written it since the command was planned): it must be empty, or with ``--overwrite`` a jaxpg
+    run (``runlog.check_replaceable``). ``--overwrite`` moves the old run aside, beside the
+    directory a symbolic link points to (the link stays a link), to ``RUN.replaced-PID``, and an
+    empty locked directory takes its place; the old run is deleted once the new run has written a
+    checkpoint, and put back if the new run stops before (``finish_run_dir``), so that nothing
+    on disk is lost to a run that never got going.
     """
     run_dir, run = plan_.run_dir, plan_.run
     if plan_.start > 0:
+        _note_stale_lock(lock.acquire(), run_dir)
         wall_offset = runlog.truncate_metrics(run_dir, plan_.start)
         history = run.info.setdefault("resumes", [])
         history.append(
             {
                 "from_iteration": plan_.start,
-                "command": " ".join(plan_.command),
+                "command": shlex.join(plan_.command),
                 "time": datetime.datetime.now().astimezone().isoformat(timespec="seconds"),
             }
         )
         run.save(run_dir)
         return wall_offset
-    if plan_.overwrite and run_dir.exists() and any(run_dir.iterdir()):
-        plan_.replaced = run_dir.with_name(f"{run_dir.name}.replaced-{os.getpid()}")
-        run_dir.rename(plan_.replaced)
-    plan_.created = not run_dir.exists()
-    run_dir.mkdir(parents=True, exist_ok=True)
+    real = run_dir.resolve()
+    created = not real.exists()
+    real.mkdir(parents=True, exist_ok=True)
+    _note_stale_lock(lock.acquire(), run_dir)
+    if any(entry.name != runlog.LOCK_FILE for entry in real.iterdir()):
+        if not plan_.overwrite:
+            raise runlog.RunDirError(exists_message(run_dir) + " (it was written after this command started)")
+        runlog.check_replaceable(real, shown=run_dir)
+        plan_.replaced = _move_aside(real, lock)
+    plan_.created, plan_.fresh = created, True
     run.info = runlog.provenance([sys.argv[0], *plan_.command])
-    run.save(run_dir)
+    run.save(real)
     return 0.0
+
+
+def _note_stale_lock(stale: dict[str, Any] | None, run_dir: Path) -> None:
+    if stale is not None:
+        who = f"process {stale['pid']}" if "pid" in stale else "a process"
+        print(
+            f"note: took over {str(run_dir / runlog.LOCK_FILE)!r}, left by {who} that has ended",
+            file=sys.stderr,
+        )
+
+
+def _move_aside(real: Path, lock: runlog.RunLock) -> Path:
+    """Put an empty directory, already locked by ``lock``, in the place of the run in ``real``;
+    returns where the old run went (``real.replaced-PID``, this process's lock file removed)."""
+    fresh = real.with_name(f"{real.name}{NEW}{os.getpid()}")
+    replaced = real.with_name(f"{real.name}{REPLACED}{os.getpid()}")
+    fresh.mkdir()
+    try:
+        lock.copy_to(fresh)
+        real.rename(replaced)
+    except OSError:
+        shutil.rmtree(fresh, ignore_errors=True)
+        raise
+    try:
+        fresh.rename(real)
+    except OSError:
+        replaced.rename(real)
+        shutil.rmtree(fresh, ignore_errors=True)
+        raise
+    (replaced / runlog.LOCK_FILE).unlink(missing_ok=True)
+    return replaced
+
+
+def _put_back(replaced: Path, real: Path) -> None:
+    """Move the run in ``replaced`` back to ``real``, deleting what is there (a run without a checkpoint)."""
+    if not real.exists() and not real.is_symlink():
+        replaced.rename(real)
+        return
+    abandoned = real.with_name(f"{real.name}.abandoned-{os.getpid()}")
+    real.rename(abandoned)
+    replaced.rename(real)
+    shutil.rmtree(abandoned, ignore_errors=True)
 
 
 def finish_run_dir(plan_: Plan, checkpointed: bool) -> str:
     """After the run: drop the run it replaced once the new one has a checkpoint; otherwise (it
-    stopped before its first checkpoint) remove the new directory and put back what was there, so
-    that the same command can simply be run again. Returns a note for the user ('' if none)."""
+    stopped before its first checkpoint) put back what was there (the old run, or nothing), so
+    that the same command can simply be run again. Returns a note for the user ('' if none), which
+    says where things are."""
     run_dir = plan_.run_dir
-    if plan_.start > 0:
+    if plan_.start > 0 or not plan_.fresh:
         return ""
     if checkpointed:
         if plan_.replaced is not None:
             shutil.rmtree(plan_.replaced, ignore_errors=True)
         return ""
+    real = run_dir.resolve()
     if plan_.replaced is not None:
-        shutil.rmtree(run_dir, ignore_errors=True)
-        plan_.replaced.rename(run_dir)
+        _put_back(plan_.replaced, real)
         return f"; the run it was replacing is back in {run_dir}"
     if plan_.created:
-        shutil.rmtree(run_dir, ignore_errors=True)
+        shutil.rmtree(real, ignore_errors=True)
         return f"; {run_dir} was removed (no checkpoint had been written)"
-    return ""
+    for entry in real.iterdir():  # it was empty before this run
+        if entry.is_dir() and not entry.is_symlink():
+            shutil.rmtree(entry, ignore_errors=True)
+        else:
+            entry.unlink(missing_ok=True)
+    return f"; {run_dir} is empty again (no checkpoint had been written)"
+
+
+def _dead_siblings(real: Path, mark: str) -> list[tuple[Path, int]]:
+    """The siblings ``<name><mark><pid>`` of ``real`` whose process (on this host) has ended."""
+    prefix = real.name + mark
+    found = []
+    for path in real.parent.iterdir():
+        pid = path.name[len(prefix) :]
+        if path.name.startswith(prefix) and pid.isdigit() and int(pid) != os.getpid():
+            if not runlog.pid_alive(int(pid)):
+                found.append((path, int(pid)))
+    return sorted(found, key=lambda item: item[1])
+
+
+def recover_replaced(run_dir: str | os.PathLike) -> list[str]:
+    """Finish what an ``--overwrite`` of ``run_dir`` left undone when its process was killed
+    before it could (``kill -9``, a power cut): returns the lines that tell the user.
+
+    A ``RUN.replaced-PID`` beside the run directory (beside the directory a symbolic link points
+    to) whose process has ended is the run that ``--overwrite`` moved aside. When ``RUN`` holds
+    no checkpoint (the new run never got going; it is removed) or is gone, the old run is put
+    back; otherwise both stay and the note says where the old one is. A live writer of ``RUN``
+    is left alone (the command is refused by its lock anyway).
+    """
+    run_dir = Path(run_dir)
+    real = run_dir.resolve()
+    if not real.parent.is_dir():
+        return []
+    for fresh, _ in _dead_siblings(real, NEW):  # never took RUN's place: holds the dead lock at most
+        if set(os.listdir(fresh)) <= {runlog.LOCK_FILE}:
+            shutil.rmtree(fresh, ignore_errors=True)
+    aside = _dead_siblings(real, REPLACED)
+    if not aside or (real.exists() and runlog.lock_holder(real) is not None):
+        return []
+    shown = " and ".join(shlex.quote(str(path)) for path, _ in aside)
+    pids = ", ".join(str(pid) for _, pid in aside)
+    if real.is_dir() and has_checkpoint(real):
+        return [
+            f"note: {shown} holds the run that an --overwrite of {run_dir} moved aside (process {pids} ended "
+            f"before deleting it); {run_dir} holds the new run: delete {shown} once you no longer need it"
+        ]
+    if len(aside) > 1 or (real.exists() and not is_replaceable(real)):
+        return [
+            f"note: {run_dir} holds no checkpoint, and {shown} hold what an --overwrite moved aside (process "
+            f"{pids} ended first): move back by hand the one you want"
+        ]
+    path, pid = aside[0]
+    lock = runlog.RunLock(real)
+    if real.exists():
+        lock.acquire()  # takes over the dead process's lock; goes with the directory it locks
+    try:
+        (path / runlog.LOCK_FILE).unlink(missing_ok=True)  # the dead process's lock on the old run
+        _put_back(path, real)
+    finally:
+        lock.release()
+    return [
+        f"note: an --overwrite of {run_dir} (process {pid}) ended before its first checkpoint; the run it was "
+        f"replacing is back in {run_dir} (from {path})"
+    ]
 
 
 class _Stop(Exception):
@@ -536,6 +711,12 @@ def execute(plan_: Plan) -> int:
 
     run, run_dir = plan_.run, plan_.run_dir
     primary = _primary()
+    if plan_.start > 0 and plan_.start >= run.iterations:
+        _print(
+            f"nothing to do: {run_dir} has done {plan_.start} iterations and --iterations asks for {run.iterations} "
+            "(nothing was written; raise --iterations to train on)"
+        )
+        return 0
     with _Interrupts() as interrupts:
         try:
             with interrupts.attributed():
@@ -551,19 +732,15 @@ def execute(plan_: Plan) -> int:
         lock = runlog.RunLock(run_dir)
         try:
             try:
-                if primary:
-                    if run_dir.exists() and plan_.start > 0:
-                        lock.acquire()
-                    wall_offset = prepare_run_dir(plan_)
-                    if not lock.held:
-                        lock.acquire()
-                else:
-                    wall_offset = 0.0
-            except OSError as e:
-                print(f"error: cannot write the run directory {str(run_dir)!r}: {e.strerror or e}", file=sys.stderr)
-                return 2
-            except runlog.RunDirError as e:
-                print(f"error: {e}", file=sys.stderr)
+                wall_offset = prepare_run_dir(plan_, lock) if primary else 0.0
+            except (OSError, runlog.RunDirError) as e:
+                note = finish_run_dir(plan_, checkpointed=False) if primary else ""
+                what = (
+                    f"cannot write the run directory {str(run_dir)!r}: {e.strerror or e}"
+                    if isinstance(e, OSError)
+                    else e
+                )
+                print(f"error: {what}{note}", file=sys.stderr)
                 return 2
             with interrupts.attributed():
                 return _train(plan_, ts, wall_offset, interrupts)
@@ -572,7 +749,7 @@ def execute(plan_: Plan) -> int:
             # (imports, profiling, device placement): the same clean-up as an interrupt in the
             # first block.
             note = finish_run_dir(plan_, checkpointed=plan_.start > 0) if primary else ""
-            resume = f"; continue with: python -m jaxpg.cli --resume {run_dir}" if plan_.start > 0 else ""
+            resume = f"; continue with: {resume_command(run_dir)}" if plan_.start > 0 else ""
             signum = interrupts.requested or signal.SIGINT
             print(f"\n{signal.Signals(signum).name}: stopped at once{resume}{note}", file=sys.stderr)
             return _exit_status(signum)
@@ -616,6 +793,8 @@ def _train(plan_: Plan, ts: Any, wall_offset: float, interrupts: _Interrupts) ->
         return 0
     checkpoints = writer = progress = None
     status = 0
+    failure: str | None = None  # the error line, once the run directory is put in order
+    kept = ""  # what the error line adds when the run keeps its checkpoints
     callbacks: _Callbacks | None = None
     try:
         with interrupts.attributed():
@@ -654,7 +833,7 @@ def _train(plan_: Plan, ts: Any, wall_offset: float, interrupts: _Interrupts) ->
         progress.close()
         print(
             f"{stop}: stopped after iteration {callbacks.last_iteration}, checkpoint {callbacks.last_saved} written. "
-            f"Continue with: python -m jaxpg.cli --resume {run_dir}",
+            f"Continue with: {resume_command(run_dir)}",
             file=sys.stderr,
         )
         status = _exit_status(stop.signum)
@@ -663,7 +842,7 @@ def _train(plan_: Plan, ts: Any, wall_offset: float, interrupts: _Interrupts) ->
             progress.close()
         saved = callbacks.last_saved if callbacks is not None else plan_.start
         note = finish_run_dir(plan_, checkpointed=saved > 0) if primary else ""
-        resume = f"; continue from checkpoint {saved} with: python -m jaxpg.cli --resume {run_dir}" if saved else ""
+        resume = f"; continue from checkpoint {saved} with: {resume_command(run_dir)}" if saved else ""
         signum = interrupts.requested or signal.SIGINT
         print(f"\n{signal.Signals(signum).name}: stopped at once{resume}{note}", file=sys.stderr)
         return _exit_status(signum)
@@ -671,18 +850,18 @@ def _train(plan_: Plan, ts: Any, wall_offset: float, interrupts: _Interrupts) ->
         progress.close()
         _print(
             f"time limit of {plan_.time_limit_s / 60:g} min reached after iteration {callbacks.last_iteration} "
-            f"(checkpoint written; continue with: python -m jaxpg.cli --resume {run_dir})"
+            f"(checkpoint written; continue with: {resume_command(run_dir)})"
         )
     except train.TrainingDiverged as e:
         progress.close()
-        print(f"error: {e}; metrics and checkpoints up to then are in {run_dir}", file=sys.stderr)
+        failure, kept = str(e), f"; metrics and checkpoints up to then are in {run_dir}"
         status = 1
     except (OSError, ckpt_lib.CheckpointError) as e:
         if progress is not None:
             progress.close()
         what = f"{e.strerror}: {e.filename}" if isinstance(e, OSError) and e.strerror else str(e).splitlines()[0]
         hint = " (disk full?)" if isinstance(e, OSError) and e.errno == 28 else ""
-        print(f"error: writing the run directory failed: {what}{hint}", file=sys.stderr)
+        failure, kept = f"writing the run directory failed: {what}{hint}", ""
         status = 2
     finally:
         for closable in (progress, writer, checkpoints):
@@ -691,15 +870,22 @@ def _train(plan_: Plan, ts: Any, wall_offset: float, interrupts: _Interrupts) ->
                     closable.close()
                 except Exception:  # noqa: BLE001 - closing after a failure must not hide it
                     pass
-    if primary:
-        saved = callbacks.last_saved if callbacks is not None else plan_.start
-        note = finish_run_dir(plan_, checkpointed=saved > 0)
-        if note:
-            print(f"the run stopped before its first checkpoint{note}", file=sys.stderr)
+    saved = callbacks.last_saved if callbacks is not None else plan_.start
+    note = finish_run_dir(plan_, checkpointed=saved > 0) if primary else ""
+    if failure is not None:
+        # Without a checkpoint there is nothing to resume: the note says what is on disk instead.
+        print(f"error: {_without_resume_advice(failure) + note if note else failure + kept}", file=sys.stderr)
+    elif note:
+        print(f"the run stopped before its first checkpoint{note}", file=sys.stderr)
     if status == 0 and primary:
         _report_end(plan_, callbacks)
     distributed.barrier("jaxpg: done")  # the processes leave together (JAX's shutdown waits for all)
     return status
+
+
+def _without_resume_advice(message: str) -> str:
+    """``message`` without a closing advice to continue with ``--resume``."""
+    return re.sub(r"[,;]?\s*(then )?continue with --resume\b.*$", "", message)
 
 
 def _report_end(plan_: Plan, callbacks: _Callbacks) -> None:
@@ -738,10 +924,11 @@ def _report_end(plan_: Plan, callbacks: _Callbacks) -> None:
         pass
     _print(f"run directory: {run_dir}  (metrics.jsonl, curves.png, tensorboard/, checkpoints/)")
     if run.task == "atari_pong":  # the real game is ALE's: play it there
-        _print(f"evaluate: python -m jaxpg.evaluate {run_dir} --ale --episodes 10 [--no-sticky]")
+        _print(f"evaluate: python -m jaxpg.evaluate {shlex.quote(str(run_dir))} --ale --episodes 10 [--no-sticky]")
         return
     from jaxpg import evaluate
 
     gymnasium = " [--gymnasium]" if run.task in evaluate.GYMNASIUM_IDS else ""
-    video = f"[--video {run_dir}/videos/final.mp4]"
-    _print(f"evaluate: python -m jaxpg.evaluate {run_dir} --episodes 10{gymnasium} {video}")
+    quoted = shlex.quote(str(run_dir))
+    video = f"[--video {shlex.quote(str(run_dir / runlog.VIDEO_DIR / 'final.mp4'))}]"
+    _print(f"evaluate: python -m jaxpg.evaluate {quoted} --episodes 10{gymnasium} {video}")

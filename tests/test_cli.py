@@ -124,8 +124,9 @@ def test_existing_run_directory_is_never_overwritten(trained, capsys):
 def test_overwrite_replaces_only_a_run_directory(trained, runs, capsys):
     copy = runs / "overwritten"
     shutil.copytree(trained, copy)
-    assert cli.main([*TINY, "--run-dir", str(copy), "--overwrite", "--iterations", "0"]) == 0
-    assert not (copy / "metrics.jsonl").exists() and json.loads((copy / "config.json").read_text())["iterations"] == 0
+    assert cli.main([*TINY, "--run-dir", str(copy), "--overwrite", "--iterations", "2"]) == 0
+    assert [r["iteration"] for r in runlog.read_metrics(copy)] == [1, 2]
+    assert json.loads((copy / "config.json").read_text())["iterations"] == 2
     foreign = runs / "foreign"
     foreign.mkdir()
     (foreign / "thesis.tex").write_text("precious")

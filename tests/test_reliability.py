@@ -11,6 +11,8 @@ import dataclasses
 import hashlib
 import json
 import os
+import re
+import shutil
 import signal
 import subprocess
 import sys
@@ -178,10 +180,14 @@ def test_overwritten_run_comes_back_when_the_new_run_writes_no_checkpoint(existi
     subprocess.run(["cp", "-r", str(existing), str(copy)], check=True)
     before = digest(copy)
     plan = cli.plan([*TINY, "--iterations", "4", "--run-dir", str(copy), "--overwrite"], cli.Experiment())
-    session.prepare_run_dir(plan)
+    lock = runlog.RunLock(copy)
+    session.prepare_run_dir(plan, lock)
     assert plan.replaced is not None and plan.replaced.exists() and digest(copy) != before
+    assert lock.held and (copy / runlog.LOCK_FILE).exists()  # the new directory is locked
     note = session.finish_run_dir(plan, checkpointed=False)
+    lock.release()
     assert "is back" in note and digest(copy) == before and not plan.replaced.exists()
+    assert names(tmp_path) == ["copy"]
 
 
 def test_a_second_writer_is_refused_and_a_stale_lock_is_taken_over(existing, capsys, tmp_path):
@@ -197,6 +203,7 @@ def test_a_second_writer_is_refused_and_a_stale_lock_is_taken_over(existing, cap
             assert cli.main(argv) == 2
             err = capsys.readouterr().err
             assert err.count("\n") == 1 and f"in use by process {sleeper.pid}" in err, err
+            assert runlog.LOCK_FILE in err, err  # the file to delete if that process is in fact gone
             assert digest(copy) == before
     finally:
         sleeper.kill()
@@ -250,3 +257,232 @@ def test_interrupt_between_writing_the_run_directory_and_the_training_loop(tmp_p
     lines = [line for line in capsys.readouterr().err.splitlines() if line.strip()]
     assert len(lines) == 1 and "SIGINT: stopped at once" in lines[0] and "was removed" in lines[0], lines
     assert not run_dir.exists()
+
+
+# --------------------------------------------------------------------------- run directories: nothing lost
+
+
+def copy_run(existing: Path, path: Path) -> Path:
+    shutil.copytree(existing, path, symlinks=True)
+    return path
+
+
+def one_error_line(err: str, *parts: str) -> str:
+    """``err`` is exactly one ``error:`` line holding every one of ``parts``; returns it."""
+    assert err.count("\n") == 1 and err.startswith("error: "), err
+    assert all(part in err for part in parts), err
+    return err.strip()
+
+
+def names(path: Path) -> list[str]:
+    return sorted(os.listdir(path))
+
+
+def dead_pid() -> int:
+    """The process id of a process that has ended."""
+    proc = subprocess.Popen([sys.executable, "-c", "pass"])
+    proc.wait()
+    return proc.pid
+
+
+def foreign_app(tmp_path: Path, existing: Path) -> Path:
+    """Someone's project that happens to have a config.json."""
+    path = tmp_path / "proj"
+    (path / "src").mkdir(parents=True)
+    (path / "config.json").write_text('{"name": "app"}\n')
+    (path / "src" / "important.txt").write_text("x\n")
+    return path
+
+
+def run_with_notes(tmp_path: Path, existing: Path) -> Path:
+    """A jaxpg run with a file of the user's beside it."""
+    path = copy_run(existing, tmp_path / "run")
+    (path / "notes.txt").write_text("keep me\n")
+    return path
+
+
+def link_to_foreign(tmp_path: Path, existing: Path) -> Path:
+    """A symbolic link to a directory that is not a jaxpg run."""
+    target = tmp_path / "store" / "thesis"
+    target.mkdir(parents=True)
+    (target / "thesis.tex").write_text("precious\n")
+    link = tmp_path / "runs" / "link"
+    link.parent.mkdir()
+    link.symlink_to(target)
+    return link
+
+
+@pytest.mark.parametrize("make", [foreign_app, run_with_notes, link_to_foreign], ids=lambda f: f.__name__)
+def test_overwrite_refuses_what_is_not_only_a_jaxpg_run(make, existing, tmp_path, capsys):
+    """``--overwrite`` replaces a directory only if its config.json reads as a jaxpg run and it
+    holds nothing a run does not write; anything else is one ``error:`` line and nothing moves."""
+    path = make(tmp_path, existing)
+    before, around = digest(path.resolve()), {p: names(p) for p in {path.parent, path.resolve().parent}}
+    status = cli.main([*TINY, "--iterations", "2", "--run-dir", str(path), "--overwrite"])
+    one_error_line(capsys.readouterr().err, "refusing to --overwrite")
+    assert status == 2
+    assert digest(path.resolve()) == before and {p: names(p) for p in around} == around
+
+
+def test_overwrite_through_a_symbolic_link_keeps_the_link(existing, tmp_path, capsys):
+    """A run directory given as a symbolic link to a jaxpg run: the run in the link's target is
+    replaced; the link stays a link to it, and nothing is left beside either."""
+    target = copy_run(existing, tmp_path / "store" / "real")
+    link = tmp_path / "runs" / "link"
+    link.parent.mkdir()
+    link.symlink_to(target)
+    assert cli.main([*TINY, "--iterations", "2", "--run-dir", str(link), "--overwrite"]) == 0, capsys.readouterr()
+    assert link.is_symlink() and link.resolve() == target.resolve()
+    assert [r["iteration"] for r in runlog.read_metrics(target)] == [1, 2]
+    assert json.loads((target / runlog.CONFIG_FILE).read_text())["iterations"] == 2
+    assert names(link.parent) == ["link"] and names(target.parent) == ["real"]
+
+
+def test_zero_iterations_is_refused_and_writes_nothing(existing, tmp_path, capsys):
+    """A new run of 0 iterations would leave a run directory without a checkpoint (nothing to
+    resume), or, with ``--overwrite``, hide the old run: refused before anything is written."""
+    copy = copy_run(existing, tmp_path / "copy")
+    before = digest(copy)
+    for argv in (["--run-dir", str(tmp_path / "new")], ["--run-dir", str(copy), "--overwrite"]):
+        assert cli.main([*TINY, "--iterations", "0", *argv]) == 2
+        one_error_line(capsys.readouterr().err, "--iterations")
+    assert names(tmp_path) == ["copy"] and digest(copy) == before
+
+
+def test_a_writer_that_finds_the_directory_taken_writes_nothing(tmp_path, capsys):
+    """Two new runs into one directory, planned while it was free: the one that comes second to
+    the directory finds it locked by the first, exits with status 2 naming that process, and
+    changes no byte of the first one's files (the lock comes before any write)."""
+    run_dir = tmp_path / "race"
+    second = cli.plan([*TINY, "--iterations", "2", "--seed", "7", "--run-dir", str(run_dir)], cli.Experiment())
+    first = subprocess.Popen(command("--iterations", "100000", "--run-dir", str(run_dir)), stderr=subprocess.DEVNULL)
+    try:
+        wait_for(run_dir / runlog.CONFIG_FILE)  # written once the first holds the lock
+        first.send_signal(signal.SIGSTOP)  # its files hold still while the second tries
+        assert json.loads((run_dir / runlog.LOCK_FILE).read_text())["pid"] == first.pid
+        before = digest(run_dir)
+        status = session.execute(second)
+        one_error_line(capsys.readouterr().err, f"in use by process {first.pid}")
+        assert status == 2
+        assert digest(run_dir) == before and names(tmp_path) == ["race"]
+        assert json.loads((run_dir / runlog.CONFIG_FILE).read_text())["seeds"] == [0]
+    finally:
+        first.kill()
+        first.wait()
+
+
+def test_overwrite_killed_before_its_first_checkpoint_is_undone_by_the_next_command(existing, tmp_path, capsys):
+    """``kill -9`` of an ``--overwrite`` run while it compiles leaves the old run moved aside; the
+    next command on that directory finds it (its process has ended, the new run has no
+    checkpoint), puts it back, and says so."""
+    copy = copy_run(existing, tmp_path / "copy")
+    before = digest(copy)
+    argv = command("--iterations", "100000", "--checkpoint-every", "0", "--run-dir", str(copy), "--overwrite")
+    proc = subprocess.Popen(argv, stderr=subprocess.DEVNULL)
+    deadline = time.monotonic() + 900
+    while not (list(tmp_path.glob("copy.replaced-*")) and (copy / runlog.CONFIG_FILE).exists()):
+        assert time.monotonic() < deadline and proc.poll() is None, "the old run was never moved aside"
+        time.sleep(0.1)
+    proc.kill()
+    proc.wait()
+    assert cli.main(["--resume", str(copy), "--iterations", "4"]) == 0
+    captured = capsys.readouterr()
+    notes = [line for line in captured.err.splitlines() if line.strip()]
+    assert len(notes) == 1 and notes[0].startswith("note: ") and f"copy.replaced-{proc.pid}" in notes[0], notes
+    assert "nothing to do" in captured.out
+    assert digest(copy) == before and names(tmp_path) == ["copy"]
+
+
+def test_a_run_moved_aside_beside_a_resumable_run_is_pointed_to(existing, tmp_path, capsys):
+    """An old run moved aside by an ``--overwrite`` whose process ended after the new run's first
+    checkpoint: both are kept, and each command on the directory says where the old one is."""
+    run_dir = copy_run(existing, tmp_path / "run")
+    aside = copy_run(existing, tmp_path / f"run.replaced-{dead_pid()}")
+    before = digest(tmp_path)
+    assert cli.main(["--resume", str(run_dir), "--iterations", "4"]) == 0
+    notes = [line for line in capsys.readouterr().err.splitlines() if line.strip()]
+    assert len(notes) == 1 and notes[0].startswith("note: ") and str(aside) in notes[0], notes
+    assert digest(tmp_path) == before
+
+
+def test_resume_with_nothing_to_do_writes_nothing(existing, capsys):
+    before = digest(existing)
+    assert cli.main(["--resume", str(existing), "--iterations", "2"]) == 0
+    assert "nothing to do" in capsys.readouterr().out
+    assert digest(existing) == before
+
+
+def test_resume_refuses_a_damaged_line_inside_the_metrics(existing, tmp_path, capsys):
+    """A line that is not JSON in the middle of metrics.jsonl (not a torn last line, which a
+    killed process leaves and a resume drops) is named, and the file is left as it is."""
+    copy = copy_run(existing, tmp_path / "copy")
+    lines = (copy / runlog.METRICS_FILE).read_text().splitlines(keepends=True)
+    lines[1] = lines[1][: len(lines[1]) // 2] + "\n"
+    (copy / runlog.METRICS_FILE).write_text("".join(lines))
+    before = digest(copy)
+    assert cli.main(["--resume", str(copy), "--iterations", "6"]) == 2
+    one_error_line(capsys.readouterr().err, "metrics.jsonl", "line 2")
+    assert digest(copy) == before
+
+
+def test_resume_of_a_file_says_it_is_not_a_run_directory(tmp_path, capsys):
+    path = tmp_path / "README.md"
+    path.write_text("# hello\n")
+    assert cli.main(["--resume", str(path)]) == 2
+    line = one_error_line(capsys.readouterr().err, "not a run directory")
+    assert "does not exist" not in line
+
+
+def test_a_run_without_a_checkpoint_points_to_overwrite(existing, tmp_path, capsys):
+    """A run directory left without a checkpoint (its process was killed before the first one):
+    a new run into it and ``--resume`` both say that ``--overwrite`` starts it again, which works."""
+    copy = copy_run(existing, tmp_path / "copy")
+    shutil.rmtree(copy / runlog.CHECKPOINT_DIR)
+    before = digest(copy)
+    assert cli.main([*TINY, "--iterations", "2", "--run-dir", str(copy)]) == 2
+    assert "--resume" not in one_error_line(capsys.readouterr().err, "no checkpoint", "--overwrite")
+    assert cli.main(["--resume", str(copy)]) == 2
+    one_error_line(capsys.readouterr().err, "no checkpoint", "--overwrite")
+    assert digest(copy) == before
+    assert cli.main([*TINY, "--iterations", "2", "--run-dir", str(copy), "--overwrite"]) == 0
+    assert [r["iteration"] for r in runlog.read_metrics(copy)] == [1, 2]
+
+
+def disk_full_on_save(monkeypatch) -> None:
+    """Every checkpoint save fails as a full disk does."""
+    import errno
+
+    import orbax.checkpoint as ocp
+
+    def full(manager, step, *args, **kwargs):
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(manager.directory))
+
+    monkeypatch.setattr(ocp.CheckpointManager, "save", full)
+
+
+def test_disk_full_before_the_first_checkpoint_says_what_is_on_disk(existing, tmp_path, monkeypatch, capsys):
+    """The disk fills before a new run's first checkpoint: the run it replaced is back (or the new
+    directory is gone), and the one error line says so instead of advising ``--resume``."""
+    copy = copy_run(existing, tmp_path / "copy")
+    before = digest(copy)
+    disk_full_on_save(monkeypatch)
+    assert cli.main([*TINY, "--iterations", "2", "--run-dir", str(copy), "--overwrite"]) == 2
+    line = one_error_line(capsys.readouterr().err, "disk is full", f"back in {copy}")
+    assert "--resume" not in line
+    assert digest(copy) == before and names(tmp_path) == ["copy"]
+    assert cli.main([*TINY, "--iterations", "2", "--run-dir", str(tmp_path / "new")]) == 2
+    assert "--resume" not in one_error_line(capsys.readouterr().err, "disk is full", "was removed")
+    assert names(tmp_path) == ["copy"]
+
+
+def test_printed_commands_are_shell_quoted(existing, tmp_path, capsys):
+    """Commands printed for the user work when pasted into a shell, whatever the run directory's name."""
+    import shlex
+
+    run_dir = tmp_path / "my runs" / "it's"
+    assert cli.main([*TINY, "--iterations", "8", "--minutes", "1e-9", "--run-dir", str(run_dir)]) == 0
+    out = capsys.readouterr().out
+    resume = re.search(r"continue with: (python -m jaxpg\.cli --resume .*)\)$", out, flags=re.M)
+    assert resume and shlex.split(resume.group(1))[-1] == str(run_dir), out
+    assert cli.main([*TINY, "--iterations", "4", "--run-dir", str(run_dir)]) == 2
+    assert f"--resume {shlex.quote(str(run_dir))}" in capsys.readouterr().err

@@ -27,6 +27,7 @@ GYMNASIUM_IDS = {
     "hopper": "Hopper-v5",
     "inverted_pendulum": "InvertedPendulum-v5",
     "inverted_double_pendulum": "InvertedDoublePendulum-v5",
+    "half_cheetah": "HalfCheetah-v5",
     "cartpole": "CartPole-v1",
 }
 

@@ -28,6 +28,7 @@ GYMNASIUM_IDS = {
     "inverted_pendulum": "InvertedPendulum-v5",
     "inverted_double_pendulum": "InvertedDoublePendulum-v5",
     "half_cheetah": "HalfCheetah-v5",
+    "swimmer": "Swimmer-v5",
     "cartpole": "CartPole-v1",
 }
 

@@ -29,6 +29,8 @@ GYMNASIUM_IDS = {
     "hopper": "Hopper-v5",
     "inverted_pendulum": "InvertedPendulum-v5",
     "inverted_double_pendulum": "InvertedDoublePendulum-v5",
+    "half_cheetah": "HalfCheetah-v5",
+    "swimmer": "Swimmer-v5",
     "cartpole": "CartPole-v1",
 }
 

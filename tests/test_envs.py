@@ -18,6 +18,7 @@ import subprocess
 import sys
 import tempfile
 import time
+import warnings
 from collections.abc import Callable
 
 import gymnasium as gym
@@ -38,10 +39,34 @@ GYM_IDS = {
     "hopper": "Hopper-v5",
     "inverted_pendulum": "InvertedPendulum-v5",
     "inverted_double_pendulum": "InvertedDoublePendulum-v5",
+    "half_cheetah": "HalfCheetah-v5",
+    "swimmer": "Swimmer-v5",
 }
+# Tasks that never terminate (Gymnasium's step always returns terminated False): their float64
+# parity run is one whole episode to the time limit under random actions (``episode_parity``, checked
+# by ``test_gymnasium_parity_whole_episode``) in place of the termination checks of the others.
+WITHOUT_TERMINATION = ("half_cheetah", "swimmer")
+TERMINATING = [task for task in GYM_IDS if task not in WITHOUT_TERMINATION]
 PARITY_SEEDS = 4
 PARITY_STEPS = 60  # per seed; stepping goes on after termination, as Gymnasium's MuJoCo envs allow
 FULL_EPISODE_NOISE = 0.2  # of the action range, added to the stabilising controller in the full episodes
+
+
+def make_gymnasium(task: str, **kwargs) -> gym.Env:
+    """``gymnasium.make`` of ``task``'s Gymnasium v5 env, without the warning MuJoCo's compiler gives
+    for Gymnasium's HalfCheetah model (its deprecated ``settotalmass``), which MuJoCo also appends to
+    a ``MUJOCO_LOG.TXT`` in the working directory. Other warnings are raised as Python warnings."""
+
+    def warn(message: str) -> None:
+        if "settotalmass" not in message:
+            warnings.warn(f"MuJoCo: {message}", stacklevel=2)
+
+    previous = mujoco.get_mju_user_warning()
+    mujoco.set_mju_user_warning(warn)
+    try:
+        return gym.make(GYM_IDS[task], **kwargs)
+    finally:
+        mujoco.set_mju_user_warning(previous)
 
 
 # --------------------------------------------------------------------------------------------
@@ -56,7 +81,7 @@ def test_fast_fidelity_observation_and_reward_match_gymnasium(task):
     of their own physics, and obs, reward and ``terminated`` must be those of Gymnasium, exactly
     after the float32 cast (computed in float64, as Gymnasium does)."""
     env = envs.make_task(task, fidelity="fast", impl="jax")
-    gym_env = gym.make(GYM_IDS[task]).unwrapped
+    gym_env = make_gymnasium(task).unwrapped
     model = gym_env.model
     model.opt.integrator = mujoco.mjtIntegrator.mjINT_EULER
     model.opt.iterations = FAST_SOLVER_ITERATIONS
@@ -84,7 +109,10 @@ def test_fast_fidelity_observation_and_reward_match_gymnasium(task):
             assert np.float32(state.reward) == np.float32(reward)
             assert bool(state.terminated) == terminated
             terminations += int(terminated)
-    assert terminations > 0 or task == "hopper"  # random actions topple the pendulums
+    if task in WITHOUT_TERMINATION:
+        assert terminations == 0
+    else:
+        assert terminations > 0 or task == "hopper"  # random actions topple the pendulums
 
 
 def test_reset_distributions():
@@ -146,6 +174,73 @@ def test_hopper_reset_distribution_matches_gymnasium():
         np.testing.assert_allclose(noise.std(axis=0), scale / np.sqrt(3), rtol=5 / np.sqrt(5 * n), err_msg=name)
         ks = np.abs((np.sort(noise, axis=0) + scale) / (2 * scale) - uniform_cdf[:, None]).max(axis=0) + 0.5 / n
         assert np.all(ks < 2.47 / np.sqrt(n)), (name, ks)
+
+
+# Tasks whose MJCF asset is Gymnasium's v5 model to the bit (test_model_matches_gymnasium), and whose
+# reset distribution is compared with Gymnasium's by samples (test_reset_distribution_matches_gymnasium).
+EXACT_MODEL_TASKS = ("half_cheetah", "swimmer")
+RESET_SAMPLES = 2000
+
+
+@pytest.mark.parametrize("task", EXACT_MODEL_TASKS)
+def test_model_matches_gymnasium(task):
+    """jaxpg's asset, compiled in fidelity "gymnasium", is Gymnasium's v5 model: every numeric array
+    of the ``MjModel`` (geometry, masses and inertias, joints, actuators, contact and solver
+    parameters, the constants MuJoCo derives from them) and every physics option equal to the bit.
+    Only the name tables may differ (jaxpg names its models ``jaxpg_<task>``). The "fast" fidelity
+    differs from it in the integrator and solver iterations alone."""
+    reference = make_gymnasium(task).unwrapped.model
+    for fidelity in ("gymnasium", "fast"):
+        model = envs.make_task(task, fidelity=fidelity, impl="jax").mj_model
+        arrays = [k for k in dir(reference) if not k.startswith("_") and isinstance(getattr(reference, k), np.ndarray)]
+        assert len(arrays) > 100, arrays  # the model's arrays, not an empty list
+        differ = [
+            k
+            for k in arrays
+            if not k.startswith("name") and not np.array_equal(getattr(model, k), getattr(reference, k), equal_nan=True)
+        ]
+        options = [k for k in dir(reference.opt) if not k.startswith("_") and not callable(getattr(reference.opt, k))]
+        differ += [f"opt.{k}" for k in options if not np.array_equal(getattr(model.opt, k), getattr(reference.opt, k))]
+        if fidelity == "gymnasium":
+            assert differ == [], differ
+        else:
+            assert set(differ) <= {"opt.integrator", "opt.iterations", "opt.ls_iterations"}, differ
+            assert (model.opt.iterations, model.opt.ls_iterations) == (FAST_SOLVER_ITERATIONS, FAST_LS_ITERATIONS)
+
+
+@pytest.mark.parametrize("task", EXACT_MODEL_TASKS)
+def test_reset_distribution_matches_gymnasium(task):
+    """``RESET_SAMPLES`` resets of jaxpg's task (from keys) against as many of Gymnasium's v5 env
+    (seeded): the same initial pose, and every coordinate of ``(qpos - init_qpos, qvel)`` drawn from
+    the same distribution: per coordinate, a two-sample Kolmogorov-Smirnov test (shape) and the
+    Brown-Forsythe test (spread), each with p > 1e-4. Both sample sets are fixed by their seeds, so
+    the outcome is deterministic; at 2000 samples a side the threshold accepts a KS distance up to
+    0.070 and a spread ratio within about 10% (4 standard errors), which a noise scale 20% off,
+    uniform noise in place of normal (KS distance >= 0.16) or noise on the wrong coordinates exceed.
+    Coordinates that Gymnasium leaves without noise must be exactly that constant in jaxpg."""
+    from scipy import stats
+
+    gym_env = make_gymnasium(task).unwrapped
+    env = envs.make_task(task, fidelity="gymnasium", impl="jax")
+    np.testing.assert_array_equal(np.asarray(env.init_qpos), gym_env.init_qpos.astype(np.float32))
+    np.testing.assert_array_equal(np.asarray(env.init_qvel), gym_env.init_qvel)
+    # Only the noise is under test: skip a reset's forward pass, which would cost a compilation.
+    env.physics_state = lambda qpos, qvel, forward=False: MjxEnv.physics_state(env, qpos, qvel)
+    data = jax.jit(jax.vmap(env.reset))(jax.random.split(jax.random.key(0), RESET_SAMPLES)).data
+    init = np.asarray(env.init_qpos, np.float64)
+    mine = np.concatenate([np.asarray(data.qpos, np.float64) - init, np.asarray(data.qvel, np.float64)], axis=1)
+    theirs = []
+    for seed in range(RESET_SAMPLES):
+        gym_env.reset(seed=seed)
+        theirs.append(np.concatenate([gym_env.data.qpos - init, gym_env.data.qvel]))
+    theirs = np.stack(theirs)
+    for i in range(theirs.shape[1]):
+        if np.all(theirs[:, i] == theirs[0, i]):
+            np.testing.assert_array_equal(mine[:, i], theirs[0, i], err_msg=f"coordinate {i}")
+        else:
+            shape = stats.ks_2samp(mine[:, i], theirs[:, i])
+            spread = stats.levene(mine[:, i], theirs[:, i], center="median")
+            assert shape.pvalue > 1e-4 and spread.pvalue > 1e-4, (i, shape, spread)
 
 
 # --------------------------------------------------------------------------------------------
@@ -466,7 +561,35 @@ def test_make_unknown_name_lists_known_names():
     for name in envs.names():
         assert name in str(error.value)
     expected = ["atari_pong", "cartpole", "hopper", "inverted_double_pendulum", "inverted_pendulum", "pong"]
+    expected += ["half_cheetah", "swimmer"]
     assert envs.names() == sorted(expected)
+
+
+@pytest.mark.parametrize("task", EXACT_MODEL_TASKS)
+def test_training_smoke_run_from_the_command_line(task, tmp_path):
+    """Two NPG iterations of the task in the default "fast" fidelity from the command line (4 envs x
+    16 steps, time limit 8 so that episodes end and restart inside the samples, no mean-policy
+    evaluation): the run succeeds and logs both iterations with the samples they drew, the 8
+    episodes that ended in each, finite returns and task scores, no non-finite step and no
+    rejected update. The task is also the Gymnasium id jaxpg registers, with Gymnasium's limit."""
+    from jaxpg import cli
+    from jaxpg.envs import gymnasium_api
+
+    gym_id = gymnasium_api.gymnasium_id(task)
+    assert gym_id == f"jaxpg/{GYM_IDS[task]}"
+    limit = envs.make_task(task, impl="jax").max_episode_steps
+    assert gym.spec(gym_id).max_episode_steps == gym.spec(GYM_IDS[task]).max_episode_steps == limit
+
+    run_dir = tmp_path / "run"
+    argv = ["--env", task, "--impl", "jax", "--num-envs", "4", "--horizon", "16", "--max-episode-steps", "8"]
+    argv += ["--eval-envs", "0"]
+    assert cli.main([*argv, "--iterations", "2", "--no-progress", "--run-dir", str(run_dir)]) == 0
+    records = [json.loads(line) for line in (run_dir / "metrics.jsonl").read_text().splitlines()]
+    records = [r for r in records if "return_stochastic" in r]
+    assert [r["env_steps"] for r in records] == [64, 128], records
+    for r in records:
+        assert r["nonfinite"] == 0 and not r.get("update_rejected") and r["episodes"] == 8, r
+        assert np.isfinite(r["return_stochastic"]) and np.isfinite(r["task_score"]), r
 
 
 def test_wrappers_forward_task_attributes():
@@ -595,7 +718,7 @@ def gymnasium_parity(task: str, env, reset, step, seeds: int = PARITY_SEEDS, ste
     in qpos, qvel, obs and reward within the episodes (up to and including the first termination)
     and after them (Gymnasium's MuJoCo envs keep stepping), with the ``terminated`` mismatches and
     the episode lengths. Meant for a process with ``JAX_ENABLE_X64=1``."""
-    gym_env = gym.make(GYM_IDS[task]).unwrapped  # no TimeLimit
+    gym_env = make_gymnasium(task).unwrapped  # no TimeLimit
     quantities = ("qpos", "qvel", "obs", "reward")
     result = {"reset_obs": 0.0, "episode_lengths": [], "episode_mismatches": 0, "after_mismatches": 0}
     result |= {f"{part}_{q}": 0.0 for part in ("episode", "after") for q in quantities}
@@ -686,7 +809,7 @@ def time_limit_parity(task: str, env, reset, step, seed: int = 0) -> dict:
     of jaxpg's flags against Gymnasium's under jaxpg's rule (see ``test_gymnasium_parity_to_time_limit``),
     the episode's length, Gymnasium's return and ``EpisodeStats``' metrics at jaxpg's last step.
     Meant for a process with ``JAX_ENABLE_X64=1``."""
-    gym_env = gym.make(GYM_IDS[task])  # with its TimeLimit(1000)
+    gym_env = make_gymnasium(task)  # with its TimeLimit(1000)
     base = gym_env.unwrapped
     policy = stabilising_policy(task, base.model, base.frame_skip)
     low, high = env.action_low, env.action_high
@@ -734,7 +857,7 @@ def coincidence_parity(task: str, env, reset, step, length: int, seed: int = 0) 
     ``max_episode_steps - length`` (where it stands ``length`` steps before the limit; the same
     as a time limit of ``length``, without compiling another step). Returns both envs' flags
     ``[t, terminated, truncated, gym terminated, gym truncated]`` at every step."""
-    gym_env = gym.make(GYM_IDS[task], max_episode_steps=length)
+    gym_env = make_gymnasium(task, max_episode_steps=length)
     state = reset(jax.random.key(seed))
     state = state.replace(info={**state.info, "step": jnp.asarray(env.max_episode_steps - length, jnp.int32)})
     gym_env.reset(seed=seed)
@@ -749,15 +872,90 @@ def coincidence_parity(task: str, env, reset, step, length: int, seed: int = 0) 
     return {"flags": flags}
 
 
+# Free-running steps after which ``episode_parity`` sets jaxpg's physics state to Gymnasium's before
+# every step; tasks not listed run free to the time limit (see test_gymnasium_parity_whole_episode).
+RESYNC_AFTER = {"half_cheetah": 20}
+
+
+def episode_parity(task: str, env, reset, step, seed: int = 0) -> dict:
+    """One whole episode of jaxpg's ``task`` (``env`` from ``envs.make``, see ``_parity_env``) and of
+    ``gymnasium.make(ID)`` with its TimeLimit, side by side from jaxpg's reset state with the same
+    uniform random in-range actions, for a task that never terminates.
+
+    Runs free for the first ``RESYNC_AFTER[task]`` steps (all of them for tasks not listed); after
+    those, jaxpg's ``qpos``, ``qvel`` and ``qacc_warmstart`` (the constraint solver's starting
+    point) are set to Gymnasium's before each step, so that each step is compared from the same
+    state where chaos would amplify rounding over a whole episode. Returns the largest differences
+    in qpos, qvel, obs, reward and the ``info`` terms that jaxpg's metrics share with Gymnasium's
+    (``info``), separately for the free ("free_*") and the re-synced steps ("synced_*"), the
+    largest free difference at each step (``free_qpos_by_step``), the reset observation's
+    difference, the flags ``[t, terminated, truncated, gym terminated, gym truncated]`` wherever
+    one is set, the episode's length, the ``info`` keys compared, Gymnasium's return with the bound
+    on its float32 accumulation (``return_rounding``: 2^-24 times the sum of the running sums'
+    magnitudes) and ``EpisodeStats``' metrics at the last step. Meant for ``JAX_ENABLE_X64=1``."""
+    gym_env = make_gymnasium(task)  # with its TimeLimit
+    base = gym_env.unwrapped
+    resync_after = RESYNC_AFTER.get(task, env.max_episode_steps)
+    state = reset(jax.random.key(seed))
+    gym_env.reset(seed=seed)
+    base.set_state(np.asarray(state.data.qpos, np.float64), np.asarray(state.data.qvel, np.float64))
+    quantities = ("qpos", "qvel", "obs", "reward", "info")
+    result = {f"{part}_{q}": 0.0 for part in ("free", "synced") for q in quantities}
+    result |= {"reset_obs": float(np.max(np.abs(np.asarray(state.obs, np.float64) - base._get_obs())))}
+    result |= {"free_qpos_by_step": [], "flags": [], "info_keys": [], "gym_return": 0.0, "return_rounding": 0.0}
+    rng = np.random.default_rng(seed)
+
+    def note(name: str, a: np.ndarray, b: np.ndarray) -> float:
+        difference = float(np.max(np.abs(np.asarray(a, np.float64) - b)))
+        result[name] = max(result[name], difference)
+        return difference
+
+    for t in range(1, 2 * env.max_episode_steps):
+        action = rng.uniform(env.action_low, env.action_high, env.action_size)
+        part = "free" if t <= resync_after else "synced"
+        if part == "synced":
+            data = state.data.replace(
+                qpos=jnp.asarray(base.data.qpos), qvel=jnp.asarray(base.data.qvel),
+                qacc_warmstart=jnp.asarray(base.data.qacc_warmstart),
+            )  # fmt: skip
+            state = state.replace(data=data)
+        state = step(state, jnp.asarray(action))
+        obs, reward, terminated, truncated, info = gym_env.step(action)
+        qpos = note(f"{part}_qpos", state.data.qpos, base.data.qpos)
+        if part == "free":
+            result["free_qpos_by_step"].append(qpos)
+        note(f"{part}_qvel", state.data.qvel, base.data.qvel)
+        note(f"{part}_obs", state.obs, obs)
+        note(f"{part}_reward", state.reward, np.float64(reward))
+        shared = sorted(k for k in info if k in state.metrics)
+        result["info_keys"] = shared
+        note(f"{part}_info", np.array([state.metrics[k] for k in shared]), np.array([info[k] for k in shared]))
+        result["gym_return"] += float(reward)
+        result["return_rounding"] += 2.0**-24 * abs(result["gym_return"])
+        flags = [bool(state.terminated), bool(state.truncated), terminated, truncated]
+        if any(flags):
+            result["flags"].append([t, *flags])
+        if bool(state.done) or terminated or truncated:
+            break
+    result["length"] = t
+    result["metrics"] = {k: float(state.metrics[k]) for k in ("episode_return", "episode_length", "episode_done")}
+    return result
+
+
 def parity_worker_main(tasks: list[str]) -> dict:
     """The float64 worker's findings for each of ``tasks``: ``gymnasium_parity`` ("random"),
     ``time_limit_parity`` ("time_limit") and ``coincidence_parity`` ("coincidence"), all on one
     compiled ``reset`` and ``step`` per task, with the CPU seconds of the first two ("cpu_seconds",
-    the first with the compilation)."""
+    the first with the compilation); ``episode_parity`` ("episode") alone for the tasks
+    ``WITHOUT_TERMINATION``."""
     results = {}
     for task in tasks:
         started = time.process_time()
         env, reset, step = _parity_env(task)
+        if task in WITHOUT_TERMINATION:
+            results[task] = {"episode": episode_parity(task, env, reset, step)}
+            results[task]["cpu_seconds"] = {"episode": time.process_time() - started}
+            continue
         random = gymnasium_parity(task, env, reset, step)
         seconds = {"random": time.process_time() - started}
         full = time_limit_parity(task, env, reset, step)
@@ -811,7 +1009,7 @@ def parity_results(parity_worker) -> dict:
     return json.loads(out.read().strip().splitlines()[-1])
 
 
-@pytest.mark.parametrize("task", list(GYM_IDS))
+@pytest.mark.parametrize("task", TERMINATING)
 def test_gymnasium_parity(task, parity_results):
     """jaxpg's MJX task in ``fidelity="gymnasium"`` against Gymnasium's v5 env, step by step.
 
@@ -851,7 +1049,7 @@ TIME_LIMIT_TOLERANCES = {
 }
 
 
-@pytest.mark.parametrize("task", list(GYM_IDS))
+@pytest.mark.parametrize("task", TERMINATING)
 def test_gymnasium_parity_to_time_limit(task, parity_results):
     """A full 1000-step episode of the env a user gets (``envs.make(task, fidelity="gymnasium")``:
     ``EpisodeStats(ClipAction(task))``) against ``gymnasium.make(ID)`` with its TimeLimit, side by
@@ -895,6 +1093,72 @@ def test_gymnasium_parity_to_time_limit(task, parity_results):
     flags = parity_results[task]["coincidence"]["flags"]
     assert flags[:-1] == [[t, False, False, False, False] for t in range(1, length)], flags
     assert flags[-1] == [length, True, False, True, True], flags
+
+
+# Bounds on the largest differences in ``episode_parity`` (float64; obs and reward after jaxpg's
+# float32 cast; "info" the metrics Gymnasium also reports), the same for its free and its re-synced
+# steps; measured maxima over seeds 0-5 in test_gymnasium_parity_whole_episode's docstring.
+EPISODE_TOLERANCES = {
+    "half_cheetah": {"qpos": 1e-6, "qvel": 1e-4, "obs": 1e-4, "reward": 5e-5, "info": 5e-5},
+    "swimmer": {"qpos": 1e-6, "qvel": 1e-5, "obs": 1e-5, "reward": 5e-5, "info": 5e-5},
+}
+# The keys of Gymnasium's step info that jaxpg's metrics carry too, under the same names.
+INFO_KEYS = {
+    "half_cheetah": ["reward_ctrl", "reward_forward", "x_position", "x_velocity"],
+    "swimmer": [
+        "distance_from_origin",
+        "reward_ctrl",
+        "reward_forward",
+        "x_position",
+        "x_velocity",
+        "y_position",
+        "y_velocity",
+    ],  # fmt: skip
+}
+
+
+@pytest.mark.parametrize("task", WITHOUT_TERMINATION)
+def test_gymnasium_parity_whole_episode(task, parity_results):
+    """A task without termination through a whole episode under random actions against Gymnasium's
+    v5 env with its TimeLimit (``episode_parity``, seed 0, in the float64 worker): observation,
+    reward, Gymnasium's ``info`` terms (``INFO_KEYS``: jaxpg's metrics carry them under the same
+    names), ``terminated`` never set and ``truncated`` at the time limit in both, and
+    ``EpisodeStats``' return equal to Gymnasium's up to the per-step reward differences and the
+    float32 accumulation of the running sum.
+
+    HalfCheetah (Euler at 10 ms, body and feet in contact with the floor): without contacts MJX
+    repeats MuJoCo to rounding; where a contact is active the two Newton solvers stop at different
+    iterations within their tolerance (1e-8), and the stiff contacts and the chaotic gait amplify
+    the difference: free-running, qpos agree to 1e-16..1e-14 over the first 5 steps and to 1e-14..3e-10
+    after 20 (seeds 0-5), then part by 1e-6 at step 50 and by O(1) after 100-200 steps. So the
+    episode runs free for 20 steps (``RESYNC_AFTER``) and from then on jaxpg's physics state is set
+    to Gymnasium's before every step: each of the 980 steps from the same state agrees to 1e-14 in
+    qpos and 1e-12 in qvel, except a rare step where a contact's solve parts (seed 2: 2.4e-9 in
+    qpos, 5.2e-7 in qvel). Tolerances: qpos 1e-6, qvel 1e-4 (200x over the largest measured; a
+    1% error in a mass or a gear changes a step's velocities by ~1e-3 and more); obs and reward
+    hold the float32 rounding (<= 9.5e-7 for obs up to 16, 1.1e-7 measured for the reward) on top
+    of that; the ``info`` terms and the reward differ by the velocity ``dx / dt`` with dt 0.05, 20x
+    qpos's tolerance.
+
+    Swimmer (RK4 at 10 ms, viscous fluid, nothing collides): runs free for the whole episode. Its
+    joints reach their +-100 degree limits, whose constraint solves part within tolerance as the
+    contacts do, and the difference then grows about e-fold every 80 steps: qpos agree to 1e-15
+    over the first 100 steps and to at most 1.6e-8 (qvel 1.2e-7) over the 1000 (seeds 0-2).
+    Tolerances: qpos 1e-6, qvel and obs 1e-5 (60x over the largest measured), reward and ``info``
+    5e-5 (velocities ``dx / dt`` with dt 0.04)."""
+    r = parity_results[task]["episode"]
+    limit = envs.make_task(task, impl="jax").max_episode_steps
+    assert r["length"] == limit, r
+    # [step, terminated, truncated, Gymnasium's terminated, Gymnasium's truncated] wherever one is set
+    assert r["flags"] == [[limit, False, True, False, True]], r
+    assert r["info_keys"] == INFO_KEYS[task], r
+    assert r["reset_obs"] < 1e-6, r
+    for name, tolerance in EPISODE_TOLERANCES[task].items():
+        assert r[f"free_{name}"] < tolerance and r[f"synced_{name}"] < tolerance, (name, r)
+    metrics = r["metrics"]
+    assert metrics["episode_done"] == 1.0 and metrics["episode_length"] == limit, r
+    reward_bound = limit * max(r["free_reward"], r["synced_reward"])
+    assert abs(metrics["episode_return"] - r["gym_return"]) <= r["return_rounding"] + reward_bound, r
 
 
 if __name__ == "__main__":

@@ -46,6 +46,8 @@ GYMNASIUM_IDS: dict[str, tuple[str, int]] = {
     "jaxpg/Hopper-v5": ("hopper", 1000),
     "jaxpg/InvertedPendulum-v5": ("inverted_pendulum", 1000),
     "jaxpg/InvertedDoublePendulum-v5": ("inverted_double_pendulum", 1000),
+    "jaxpg/HalfCheetah-v5": ("half_cheetah", 1000),
+    "jaxpg/Swimmer-v5": ("swimmer", 1000),
     "jaxpg/CartPole-v1": ("cartpole", 500),
 }
 

@@ -58,13 +58,15 @@ def default_impl() -> Impl:
     return "warp" if jax.default_backend() == "gpu" and warp_available() else "jax"
 
 
-def load_model(xml_file: str, fidelity: Fidelity) -> mujoco.MjModel:
+def load_model(xml_file: str, fidelity: Fidelity, total_mass: float | None = None) -> mujoco.MjModel:
     """Compile ``envs/assets/<xml_file>`` (or ``xml_file`` itself when it is an MJCF string) and
     apply the physics settings of ``fidelity``.
 
     ``"gymnasium"`` keeps the file's integrator and solver (identical to Gymnasium's model);
     ``"fast"`` switches to Euler with ``FAST_SOLVER_ITERATIONS`` Newton iterations and
     ``FAST_LS_ITERATIONS`` line-search iterations, which MJX steps an order of magnitude faster.
+    ``total_mass`` scales every body's mass and inertia to that total (``mj_setTotalmass``, then
+    ``mj_setConst``): the same model, to the bit, as the compiler's deprecated ``settotalmass``.
     """
     if fidelity not in ("fast", "gymnasium"):
         raise ValueError(f"unknown fidelity {fidelity!r}: expected 'fast' or 'gymnasium'")
@@ -72,6 +74,9 @@ def load_model(xml_file: str, fidelity: Fidelity) -> mujoco.MjModel:
         model = mujoco.MjModel.from_xml_string(xml_file)
     else:
         model = mujoco.MjModel.from_xml_path(str(ASSETS / xml_file))
+    if total_mass is not None:
+        mujoco.mj_setTotalmass(model, total_mass)
+        mujoco.mj_setConst(model, mujoco.MjData(model))
     if fidelity == "fast":
         model.opt.integrator = mujoco.mjtIntegrator.mjINT_EULER
         model.opt.iterations = FAST_SOLVER_ITERATIONS
@@ -88,6 +93,7 @@ class MjxEnv(Env):
       fidelity: ``"fast"`` (default; Euler, few solver iterations) or ``"gymnasium"``.
       impl: ``"jax"`` or ``"warp"`` (MuJoCo Warp behind MJX); ``None`` picks ``default_impl()``.
       max_episode_steps: time limit (1000 for the Gymnasium v5 tasks).
+      total_mass: scale the model's masses to this total (see ``load_model``); ``None`` keeps them.
       naconmax, njmax: per-env contact and constraint capacities for the warp implementation.
       max_batch: warp only: the most envs stepped together in one vmapped call (all nested vmaps,
         e.g. seeds x envs, multiplied). MuJoCo Warp keeps constraint rows per env (``njmax``) but
@@ -109,6 +115,7 @@ class MjxEnv(Env):
         njmax: int = 64,
         max_batch: int = 8192,
         warp_graph_mode: str | None = None,
+        total_mass: float | None = None,
     ):
         impl = impl or default_impl()
         if impl not in ("jax", "warp"):
@@ -119,7 +126,7 @@ class MjxEnv(Env):
         self.impl = impl
         self.frame_skip = frame_skip
         self.max_episode_steps = max_episode_steps
-        self.mj_model = load_model(xml_file, fidelity)
+        self.mj_model = load_model(xml_file, fidelity, total_mass)
         self.dt = float(self.mj_model.opt.timestep) * frame_skip
         put_kwargs: dict[str, Any] = {}
         if impl == "warp" and warp_graph_mode is not None:

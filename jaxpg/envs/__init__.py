@@ -22,6 +22,7 @@ REGISTRY: dict[str, str] = {
     "hopper": "jaxpg.envs.hopper:Hopper",
     "inverted_pendulum": "jaxpg.envs.inverted_pendulum:InvertedPendulum",
     "inverted_double_pendulum": "jaxpg.envs.inverted_double_pendulum:InvertedDoublePendulum",
+    "pusher": "jaxpg.envs.pusher:Pusher",
     "cartpole": "jaxpg.envs.cartpole:CartPole",
     # jaxpg's own Pong, observed as frame differences (jaxpg.envs.pong.DifferencePong).
     "pong": "jaxpg.envs.pong:DifferencePong",

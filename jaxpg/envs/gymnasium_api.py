@@ -46,6 +46,7 @@ GYMNASIUM_IDS: dict[str, tuple[str, int]] = {
     "jaxpg/Hopper-v5": ("hopper", 1000),
     "jaxpg/InvertedPendulum-v5": ("inverted_pendulum", 1000),
     "jaxpg/InvertedDoublePendulum-v5": ("inverted_double_pendulum", 1000),
+    "jaxpg/Pusher-v5": ("pusher", 100),
     "jaxpg/CartPole-v1": ("cartpole", 500),
 }
 

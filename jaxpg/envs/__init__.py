@@ -24,6 +24,7 @@ REGISTRY: dict[str, str] = {
     "inverted_double_pendulum": "jaxpg.envs.inverted_double_pendulum:InvertedDoublePendulum",
     "half_cheetah": "jaxpg.envs.half_cheetah:HalfCheetah",
     "swimmer": "jaxpg.envs.swimmer:Swimmer",
+    "pusher": "jaxpg.envs.pusher:Pusher",
     "cartpole": "jaxpg.envs.cartpole:CartPole",
     # jaxpg's own Pong, observed as frame differences (jaxpg.envs.pong.DifferencePong).
     "pong": "jaxpg.envs.pong:DifferencePong",

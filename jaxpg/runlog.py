@@ -153,8 +153,10 @@ class RunConfig:
             data = json.loads(path.read_text())
         except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
             raise RunDirError(f"cannot read {path}: {e}") from None
-        required = {"format": int, "task": str, "algo": str, "config": dict, "seeds": list, "iterations": int}
-        if not isinstance(data, dict) or any(not isinstance(data.get(k), t) for k, t in required.items()):
+        # What identifies a jaxpg run's config; the other fields are checked one by one below, so
+        # that a wrong value in a run's own config is named (``seeds must be ...``).
+        identity = {"format": int, "task": str, "algo": str, "config": dict}
+        if not isinstance(data, dict) or any(not isinstance(data.get(k), t) for k, t in identity.items()):
             raise RunDirError(f"{path} is not a jaxpg run configuration")
         if data["format"] > FORMAT_VERSION:
             raise RunDirError(f"{path} was written by a newer jaxpg (format {data['format']})")

@@ -29,6 +29,7 @@ GYMNASIUM_IDS = {
     "inverted_double_pendulum": "InvertedDoublePendulum-v5",
     "half_cheetah": "HalfCheetah-v5",
     "swimmer": "Swimmer-v5",
+    "walker2d": "Walker2d-v5",
     "cartpole": "CartPole-v1",
 }
 

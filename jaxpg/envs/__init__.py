@@ -24,6 +24,7 @@ REGISTRY: dict[str, str] = {
     "inverted_double_pendulum": "jaxpg.envs.inverted_double_pendulum:InvertedDoublePendulum",
     "half_cheetah": "jaxpg.envs.half_cheetah:HalfCheetah",
     "swimmer": "jaxpg.envs.swimmer:Swimmer",
+    "walker2d": "jaxpg.envs.walker2d:Walker2d",
     "cartpole": "jaxpg.envs.cartpole:CartPole",
     # jaxpg's own Pong, observed as frame differences (jaxpg.envs.pong.DifferencePong).
     "pong": "jaxpg.envs.pong:DifferencePong",

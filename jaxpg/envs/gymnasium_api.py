@@ -48,6 +48,7 @@ GYMNASIUM_IDS: dict[str, tuple[str, int]] = {
     "jaxpg/InvertedDoublePendulum-v5": ("inverted_double_pendulum", 1000),
     "jaxpg/HalfCheetah-v5": ("half_cheetah", 1000),
     "jaxpg/Swimmer-v5": ("swimmer", 1000),
+    "jaxpg/Walker2d-v5": ("walker2d", 1000),
     "jaxpg/CartPole-v1": ("cartpole", 500),
 }
 

@@ -42,11 +42,12 @@ GYM_IDS = {
     "half_cheetah": "HalfCheetah-v5",
     "swimmer": "Swimmer-v5",
     "walker2d": "Walker2d-v5",
+    "reacher": "Reacher-v5",
 }
 # Tasks that never terminate (Gymnasium's step always returns terminated False): their float64
 # parity run is one whole episode to the time limit under random actions (``episode_parity``, checked
 # by ``test_gymnasium_parity_whole_episode``) in place of the termination checks of the others.
-WITHOUT_TERMINATION = ("half_cheetah", "swimmer")
+WITHOUT_TERMINATION = ("half_cheetah", "swimmer", "reacher")
 TERMINATING = [task for task in GYM_IDS if task not in WITHOUT_TERMINATION]
 # Terminating tasks without a cheap controller that keeps them alive to the time limit (a PD
 # controller on Walker2d's joints, with or without feedback on the torso angle, falls in 50-350
@@ -190,7 +191,7 @@ def test_hopper_reset_distribution_matches_gymnasium():
 
 # Tasks whose MJCF asset is Gymnasium's v5 model to the bit (test_model_matches_gymnasium), and whose
 # reset distribution is compared with Gymnasium's by samples (test_reset_distribution_matches_gymnasium).
-EXACT_MODEL_TASKS = ("half_cheetah", "swimmer", "walker2d")
+EXACT_MODEL_TASKS = ("half_cheetah", "swimmer", "walker2d", "reacher")
 RESET_SAMPLES = 2000
 
 
@@ -573,7 +574,7 @@ def test_make_unknown_name_lists_known_names():
     for name in envs.names():
         assert name in str(error.value)
     expected = ["atari_pong", "cartpole", "hopper", "inverted_double_pendulum", "inverted_pendulum", "pong"]
-    expected += ["half_cheetah", "swimmer", "walker2d"]
+    expected += ["half_cheetah", "swimmer", "walker2d", "reacher"]
     assert envs.names() == sorted(expected)
 
 
@@ -1136,6 +1137,7 @@ def test_gymnasium_parity_truncation_before_termination(task, parity_results):
 EPISODE_TOLERANCES = {
     "half_cheetah": {"qpos": 1e-6, "qvel": 1e-4, "obs": 1e-4, "reward": 5e-5, "info": 5e-5},
     "swimmer": {"qpos": 1e-6, "qvel": 1e-5, "obs": 1e-5, "reward": 5e-5, "info": 5e-5},
+    "reacher": {"qpos": 1e-10, "qvel": 1e-10, "obs": 1e-5, "reward": 1e-6, "info": 1e-10},
 }
 # The keys of Gymnasium's step info that jaxpg's metrics carry too, under the same names.
 INFO_KEYS = {
@@ -1149,6 +1151,7 @@ INFO_KEYS = {
         "y_position",
         "y_velocity",
     ],  # fmt: skip
+    "reacher": ["reward_ctrl", "reward_dist"],
     "walker2d": [
         "reward_ctrl",
         "reward_forward",
@@ -1188,7 +1191,13 @@ def test_gymnasium_parity_whole_episode(task, parity_results):
     contacts do, and the difference then grows about e-fold every 80 steps: qpos agree to 1e-15
     over the first 100 steps and to at most 1.6e-8 (qvel 1.2e-7) over the 1000 (seeds 0-2).
     Tolerances: qpos 1e-6, qvel and obs 1e-5 (60x over the largest measured), reward and ``info``
-    5e-5 (velocities ``dx / dt`` with dt 0.04)."""
+    5e-5 (velocities ``dx / dt`` with dt 0.04).
+
+    Reacher (RK4 at 10 ms, 50 steps, nothing collides): runs free; qpos and qvel stay at float64
+    rounding (<= 3.3e-15 and 2.0e-14 over seeds 0-7), the ``info`` terms too (2.5e-16). Tolerances:
+    1e-10 for those, room for the elbow's limit solve should an episode reach it; obs 1e-5 and
+    reward 1e-6, their float32 rounding (obs up to ~100 in magnitude, reward up to ~5; measured
+    9.5e-7 and 9.5e-8)."""
     r = parity_results[task]["episode"]
     limit = envs.make_task(task, impl="jax").max_episode_steps
     assert r["length"] == limit, r

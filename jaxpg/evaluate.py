@@ -3,8 +3,9 @@
 By default the run's mean (deterministic) policy plays ``N`` episodes of jaxpg's own env (the
 task and env settings the run trained on, all episodes in parallel). ``--gymnasium`` plays them
 in the corresponding Gymnasium CPU env instead (``Hopper-v5``, ``InvertedPendulum-v5``,
-``InvertedDoublePendulum-v5``, ``CartPole-v1``), through ``jaxpg.load_policy``: a check that the
-policy transfers to the reference implementation. Prints mean and std of return and length.
+``InvertedDoublePendulum-v5``, ``HalfCheetah-v5``, ``Swimmer-v5``, ``Walker2d-v5``, ``Reacher-v5``,
+``CartPole-v1``), through ``jaxpg.load_policy``: a check that the policy transfers to the
+reference implementation. Prints mean and std of return and length.
 ``--ale`` plays a Pong policy (``atari_pong``, or jaxpg's own ``pong`` at 80x80) in the real Atari
 game, Gymnasium's ``ALE/Pong-v5``, with its sticky actions (``--no-sticky``: none), and prints the
 mean score (points won minus lost, -21 to 21); ``--sample`` samples the actions instead of taking
@@ -31,6 +32,8 @@ GYMNASIUM_IDS = {
     "inverted_double_pendulum": "InvertedDoublePendulum-v5",
     "half_cheetah": "HalfCheetah-v5",
     "swimmer": "Swimmer-v5",
+    "walker2d": "Walker2d-v5",
+    "reacher": "Reacher-v5",
     "cartpole": "CartPole-v1",
 }
 

@@ -41,14 +41,22 @@ GYM_IDS = {
     "inverted_double_pendulum": "InvertedDoublePendulum-v5",
     "half_cheetah": "HalfCheetah-v5",
     "swimmer": "Swimmer-v5",
+    "walker2d": "Walker2d-v5",
+    "reacher": "Reacher-v5",
 }
 # Tasks that never terminate (Gymnasium's step always returns terminated False): their float64
 # parity run is one whole episode to the time limit under random actions (``episode_parity``, checked
 # by ``test_gymnasium_parity_whole_episode``) in place of the termination checks of the others.
-WITHOUT_TERMINATION = ("half_cheetah", "swimmer")
+WITHOUT_TERMINATION = ("half_cheetah", "swimmer", "reacher")
 TERMINATING = [task for task in GYM_IDS if task not in WITHOUT_TERMINATION]
+# Terminating tasks without a cheap controller that keeps them alive to the time limit (a PD
+# controller on Walker2d's joints, with or without feedback on the torso angle, falls in 50-350
+# steps): their time limit is checked a step before a random episode terminates
+# (test_gymnasium_parity_truncation_before_termination) instead of over a full episode.
+WITHOUT_STABILISING_POLICY = ("walker2d",)
 PARITY_SEEDS = 4
 PARITY_STEPS = 60  # per seed; stepping goes on after termination, as Gymnasium's MuJoCo envs allow
+PARITY_STEPS_FOR_TASK = {"walker2d": 100}  # its random episodes of seeds 0-3 last 14-63 steps
 FULL_EPISODE_NOISE = 0.2  # of the action range, added to the stabilising controller in the full episodes
 
 
@@ -101,7 +109,7 @@ def test_fast_fidelity_observation_and_reward_match_gymnasium(task):
         np.testing.assert_array_equal(np.asarray(state.obs), gym_env._get_obs().astype(np.float32))
         for _ in range(25):
             action = rng.uniform(env.action_low, env.action_high, env.action_size)
-            obs, reward, terminated, _, _ = gym_env.step(action)
+            obs, reward, terminated, _, info = gym_env.step(action)
             after = mjx.put_data(model, gym_env.data)
             env.physics_step = lambda data, ctrl, after=after: after
             state = env.step(state, jnp.asarray(action))
@@ -109,10 +117,15 @@ def test_fast_fidelity_observation_and_reward_match_gymnasium(task):
             assert np.float32(state.reward) == np.float32(reward)
             assert bool(state.terminated) == terminated
             terminations += int(terminated)
+            if task in INFO_KEYS:  # Gymnasium's info terms, to float32 rounding (norms may round apart)
+                assert sorted(k for k in info if k in state.metrics) == INFO_KEYS[task]
+                mine = np.float32([state.metrics[k] for k in INFO_KEYS[task]])
+                theirs = np.float32([info[k] for k in INFO_KEYS[task]])
+                np.testing.assert_allclose(mine, theirs, rtol=2**-23, atol=1e-30)
     if task in WITHOUT_TERMINATION:
         assert terminations == 0
     else:
-        assert terminations > 0 or task == "hopper"  # random actions topple the pendulums
+        assert terminations > 0 or task in ("hopper", "walker2d")  # random actions topple the pendulums
 
 
 def test_reset_distributions():
@@ -178,7 +191,7 @@ def test_hopper_reset_distribution_matches_gymnasium():
 
 # Tasks whose MJCF asset is Gymnasium's v5 model to the bit (test_model_matches_gymnasium), and whose
 # reset distribution is compared with Gymnasium's by samples (test_reset_distribution_matches_gymnasium).
-EXACT_MODEL_TASKS = ("half_cheetah", "swimmer")
+EXACT_MODEL_TASKS = ("half_cheetah", "swimmer", "walker2d", "reacher")
 RESET_SAMPLES = 2000
 
 
@@ -561,7 +574,7 @@ def test_make_unknown_name_lists_known_names():
     for name in envs.names():
         assert name in str(error.value)
     expected = ["atari_pong", "cartpole", "hopper", "inverted_double_pendulum", "inverted_pendulum", "pong"]
-    expected += ["half_cheetah", "swimmer"]
+    expected += ["half_cheetah", "swimmer", "walker2d", "reacher"]
     assert envs.names() == sorted(expected)
 
 
@@ -956,9 +969,12 @@ def parity_worker_main(tasks: list[str]) -> dict:
             results[task] = {"episode": episode_parity(task, env, reset, step)}
             results[task]["cpu_seconds"] = {"episode": time.process_time() - started}
             continue
-        random = gymnasium_parity(task, env, reset, step)
+        random = gymnasium_parity(task, env, reset, step, steps=PARITY_STEPS_FOR_TASK.get(task, PARITY_STEPS))
         seconds = {"random": time.process_time() - started}
-        full = time_limit_parity(task, env, reset, step)
+        if task in WITHOUT_STABILISING_POLICY:
+            full = {"truncation": coincidence_parity(task, env, reset, step, random["episode_lengths"][0] - 1)}
+        else:
+            full = time_limit_parity(task, env, reset, step)
         seconds["time_limit"] = time.process_time() - started - seconds["random"]
         coincidence = coincidence_parity(task, env, reset, step, random["episode_lengths"][0])
         results[task] = {"random": random, "time_limit": full, "coincidence": coincidence, "cpu_seconds": seconds}
@@ -1029,6 +1045,9 @@ def test_gymnasium_parity(task, parity_results):
     held to 1e-3..1e-2 there, enough to catch any difference in the model or the step semantics,
     and the reward to 1e-4: above what the amplification reached, below the smallest reward term
     that a wrong reward function would change (Hopper's control cost, ~1e-3).
+    Walker2d (run 100 steps a seed: its episodes last 14-63): within and after its episodes qpos and
+    qvel agreed to <= 5.8e-14 and 1.0e-12, obs and reward to their float32 rounding (8 seeds x 60
+    steps measured; the fallen walker's contacts had not yet parted the solvers).
     """
     r = parity_results[task]["random"]
     assert len(r["episode_lengths"]) == PARITY_SEEDS, r  # every episode ended within the horizon
@@ -1049,7 +1068,7 @@ TIME_LIMIT_TOLERANCES = {
 }
 
 
-@pytest.mark.parametrize("task", TERMINATING)
+@pytest.mark.parametrize("task", [task for task in TERMINATING if task not in WITHOUT_STABILISING_POLICY])
 def test_gymnasium_parity_to_time_limit(task, parity_results):
     """A full 1000-step episode of the env a user gets (``envs.make(task, fidelity="gymnasium")``:
     ``EpisodeStats(ClipAction(task))``) against ``gymnasium.make(ID)`` with its TimeLimit, side by
@@ -1095,12 +1114,30 @@ def test_gymnasium_parity_to_time_limit(task, parity_results):
     assert flags[-1] == [length, True, False, True, True], flags
 
 
+@pytest.mark.parametrize("task", WITHOUT_STABILISING_POLICY)
+def test_gymnasium_parity_truncation_before_termination(task, parity_results):
+    """The time limit of a task that no cheap controller keeps alive: the random episode of seed 0
+    (``gymnasium_parity``'s actions), which terminates at step L, with the time limit at step L - 1
+    (``coincidence_parity``: Gymnasium made with ``max_episode_steps=L - 1``, jaxpg's step counter
+    started that many steps before its limit): both say ``truncated`` and not ``terminated`` at
+    L - 1 and nothing before. With the limit at L itself, Gymnasium says (True, True), jaxpg
+    (True, False), as ``test_gymnasium_parity_to_time_limit`` explains."""
+    length = parity_results[task]["random"]["episode_lengths"][0]
+    flags = parity_results[task]["time_limit"]["truncation"]["flags"]
+    assert flags[:-1] == [[t, False, False, False, False] for t in range(1, length - 1)], flags
+    assert flags[-1] == [length - 1, False, True, False, True], flags
+    flags = parity_results[task]["coincidence"]["flags"]
+    assert flags[:-1] == [[t, False, False, False, False] for t in range(1, length)], flags
+    assert flags[-1] == [length, True, False, True, True], flags
+
+
 # Bounds on the largest differences in ``episode_parity`` (float64; obs and reward after jaxpg's
 # float32 cast; "info" the metrics Gymnasium also reports), the same for its free and its re-synced
 # steps; measured maxima over seeds 0-5 in test_gymnasium_parity_whole_episode's docstring.
 EPISODE_TOLERANCES = {
     "half_cheetah": {"qpos": 1e-6, "qvel": 1e-4, "obs": 1e-4, "reward": 5e-5, "info": 5e-5},
     "swimmer": {"qpos": 1e-6, "qvel": 1e-5, "obs": 1e-5, "reward": 5e-5, "info": 5e-5},
+    "reacher": {"qpos": 1e-10, "qvel": 1e-10, "obs": 1e-5, "reward": 1e-6, "info": 1e-10},
 }
 # The keys of Gymnasium's step info that jaxpg's metrics carry too, under the same names.
 INFO_KEYS = {
@@ -1113,6 +1150,15 @@ INFO_KEYS = {
         "x_velocity",
         "y_position",
         "y_velocity",
+    ],  # fmt: skip
+    "reacher": ["reward_ctrl", "reward_dist"],
+    "walker2d": [
+        "reward_ctrl",
+        "reward_forward",
+        "reward_survive",
+        "x_position",
+        "x_velocity",
+        "z_distance_from_origin",
     ],  # fmt: skip
 }
 
@@ -1145,7 +1191,13 @@ def test_gymnasium_parity_whole_episode(task, parity_results):
     contacts do, and the difference then grows about e-fold every 80 steps: qpos agree to 1e-15
     over the first 100 steps and to at most 1.6e-8 (qvel 1.2e-7) over the 1000 (seeds 0-2).
     Tolerances: qpos 1e-6, qvel and obs 1e-5 (60x over the largest measured), reward and ``info``
-    5e-5 (velocities ``dx / dt`` with dt 0.04)."""
+    5e-5 (velocities ``dx / dt`` with dt 0.04).
+
+    Reacher (RK4 at 10 ms, 50 steps, nothing collides): runs free; qpos and qvel stay at float64
+    rounding (<= 3.3e-15 and 2.0e-14 over seeds 0-7), the ``info`` terms too (2.5e-16). Tolerances:
+    1e-10 for those, room for the elbow's limit solve should an episode reach it; obs 1e-5 and
+    reward 1e-6, their float32 rounding (obs up to ~100 in magnitude, reward up to ~5; measured
+    9.5e-7 and 9.5e-8)."""
     r = parity_results[task]["episode"]
     limit = envs.make_task(task, impl="jax").max_episode_steps
     assert r["length"] == limit, r

@@ -25,6 +25,8 @@ REGISTRY: dict[str, str] = {
     "half_cheetah": "jaxpg.envs.half_cheetah:HalfCheetah",
     "swimmer": "jaxpg.envs.swimmer:Swimmer",
     "pusher": "jaxpg.envs.pusher:Pusher",
+    "walker2d": "jaxpg.envs.walker2d:Walker2d",
+    "reacher": "jaxpg.envs.reacher:Reacher",
     "cartpole": "jaxpg.envs.cartpole:CartPole",
     # jaxpg's own Pong, observed as frame differences (jaxpg.envs.pong.DifferencePong).
     "pong": "jaxpg.envs.pong:DifferencePong",

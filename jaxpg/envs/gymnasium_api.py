@@ -6,7 +6,8 @@ CleanRL, your own loops).
 
 ``gymnasium_env`` is a single ``gymnasium.Env`` made through ``gymnasium.make`` (so with
 Gymnasium's ``TimeLimit``, order enforcing and passive checker), registered as
-``jaxpg/Hopper-v5``, ``jaxpg/InvertedPendulum-v5``, ``jaxpg/InvertedDoublePendulum-v5`` and
+``jaxpg/Hopper-v5``, ``jaxpg/InvertedPendulum-v5``, ``jaxpg/InvertedDoublePendulum-v5``,
+``jaxpg/HalfCheetah-v5``, ``jaxpg/Swimmer-v5``, ``jaxpg/Walker2d-v5``, ``jaxpg/Reacher-v5`` and
 ``jaxpg/CartPole-v1`` once this module is imported.
 
 ``gymnasium_vector_env`` is a ``gymnasium.vector.VectorEnv`` that steps every env in one jitted,
@@ -49,6 +50,8 @@ GYMNASIUM_IDS: dict[str, tuple[str, int]] = {
     "jaxpg/HalfCheetah-v5": ("half_cheetah", 1000),
     "jaxpg/Swimmer-v5": ("swimmer", 1000),
     "jaxpg/Pusher-v5": ("pusher", 100),
+    "jaxpg/Walker2d-v5": ("walker2d", 1000),
+    "jaxpg/Reacher-v5": ("reacher", 50),
     "jaxpg/CartPole-v1": ("cartpole", 500),
 }
 

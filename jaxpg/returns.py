@@ -132,11 +132,21 @@ def gae(
     return advantages, advantages + values
 
 
-def _all_equal(x: jax.Array, valid: jax.Array | None = None) -> jax.Array:
-    """``[]`` bool: the entries of ``x`` (those where ``valid``, same shape, is set) are all one
-    finite value. False when there are none, or when one is NaN or infinite."""
-    high = jnp.max(x if valid is None else jnp.where(valid, x, -jnp.inf))
-    low = jnp.min(x if valid is None else jnp.where(valid, x, jnp.inf))
+def _all_equal(x: jax.Array, valid: jax.Array | None = None, segments: jax.Array | None = None) -> jax.Array:
+    """Whether the entries of ``x`` (those where ``valid``, same shape, is set) are all one finite
+    value: ``[]`` bool. False when there are none, or when one is NaN or infinite.
+
+    With ``segments`` (int, same shape as ``x``, ids in ``[0, x.size)``) the question is asked of
+    each segment's entries instead, and the answer comes back per entry: bool shaped like ``x``.
+    """
+    high_in = x if valid is None else jnp.where(valid, x, -jnp.inf)
+    low_in = x if valid is None else jnp.where(valid, x, jnp.inf)
+    if segments is None:
+        high, low = jnp.max(high_in), jnp.min(low_in)
+    else:
+        ids = segments.reshape(-1)
+        high = jax.ops.segment_max(high_in.reshape(-1), ids, num_segments=x.size)[ids].reshape(x.shape)
+        low = jax.ops.segment_min(low_in.reshape(-1), ids, num_segments=x.size)[ids].reshape(x.shape)
     return (high == low) & jnp.isfinite(high)
 
 
@@ -179,12 +189,16 @@ def normalize_per_episode(
     ``(v - mean_e) / (std_e + eps)`` where ``e`` is the step's episode, a contiguous segment of its
     env column ended by a done step (the last one may be unfinished). This is the per-episode
     return normalisation of the Kokoyi and MinPy policy-gradient examples (Karpathy's "Pong from
-    pixels"). Steps where ``valid`` is 0 take no part in the statistics and come out as 0.
+    pixels"). Steps where ``valid`` is 0 take no part in the statistics and come out as 0. An
+    episode whose (valid) values are all equal and finite has no spread and comes out as 0: its
+    float32 mean can miss them by a rounding error, which the division would otherwise blow up to
+    values of size 1.
     """
     T, B = values.shape
     w = jnp.ones_like(values) if valid is None else jnp.asarray(valid, values.dtype)
     # One segment per (column, episode); a column holds at most T episodes.
-    seg = (episode_ids(terminated, truncated) + T * jnp.arange(B)[None, :]).reshape(-1)
+    segments = episode_ids(terminated, truncated) + T * jnp.arange(B)[None, :]
+    seg = segments.reshape(-1)
 
     def seg_sum(x: jax.Array) -> jax.Array:
         return jax.ops.segment_sum(x.reshape(-1), seg, num_segments=T * B)[seg].reshape(T, B)
@@ -192,4 +206,6 @@ def normalize_per_episode(
     n = jnp.maximum(seg_sum(w), 1.0)
     mean = seg_sum(w * values) / n
     std = jnp.sqrt(seg_sum(w * jnp.square(values - mean)) / n)
-    return jnp.where(w > 0, (values - mean) / (std + eps), 0.0)
+    is_valid = w > 0
+    spread = ~_all_equal(values, is_valid, segments)
+    return jnp.where(is_valid & spread, (values - mean) / (std + eps), 0.0)

@@ -7,11 +7,29 @@ the two devices of the two processes, and the metrics must equal those of one pr
 device (the same command without the three flags) up to float reduction order (see
 ``tests/test_sharding.py``).
 
-Tolerance: rtol 1e-4 on the first iteration, 1e-2 over all (CG carries last-bit differences into
-later iterations); the CG residual is not compared. Measured: about 1e-5 relative (printed with
-``-s``). The runs use ``--cg-damping 0.01``: with a nearly singular Fisher matrix (the default
-damping 1e-4 on this tiny batch) ten float32 CG iterations amplify last-bit differences into
-visibly different steps, on any two devices or machines.
+What the comparison allows (``compare``): the two-process program sums in another float32 order
+(its reductions span two devices), so its numbers may differ in the last bits, and what can be
+compared depends on what amplifies those bits:
+- Counts exactly, every iteration: the iteration number, env steps, rejected updates, evaluations.
+- The first iteration starts both runs from the same state. What does not pass through the
+  policy step (returns and lengths of the sampled episodes, mean reward, entropy, gradient norm,
+  value loss) is float32 sums of at most a few thousand terms: rtol 1e-4 (relative difference
+  <= ~1e-5). The step (KL, step length, the loss that includes the KL) solves ``(F + damping I) x = g``
+  by conjugate gradient, which amplifies a relative perturbation by up to the condition number
+  ``1 + lambda_max(F) / damping``: at the README's ``--cg-damping 0.01`` with ``lambda_max(F)`` of
+  this policy 3.6-7 (computed densely over the first iterations) that is <= ~700, so those agree
+  to ~7e-3 and are compared with rtol 3e-2. The evaluation after an iteration runs episodes of
+  the new parameters, which can end a step earlier or later: compared as the later iterations.
+  (At the default damping 1e-4 the condition number would be ~7e4 and nothing of the step could be
+  compared.) The CG residual, itself round-off, is left out.
+- Later iterations step from parameters that may differ in the last bits, and an episode can end
+  a step earlier or later: no float tolerance follows from the computation. What a process that
+  lost its share of the batch or its synchronisation would break is that the run's metrics lie far
+  closer to the one-process run of its own seed than to that of another seed
+  (``SEED_DISCRIMINATING``, checked to differ between seeds 0 and 1 by more than 5 %): within a
+  tenth of that gap.
+Measured (printed with ``-s``; AMD EPYC, JAX 0.10): <= 8e-7 relative on the first iteration (and on
+the first resumed one), later within 5e-6 of the seed gap.
 Only process 0 writes the run directory; every process restores the checkpoint on ``--resume``.
 """
 
@@ -30,6 +48,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from jaxpg import train as train_lib
 from jaxpg.distributed import DistributedConfig, DistributedError
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -78,7 +97,8 @@ def cpu_env(devices: int = 1) -> dict[str, str]:
     return {
         **os.environ,
         "JAX_PLATFORMS": "cpu",
-        "XLA_FLAGS": f"--xla_force_host_platform_device_count={devices}",
+        # kept: other XLA flags (e.g. ``--xla_cpu_max_isa``) of the caller
+        "XLA_FLAGS": f"{os.environ.get('XLA_FLAGS', '')} --xla_force_host_platform_device_count={devices}",
         "PYTHONUNBUFFERED": "1",
     }
 
@@ -121,18 +141,40 @@ def metrics(run_dir: Path) -> list[dict]:
     return [json.loads(line) for line in (run_dir / "metrics.jsonl").read_text().splitlines()]
 
 
-def compare(reference: list[dict], other: list[dict]) -> float:
-    """Largest relative difference over the metrics (asserting the tolerances of the docstring)."""
-    assert [r["iteration"] for r in other] == [r["iteration"] for r in reference]
-    worst = 0.0
-    for first, (ref, row) in enumerate(zip(reference, other, strict=True)):
+COUNTS = ("iteration", "env_steps", "update_rejected", "consecutive_failures", "evaluated")
+THROUGH_STEP = ("kl", "step_length", "step_fraction", "loss")
+NOT_COMPARED = ("wall_time_s", "eval_seconds", "cg_residual")  # host time; CG round-off
+SEED_DISCRIMINATING = ("value_loss", "grad_norm")
+
+
+def compare(reference: list[dict], other: list[dict], other_seed: list[dict], first: int) -> tuple[float, float]:
+    """Assert the module docstring's comparison of ``other``'s metric rows with ``reference``'s (the
+    same seed) and ``other_seed``'s (another seed), aligned by iteration; ``first`` is the
+    iteration from which both started from the same state. Returns the largest relative
+    difference on that first iteration and, on the later ones, the largest share of the seed gap."""
+    assert (
+        [r["iteration"] for r in other] == [r["iteration"] for r in reference] == [r["iteration"] for r in other_seed]
+    )
+    first_worst, later_worst = 0.0, 0.0
+    for ref, row, seed_row in zip(reference, other, other_seed, strict=True):
+        where = f"iteration {ref['iteration']}"
+        for key in COUNTS:
+            assert row.get(key) == ref.get(key), (key, where)
+        for key in SEED_DISCRIMINATING:
+            own_gap, seed_gap = abs(row[key] - ref[key]), abs(seed_row[key] - ref[key])
+            assert seed_gap > 0.05 * abs(ref[key]), (key, where, ref[key], seed_row[key])  # the seeds do differ
+            assert own_gap < 0.1 * seed_gap, (key, where, row[key], ref[key], seed_row[key])
+            if ref["iteration"] > first:
+                later_worst = max(later_worst, own_gap / seed_gap)
+        if ref["iteration"] != first:
+            continue
         for key, value in ref.items():
-            if key in ("wall_time_s", "eval_seconds", "cg_residual") or value is None:
+            if key in NOT_COMPARED or key in COUNTS or key in train_lib.EVAL_METRICS or value is None:
                 continue
-            rtol = 1e-4 if first == 0 else 1e-2
-            np.testing.assert_allclose(row[key], value, rtol=rtol, atol=1e-5, err_msg=f"{key} {ref['iteration']}")
-            worst = max(worst, abs(row[key] - value) / max(abs(value), 1e-6))
-    return worst
+            rtol = 3e-2 if key in THROUGH_STEP else 1e-4
+            np.testing.assert_allclose(row[key], value, rtol=rtol, atol=1e-5, err_msg=f"{key} {where}")
+            first_worst = max(first_worst, abs(row[key] - value) / max(abs(value), 1e-6))
+    return first_worst, later_worst
 
 
 @pytest.fixture(scope="module")
@@ -145,6 +187,16 @@ def one_process(tmp_path_factory) -> Path:
     return run_dir
 
 
+@pytest.fixture(scope="module")
+def other_seed(tmp_path_factory) -> list[dict]:
+    """The scale of what a mix-up would change: the one-process run's metrics with ``--seed 1``."""
+    run_dir = tmp_path_factory.mktemp("seed1") / "run"
+    args = [*drop_options(ARGS, ("--seed",)), "--seed", "1", "--run-dir", str(run_dir)]
+    proc = subprocess.run(cli(*args), capture_output=True, text=True, env=cpu_env(), timeout=HANG_GUARD_S)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    return metrics(run_dir)
+
+
 def check_only_process_0_wrote(results: list[subprocess.CompletedProcess], run_dir: Path) -> None:
     assert all(r.returncode == 0 for r in results), "\n".join(r.stderr[-2000:] for r in results)
     assert "run directory:" in results[0].stdout
@@ -153,7 +205,7 @@ def check_only_process_0_wrote(results: list[subprocess.CompletedProcess], run_d
     assert len(metrics(run_dir)) == ITERATIONS  # one writer: every iteration once
 
 
-def test_two_processes_train_like_one(one_process, tmp_path):
+def test_two_processes_train_like_one(one_process, other_seed, tmp_path):
     """The README's two commands, on a free port and into a temporary run directory."""
     run_dir, address = tmp_path / "run", f"127.0.0.1:{free_port()}"
     commands = readme_commands()
@@ -166,11 +218,14 @@ def test_two_processes_train_like_one(one_process, tmp_path):
     check_only_process_0_wrote(results, run_dir)
     assert "2 cpu device(s) in 2 processes" in results[0].stdout
     assert sorted(p.name for p in (run_dir / "checkpoints").iterdir() if p.name.isdigit()) == [str(ITERATIONS)]
-    worst = compare(metrics(one_process), metrics(run_dir))
-    print(f"\n1 vs 2 processes: largest relative difference {worst:.1e} ({time.perf_counter() - start:.0f} s)")
+    first, later = compare(metrics(one_process), metrics(run_dir), other_seed, first=1)
+    print(
+        f"\n1 vs 2 processes: largest relative difference {first:.1e} on iteration 1, later {later:.1e} of the "
+        f"seed gap ({time.perf_counter() - start:.0f} s)"
+    )
 
 
-def test_two_processes_resume_a_run(one_process, tmp_path):
+def test_two_processes_resume_a_run(one_process, other_seed, tmp_path):
     """Every process restores the one-process run's checkpoint 2 and they continue it together to
     iteration 4, as the one process did (told about each other by environment variables)."""
     run_dir = tmp_path / "run"
@@ -179,7 +234,8 @@ def test_two_processes_resume_a_run(one_process, tmp_path):
     results = run_processes(["--resume", str(run_dir), "--iterations", str(ITERATIONS)])
     check_only_process_0_wrote(results, run_dir)
     assert "resuming at iteration 2" in results[0].stdout
-    compare(metrics(one_process), metrics(run_dir))
+    first, later = compare(metrics(one_process), metrics(run_dir), other_seed, first=3)  # 3: from checkpoint 2
+    print(f"\nresumed by 2 processes: {first:.1e} relative on iteration 3, {later:.1e} of the seed gap later")
 
 
 def test_unreachable_coordinator_fails_with_one_line(tmp_path):

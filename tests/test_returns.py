@@ -89,15 +89,18 @@ def test_gae(use_jit, parallel):
     np.testing.assert_allclose(targets, ref_targets, rtol=1e-5, atol=1e-5)
     if parallel:
         return
-    # Unrolling the sequential scan (any number of steps, more than T too) gives the same numbers.
+    # Unrolling the sequential scan (any number of steps, more than T too) gives the same numbers, up
+    # to how the compiler contracts the unrolled program's multiply-adds (fused or not): <= 1 ulp per
+    # step, damped by the discount (0.9 at most), so <= ~10 ulps of the largest value (~5): 1e-5.
     for unroll in (3, 1000):
         got, _ = maybe_jit(functools.partial(gae, unroll=unroll), use_jit)(
             rewards, values, next_values, terminated, truncated, GAMMA, LAM
         )
-        np.testing.assert_allclose(got, adv, rtol=1e-6, atol=1e-6)
+        np.testing.assert_allclose(got, adv, rtol=1e-5, atol=1e-5)
         sequential = functools.partial(R.discounted_returns, parallel=False)
         g = sequential(rewards, terminated, truncated, GAMMA, next_values, unroll=unroll)
-        np.testing.assert_allclose(g, sequential(rewards, terminated, truncated, GAMMA, next_values), rtol=1e-6)
+        want = sequential(rewards, terminated, truncated, GAMMA, next_values)
+        np.testing.assert_allclose(g, want, rtol=1e-5, atol=1e-5)
 
 
 @pytest.mark.parametrize("length", [1, 2, 64, 100])
@@ -205,3 +208,29 @@ def test_episode_ids_and_vmap():
         np.testing.assert_allclose(
             batched[s], np_discounted_returns(rewards[s], term[s], trunc[s], GAMMA), rtol=1e-5, atol=1e-5
         )
+
+
+@pytest.mark.parametrize("use_jit", [False, True])
+def test_normalize_per_episode_constant_episodes_are_zero(use_jit):
+    """An episode whose (valid) values are all one number has no spread: NumPy's float64 mean of
+    identical float32 numbers is exact, so the reference gives exactly 0 there. In float32 a
+    segment sum over a few entries of 0.1 or 3.7 misses ``n * v`` by a rounding error, and
+    ``(v - mean) / (std + eps)`` with ``std`` ~1e-7 would turn that into values of size 1; the
+    library must give 0 too. The episodes of column 0 (values of size 1, spread 1) keep their
+    normalised values: float32 sums of <= 23 terms of size 1 differ from float64 by ~1e-6, well
+    within the rtol/atol 1e-4 of ``test_normalize_per_episode``."""
+    _, _, _, terminated, truncated = random_batch(7)
+    ids = np.asarray(R.episode_ids(terminated, truncated))
+    levels = np.asarray([0.1, 3.7, -42.1, 100.3, 0.3, 1e4 / 3], np.float32)
+    values = levels[(ids + np.arange(B)[None, :]) % len(levels)]  # constant within each episode
+    values[:, 0] = np.random.default_rng(8).normal(size=T).astype(np.float32)  # column 0 has spread
+    fn = maybe_jit(R.normalize_per_episode, use_jit)
+    ones = np.ones((T, B), np.float32)
+    want = np_normalize_per_episode(values, terminated, truncated, ones)
+    assert np.all(want[:, 1:] == 0.0) and np.abs(want[:, 0]).max() > 0.5
+    np.testing.assert_allclose(fn(values, terminated, truncated), want, rtol=1e-4, atol=1e-4)
+    # Valid entries all equal, the invalid ones elsewhere: still no spread among what counts.
+    valid = (np.random.default_rng(9).uniform(size=(T, B)) < 0.7).astype(np.float32)
+    noisy = np.where(valid > 0, values, np.random.default_rng(10).normal(size=(T, B))).astype(np.float32)
+    want = np_normalize_per_episode(noisy, terminated, truncated, valid)
+    np.testing.assert_allclose(fn(noisy, terminated, truncated, valid), want, rtol=1e-4, atol=1e-4)

@@ -574,7 +574,7 @@ def test_make_unknown_name_lists_known_names():
     for name in envs.names():
         assert name in str(error.value)
     expected = ["atari_pong", "cartpole", "hopper", "inverted_double_pendulum", "inverted_pendulum", "pong"]
-    expected += ["half_cheetah", "swimmer", "walker2d", "reacher"]
+    expected += ["half_cheetah", "swimmer", "walker2d", "reacher", "pusher"]
     assert envs.names() == sorted(expected)
 
 

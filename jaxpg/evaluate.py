@@ -34,6 +34,7 @@ GYMNASIUM_IDS = {
     "swimmer": "Swimmer-v5",
     "walker2d": "Walker2d-v5",
     "reacher": "Reacher-v5",
+    "ant": "Ant-v5",
     "cartpole": "CartPole-v1",
 }
 

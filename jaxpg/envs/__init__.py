@@ -27,6 +27,7 @@ REGISTRY: dict[str, str] = {
     "pusher": "jaxpg.envs.pusher:Pusher",
     "walker2d": "jaxpg.envs.walker2d:Walker2d",
     "reacher": "jaxpg.envs.reacher:Reacher",
+    "ant": "jaxpg.envs.ant:Ant",
     "cartpole": "jaxpg.envs.cartpole:CartPole",
     # jaxpg's own Pong, observed as frame differences (jaxpg.envs.pong.DifferencePong).
     "pong": "jaxpg.envs.pong:DifferencePong",

@@ -52,6 +52,7 @@ GYMNASIUM_IDS: dict[str, tuple[str, int]] = {
     "jaxpg/Pusher-v5": ("pusher", 100),
     "jaxpg/Walker2d-v5": ("walker2d", 1000),
     "jaxpg/Reacher-v5": ("reacher", 50),
+    "jaxpg/Ant-v5": ("ant", 1000),
     "jaxpg/CartPole-v1": ("cartpole", 500),
 }
 

@@ -28,10 +28,11 @@ MJX implementations: with ``impl="jax"`` the forces come from ``mjx.rne_postcons
 ``frame_skip`` steps, as Gymnasium calls ``mj_rnePostConstraint``. MJX's ``rne_postconstraint``
 accepts only the jax implementation; with ``impl="warp"`` the model's MuJoCo Warp option
 ``run_rne_postconstraint`` is set, so that every forward pass of the step computes them, the last
-one (the same state as above) leaving its forces in the data. That path was run on the CPU only
-(warp-lang 1.19, "fast" fidelity, 2 envs x 30 random steps): its contact forces are nonzero at the
-same 12 steps as the jax implementation's and agree with them to 2e-3 where the two float32
-trajectories have drifted apart by ~1e-3; it is not covered by the tests.
+one (the same state as above) leaving its forces in the data. That path has run on the CPU only
+(warp-lang 1.19, "fast" fidelity): its contact forces are nonzero at the same steps as the jax
+implementation's and agree with them to 2.3e-3 over 30 random steps, where the two float32
+trajectories have drifted ~1e-3 apart (tests/test_envs.py, test_warp_ant_computes_contact_forces,
+over 12 steps); it has not been run on a GPU.
 
 Metrics: Gymnasium's ``info`` terms ``reward_forward``, ``reward_ctrl`` (negative),
 ``reward_contact`` (negative), ``reward_survive``, ``x_position``, ``y_position``,

@@ -1298,10 +1298,12 @@ def test_gymnasium_parity_contact_frames(task, parity_results):
     entries up to ~10; tolerance 1e-5), the reward to <= 1.2e-7 (float32; tolerance 1e-5), and
     Gymnasium's info terms to <= 1.4e-10 (velocities ``dx / dt`` of ``xpos`` with dt 0.05;
     tolerance 1e-8). Episodes that end inside that window end at the same step: seeds 0, 2, 3
-    terminate at 44, 28, 38 in both (the ant flips or leaves the height range). Seed 1 runs to the
-    1000-step limit in both, ``truncated`` and never ``terminated``, though its trajectories have
-    parted by then (each is a healthy random walk; of seeds 4-7, the one that parted before its
-    end, seed 5, terminated at step 211 in jaxpg alone). The time limit's coincidence with
+    terminate at 44, 28, 38 in both (the ant flips or leaves the height range). Seed 1 runs past the
+    window; here it reaches the 1000-step limit in both, ``truncated`` and never ``terminated``,
+    though its trajectories have parted long before. What happens after the window compares two
+    different trajectories (of seeds 4-7, seed 5 terminated at step 211 in jaxpg alone), which
+    other rounding could change, so the test asks only that a step-1000 end be truncation in both
+    and that no flag be set within the window. The time limit's coincidence with
     termination follows jaxpg's rule (``test_gymnasium_parity_to_time_limit``): seed 0 with the
     limit at its termination step L, Gymnasium (True, True), jaxpg (True, False); at L - 1 both
     truncated only.
@@ -1313,14 +1315,15 @@ def test_gymnasium_parity_contact_frames(task, parity_results):
         assert max(run["obs"][:2]) < 1e-5 and max(run["reward"][:2]) < 1e-5 and max(run["info"][:2]) < 1e-8, run
         assert max(run["qvel"]) > 1e-3, (seed, run)  # the frames part the trajectories (see the docstring)
     lengths = [run["length"] for run in r["swapped"]]
-    assert lengths == [44, 1000, 28, 38], lengths
+    assert [lengths[0], lengths[2], lengths[3]] == [44, 28, 38] and lengths[1] > CONTACT_FRAME_TIGHT_STEPS, lengths
     for seed, run in enumerate(r["swapped"]):
         length = run["length"]
         assert run["reset_obs"] < 1e-6, (seed, run["reset_obs"])
-        if length < 1000:
+        if length <= CONTACT_FRAME_TIGHT_STEPS:  # ended together, by termination
             assert run["flags"] == [[length, True, False, True, False]], (seed, run["flags"])
-        else:
-            assert run["flags"] == [[1000, False, True, False, True]], (seed, run["flags"])
+        else:  # nothing inside the window; at the time limit, truncated in both (seed 1 here)
+            assert run["flags"][0][0] > CONTACT_FRAME_TIGHT_STEPS, (seed, run["flags"])
+            assert run["flags"][-1] == [1000, False, True, False, True] or length < 1000, (seed, run["flags"])
         tight = min(length, CONTACT_FRAME_TIGHT_STEPS)
         assert max(run["qpos"][:tight]) < 1e-8 and max(run["qvel"][:tight]) < 1e-8, (seed, run)
         assert max(run["obs"][:tight]) < 1e-5 and max(run["reward"][:tight]) < 1e-5, (seed, run)

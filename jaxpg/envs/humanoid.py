@@ -85,7 +85,8 @@ class Humanoid(MjxEnv):
         )
         if self.impl == "warp":  # MuJoCo Warp fills cfrc_ext only when asked to (Gymnasium calls for it)
             opt = self.mjx_model.opt
-            self.mjx_model = self.mjx_model.replace(opt=opt.replace(_impl=opt._impl.replace(run_rne_postconstraint=True)))
+            opt = opt.replace(_impl=opt._impl.replace(run_rne_postconstraint=True))
+            self.mjx_model = self.mjx_model.replace(opt=opt)
         nbody = self.mj_model.nbody
         self.observation_size = (self.nq - 2) + self.nv + (nbody - 1) * (10 + 6 + 6) + (self.nv - 6)
         self.action_size = self.mj_model.nu

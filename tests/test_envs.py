@@ -973,14 +973,16 @@ def humanoid_parity(env, reset, step, seeds: int = PARITY_SEEDS) -> dict:
     Humanoid-v5 (its model's PGS switched to Newton, see ``make_gymnasium``) from jaxpg's reset
     states with the same uniform random in-range actions (the draws of ``gymnasium_parity``), each
     seed to its termination and ``HUMANOID_STEPS_AFTER`` steps on. Observations are compared
-    relative to ``max(1, |obs|)`` (the contact forces ``cfrc_ext`` reach ~1e3, where float32 rounds at
+    relative to ``max(1, |obs|)`` (the contact forces ``cfrc_ext`` reach ~2e3, where float32 rounds at
     ~1e-4), with the absolute differences of each part of the observation within the episodes
-    (``episode_parts``); also Gymnasium's ``info`` terms (``INFO_KEYS``) against jaxpg's metrics."""
+    (``episode_parts``); also Gymnasium's ``info`` terms (``INFO_KEYS``) against jaxpg's metrics and
+    the norms of jaxpg's reset quaternions (``reset_quaternion_norms``)."""
     gym_env = make_gymnasium("humanoid").unwrapped  # no TimeLimit; Newton
     quantities = ("qpos", "qvel", "obs", "reward", "info")
     result = {"reset_obs": 0.0, "episode_lengths": [], "episode_mismatches": 0, "after_mismatches": 0}
     result |= {f"{part}_{q}": 0.0 for part in ("episode", "after") for q in quantities}
     result["episode_parts"] = {k: 0.0 for k in HUMANOID_OBS_PARTS}
+    result["reset_quaternion_norms"] = []
     bounds = np.cumsum([0, *HUMANOID_OBS_PARTS.values()])
     keys = INFO_KEYS["humanoid"]
 
@@ -996,6 +998,7 @@ def humanoid_parity(env, reset, step, seeds: int = PARITY_SEEDS) -> dict:
         gym_env.reset(seed=seed)
         gym_env.set_state(np.asarray(state.data.qpos, np.float64), np.asarray(state.data.qvel, np.float64))
         note("reset_obs", state.obs, gym_env._get_obs(), relative=True)
+        result["reset_quaternion_norms"].append(float(np.linalg.norm(state.data.qpos[3:7])))
         rng = np.random.default_rng(seed)
         part, left, t = "episode", None, 0
         while left is None or left > 0:
@@ -1210,12 +1213,12 @@ def test_gymnasium_parity_humanoid(task, parity_results):
     are checked by ``test_gymnasium_parity_truncation_before_termination``.
 
     Measured on seeds 0-3: episodes of 22, 24, 32 and 21 steps, ending at the same step in both, no
-    ``terminated`` mismatch before or after. Within them MJX repeats MuJoCo to rounding: qpos 8.7e-15
-    and qvel 1.7e-13 (tolerance 1e-9); the 348 observation entries to their float32 rounding, 5.9e-8
+    ``terminated`` mismatch before or after. Within them MJX repeats MuJoCo to rounding: qpos 2.0e-14
+    and qvel 2.2e-13 (tolerance 1e-9); the 348 observation entries to their float32 rounding, 5.9e-8
     relative to ``max(1, |obs|)`` (tolerance 1e-6; in absolute terms 5.8e-8 in qpos, 6.1e-7 in qvel,
-    2.5e-7 in cinert, 4.7e-7 in cvel, 3.8e-6 in the actuator forces up to ~40, 8.1e-5 in the contact
-    forces ``cfrc_ext`` up to ~1e3), the reset observation 5.1e-8; the reward (up to ~6) 2.4e-7
-    (tolerance 1e-6), Gymnasium's ``info`` terms against jaxpg's metrics 8.7e-14 (tolerance 1e-9).
+    2.5e-7 in cinert, 4.7e-7 in cvel, 3.8e-6 in the actuator forces up to ~120, 8.1e-5 in the contact
+    forces ``cfrc_ext`` up to ~2e3), the reset observation 5.8e-8; the reward (up to ~6) 2.4e-7
+    (tolerance 1e-6), Gymnasium's ``info`` terms against jaxpg's metrics 9.0e-14 (tolerance 1e-9).
 
     Those seeds' episodes touch the floor with the feet (spheres) alone. Where capsules collide, MJX's
     collision detection is not MuJoCo's to rounding, and a single physics step parts the two by
@@ -1231,6 +1234,8 @@ def test_gymnasium_parity_humanoid(task, parity_results):
     """
     r = parity_results[task]["random"]
     assert len(r["episode_lengths"]) == PARITY_SEEDS, r
+    # The reset keeps the noisy, unnormalised quaternion, as Gymnasium's does (Humanoid.physics_state)
+    assert all(abs(norm - 1.0) > 1e-5 for norm in r["reset_quaternion_norms"]), r
     assert r["episode_mismatches"] == 0 and r["after_mismatches"] == 0, r
     assert r["episode_qpos"] < 1e-9 and r["episode_qvel"] < 1e-9, r
     assert r["reset_obs"] < 1e-6 and r["episode_obs"] < 1e-6 and r["episode_reward"] < 1e-6, r
@@ -1245,11 +1250,11 @@ def test_humanoid_newton_in_place_of_pgs():
     fidelities. What the swap changes, in MuJoCo itself (cheap, no MJX): Gymnasium's env with its
     model untouched (PGS) and switched to Newton, from the same seeded reset with the same random
     in-range actions, 8 seeds to the termination. Measured: the episodes (17-37 steps) end at the
-    same step under both solvers; qpos and qvel agree to 1e-15 for the first 5-20 steps (while the
-    feet touch lightly both solve to their tolerance) and part by at most 9e-6 by the termination,
+    same step under both solvers; qpos and qvel agree within 1e-6 for the first 5-20 steps and part
+    by at most 9e-6 by the termination,
     the observation by at most 8.2e-5 relative to ``max(1, |obs|)`` (the contact forces), the reward
-    by 5.3e-7. Running on after the termination, the fallen humanoid amplifies it: qpos 1e-5..2e-4
-    apart at step 100, and 0.66 on one seed of 8 (seed 6, whose bodies part by 1e-3 at step 94)."""
+    by 5.3e-7. Running on after the termination, the fallen humanoid amplifies it: qpos and qvel
+    1e-5..2e-4 apart at step 100, and 0.66 on one seed of 8 (seed 6, 1e-3 apart at step 94)."""
     path = os.path.join(os.path.dirname(envs.__file__), "assets", "humanoid.xml")
     assert mujoco.MjModel.from_xml_path(path).opt.solver == mujoco.mjtSolver.mjSOL_PGS
     with pytest.raises(NotImplementedError):

@@ -18,8 +18,8 @@ last physics step. ``cfrc_ext`` is filled after the steps by ``mjx.rne_postconst
 impl), as Gymnasium fills it with ``mj_rnePostConstraint``; with MuJoCo Warp the model's
 ``run_rne_postconstraint`` option makes every step compute it (``mjx.rne_postconstraint`` itself
 raises for warp, so a missing ``cfrc_ext`` cannot pass silently; the warp path is untested here,
-having no GPU). At reset the observation is that of Gymnasium's reset: a forward pass at the reset
-state, no control, ``cfrc_ext`` zero.
+having no GPU). At reset the observation is that of Gymnasium's reset (a forward pass at the reset
+state, no control, ``cfrc_ext`` zero), from the kinematic passes alone (``physics_state``).
 
 Metrics: Gymnasium's ``info`` terms ``reward_survive``, ``reward_forward``, ``reward_ctrl``,
 ``reward_contact`` (costs negative), ``x_position``, ``y_position`` (the torso's, ``qpos[0:2]``),
@@ -27,15 +27,27 @@ Metrics: Gymnasium's ``info`` terms ``reward_survive``, ``reward_forward``, ``re
 mass); not its ``tendon_length`` and ``tendon_velocity`` (arrays of the two hip-knee tendons; jaxpg's
 metrics are scalars). The task score is the forward distance ``x_position``.
 
-Deviation from Gymnasium: its model asks for the PGS constraint solver (50 iterations), which MJX
-does not have (``mjx.put_model`` raises ``NotImplementedError``). ``load_model`` swaps it for
-Newton, MJX's default and the primal solver closest to a converged PGS (both solve the same convex
-problem; Newton converges in a few of its 50 iterations). Everything else, RK4 at 3 ms included, is
-Gymnasium's in fidelity ``"gymnasium"``: its float64 parity test runs Gymnasium's env with its
-model's solver switched to Newton likewise, and matches it to rounding. Against Gymnasium's
-untouched PGS model the solver change alone moves a trajectory (same state, same random actions,
-both in MuJoCo C) past 1e-3 in some observation entry within the first few steps, once contacts
-act; see ``SOLVER_DRIFT`` below for the numbers.
+Deviations from Gymnasium, in fidelity ``"gymnasium"`` (RK4 at 3 ms and everything else as in
+Gymnasium's model):
+
+- Solver: the model asks for PGS (50 iterations), which MJX does not have (``mjx.put_model`` raises
+  ``NotImplementedError``); ``load_model`` gives it Newton, MJX's default, in both fidelities. Both
+  solve the same convex problem and Newton converges within its 50 iterations; of MJX's two solvers
+  it stays the closer to PGS (CG parts from it at the first step in some episodes). Measured in
+  MuJoCo itself (Gymnasium's env with its model untouched and switched to Newton, 8 seeded resets,
+  the same random actions; ``test_humanoid_newton_in_place_of_pgs``): the random episodes (17-37
+  steps) end at the same step; qpos and qvel agree within 1e-6 for the first 5-20 steps, then part
+  by at most 9e-6 by the termination (observation 8e-5 relative to ``max(1, |obs|)``, reward 5e-7);
+  past it the fallen humanoid amplifies that, to 1e-5..2e-4 in qpos and qvel after 100 steps, and to
+  0.66 on one seed of 8.
+- Collisions: MJX's collision detection for Humanoid's capsules is not MuJoCo's to rounding. A
+  capsule lying on the floor gets another contact frame (the tangent directions, which orient the
+  pyramidal friction cone of the condim-3 floor contacts), and capsule-capsule distances differ by
+  ~1e-8. From the same state a physics step with such a contact then parts MJX and MuJoCo by
+  1e-5..1e-2 in qvel. Random episodes mostly touch the floor with the feet (spheres) alone: with the
+  solver switched to Newton in Gymnasium's env too, 8 of 12 float64 episodes agree with it to
+  rounding up to termination, 4 part by up to 6e-5 (the episodes still end at the same step).
+  ``tests/test_envs.py::test_gymnasium_parity_humanoid`` has the numbers.
 """
 
 from __future__ import annotations
@@ -107,6 +119,22 @@ class Humanoid(MjxEnv):
         if self.impl == "jax":
             data = mjx.rne_postconstraint(self.mjx_model, data)
         return data
+
+    def physics_state(self, qpos: jax.Array, qvel: jax.Array, forward: bool = False) -> Any:
+        """``MjxEnv.physics_state``, where ``forward`` brings up to date what the observation and the
+        centre of mass read (``xipos``, ``cinert``, ``cvel``): with MJX's jax impl by the kinematic
+        passes alone (no collision or constraint solve, which a full forward pass would compile into
+        every program that resets); the actuator and contact forces stay zero, as after Gymnasium's
+        reset (no control, ``cfrc_ext`` not computed).
+
+        MJX's kinematics writes the torso's quaternion back into ``qpos`` normalised, which MuJoCo's
+        does not: Gymnasium's reset state and observation keep the noisy quaternion (MuJoCo normalises
+        it when it integrates, as MJX does in every step), so ``qpos`` stays as given."""
+        data = super().physics_state(qpos, qvel, forward=forward and self.impl != "jax")
+        if forward and self.impl == "jax":
+            for stage in (mjx.kinematics, mjx.com_pos, mjx.com_vel, mjx.tendon):  # the fields a step sets
+                data = stage(self.mjx_model, data)
+        return data.replace(qpos=qpos.astype(data.qpos.dtype))
 
     def mass_center(self, data: Any) -> jax.Array:
         """``[2]`` x-y of the centre of mass: the bodies' ``xipos`` weighted by their masses."""

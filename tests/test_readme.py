@@ -94,12 +94,13 @@ def test_every_command_is_covered():
 def test_ci_runs_the_readme_test_command_and_reports_skips():
     """``.ci/run`` runs the README's second command word for word (the one command line of the
     README's code blocks that runs pytest), and that command's pytest prints the reason of every
-    skip (``-rs``), so that a skipped check is seen in CI's log."""
+    skip (``-rs``), so that a skipped check is seen in CI's log, in two worker processes that each
+    take whole test files (``-n 2 --dist loadfile``: module fixtures stay shared)."""
     blocks = re.findall(r"```bash\n(.*?)```", (ROOT / "README.md").read_text(), flags=re.S)
     readme = [line for block in blocks for line in block.splitlines() if "pytest" in line]
     ci = [line for line in (ROOT / ".ci" / "run").read_text().splitlines() if "pytest" in line]
     assert len(readme) == 1 and ci == readme, (readme, ci)
-    assert re.search(r"&& pytest -q -rs$", ci[0]), ci[0]
+    assert re.search(r"&& pytest -q -rs -n 2 --dist loadfile$", ci[0]), ci[0]
 
 
 # What the README's text says its training commands train: (a phrase of the README, the values it

@@ -70,7 +70,7 @@ import jax
 import jax.numpy as jnp
 
 from jaxpg.envs.base import State
-from jaxpg.envs.mjx_env import Fidelity, Impl, MjxEnv, mjx
+from jaxpg.envs.mjx_env import Fidelity, Impl, MjxEnv, mjx, planar_position_metrics
 
 TORSO = 1  # body index of the torso (Gymnasium's ``main_body``)
 
@@ -154,15 +154,6 @@ class Ant(MjxEnv):
         finite = jnp.all(jnp.isfinite(qpos)) & jnp.all(jnp.isfinite(qvel))
         return finite & (z_min <= qpos[2]) & (qpos[2] <= z_max)
 
-    def position_metrics(self, qpos: jax.Array) -> dict[str, jax.Array]:
-        """``x_position``, ``y_position``, ``distance_from_origin`` and ``task_score`` (``[]`` each)."""
-        return {
-            "x_position": qpos[0],
-            "y_position": qpos[1],
-            "distance_from_origin": jnp.linalg.norm(qpos[:2]),
-            "task_score": qpos[0],
-        }
-
     def _reset(self, key: jax.Array) -> tuple[Any, jax.Array, dict[str, jax.Array]]:
         kq, kv = jax.random.split(key)
         s = self.reset_noise_scale
@@ -179,7 +170,7 @@ class Ant(MjxEnv):
             "reward_survive": zero,
             "x_velocity": zero,
             "y_velocity": zero,
-            **self.position_metrics(qpos),
+            **planar_position_metrics(qpos),
         }
         return data, self.observation(qpos, qvel, self.contact_forces(data)), metrics
 
@@ -200,7 +191,7 @@ class Ant(MjxEnv):
             "reward_survive": survive,
             "x_velocity": xy_velocity[0],
             "y_velocity": xy_velocity[1],
-            **self.position_metrics(data.qpos),
+            **planar_position_metrics(data.qpos),
         }
         reward = forward + survive - ctrl_cost - contact_cost
         terminated = ~healthy & self.terminate_when_unhealthy

@@ -61,7 +61,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from jaxpg.envs.base import State
-from jaxpg.envs.mjx_env import Fidelity, Impl, MjxEnv, mjx
+from jaxpg.envs.mjx_env import Fidelity, Impl, MjxEnv, mjx, planar_position_metrics
 
 
 class Humanoid(MjxEnv):
@@ -170,14 +170,6 @@ class Humanoid(MjxEnv):
         cost = self.contact_cost_weight * jnp.sum(jnp.square(data._impl.cfrc_ext))
         return jnp.clip(cost, *self.contact_cost_range)
 
-    def _position_metrics(self, qpos: jax.Array) -> dict[str, jax.Array]:
-        return {
-            "x_position": qpos[0],
-            "y_position": qpos[1],
-            "distance_from_origin": jnp.linalg.norm(qpos[:2]),
-            "task_score": qpos[0],
-        }
-
     def _reset(self, key: jax.Array) -> tuple[Any, jax.Array, dict[str, jax.Array]]:
         kq, kv = jax.random.split(key)
         s = self.reset_noise_scale
@@ -192,7 +184,7 @@ class Humanoid(MjxEnv):
             "reward_contact": zero,
             "x_velocity": zero,
             "y_velocity": zero,
-            **self._position_metrics(data.qpos),
+            **planar_position_metrics(data.qpos),
         }
         return data, self.observation(data), metrics
 
@@ -212,7 +204,7 @@ class Humanoid(MjxEnv):
             "reward_contact": -contact_cost,
             "x_velocity": x_velocity,
             "y_velocity": y_velocity,
-            **self._position_metrics(data.qpos),
+            **planar_position_metrics(data.qpos),
         }
         reward = (forward + survive) - (ctrl_cost + contact_cost)  # Gymnasium's order of the sums
         return data, self.observation(data), reward, ~healthy, metrics

@@ -88,6 +88,18 @@ def load_model(xml_file: str, fidelity: Fidelity, total_mass: float | None = Non
     return model
 
 
+def planar_position_metrics(qpos: jax.Array) -> dict[str, jax.Array]:
+    """``x_position``, ``y_position``, ``distance_from_origin`` (of ``qpos[:2]``) and ``task_score``
+    (``x_position``), ``[]`` each: the position terms of Gymnasium's ``info`` for a body whose first
+    two coordinates are its x and y (Swimmer's slides, Ant's and Humanoid's free joint)."""
+    return {
+        "x_position": qpos[0],
+        "y_position": qpos[1],
+        "distance_from_origin": jnp.linalg.norm(qpos[:2]),
+        "task_score": qpos[0],
+    }
+
+
 class MjxEnv(Env):
     """A task simulated by MJX.
 

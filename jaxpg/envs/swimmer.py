@@ -22,7 +22,7 @@ import jax
 import jax.numpy as jnp
 
 from jaxpg.envs.base import State
-from jaxpg.envs.mjx_env import Fidelity, Impl, MjxEnv
+from jaxpg.envs.mjx_env import Fidelity, Impl, MjxEnv, planar_position_metrics
 
 
 class Swimmer(MjxEnv):
@@ -58,15 +58,6 @@ class Swimmer(MjxEnv):
         """``[8]`` observation from ``qpos [5]`` and ``qvel [5]``."""
         return jnp.concatenate([qpos[2:], qvel])
 
-    def position_metrics(self, qpos: jax.Array) -> dict[str, jax.Array]:
-        """``x_position``, ``y_position``, ``distance_from_origin`` and ``task_score`` (``[]`` each)."""
-        return {
-            "x_position": qpos[0],
-            "y_position": qpos[1],
-            "distance_from_origin": jnp.linalg.norm(qpos[:2]),
-            "task_score": qpos[0],
-        }
-
     def _reset(self, key: jax.Array) -> tuple[Any, jax.Array, dict[str, jax.Array]]:
         kq, kv = jax.random.split(key)
         s = self.reset_noise_scale
@@ -79,7 +70,7 @@ class Swimmer(MjxEnv):
             "reward_ctrl": zero,
             "x_velocity": zero,
             "y_velocity": zero,
-            **self.position_metrics(qpos),
+            **planar_position_metrics(qpos),
         }
         return data, self.observation(qpos, qvel), metrics
 
@@ -94,6 +85,6 @@ class Swimmer(MjxEnv):
             "reward_ctrl": -ctrl_cost,
             "x_velocity": xy_velocity[0],
             "y_velocity": xy_velocity[1],
-            **self.position_metrics(data.qpos),
+            **planar_position_metrics(data.qpos),
         }
         return data, self.observation(data.qpos, data.qvel), forward - ctrl_cost, jnp.zeros((), bool), metrics

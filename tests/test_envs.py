@@ -110,7 +110,7 @@ def test_fast_fidelity_observation_and_reward_match_gymnasium(task):
     model.opt.ls_iterations = FAST_LS_ITERATIONS
     assert model.opt.integrator == env.mj_model.opt.integrator  # same settings as jaxpg's "fast"
 
-    def gym_physics_state(qpos: jax.Array, qvel: jax.Array, forward: bool = False) -> mjx.Data:
+    def gym_physics_state(qpos: jax.Array, qvel: jax.Array, **derived: bool) -> mjx.Data:
         gym_env.set_state(np.asarray(qpos, np.float64), np.asarray(qvel, np.float64))  # with mj_forward
         return mjx.put_data(model, gym_env.data)
 
@@ -253,7 +253,7 @@ def test_reset_distribution_matches_gymnasium(task):
     np.testing.assert_array_equal(np.asarray(env.init_qpos), gym_env.init_qpos.astype(np.float32))
     np.testing.assert_array_equal(np.asarray(env.init_qvel), gym_env.init_qvel)
     # Only the noise is under test: skip a reset's forward pass, which would cost a compilation.
-    env.physics_state = lambda qpos, qvel, forward=False: MjxEnv.physics_state(env, qpos, qvel)
+    env.physics_state = lambda qpos, qvel, **derived: MjxEnv.physics_state(env, qpos, qvel)
     data = jax.jit(jax.vmap(env.reset))(jax.random.split(jax.random.key(0), RESET_SAMPLES)).data
     init = np.asarray(env.init_qpos, np.float64)
     mine = np.concatenate([np.asarray(data.qpos, np.float64) - init, np.asarray(data.qvel, np.float64)], axis=1)

@@ -104,7 +104,7 @@ class Pusher(MjxEnv):
         object_position = self.sample_object_position(k_object).astype(self.init_qpos.dtype)
         qpos = self.init_qpos.at[7:9].set(object_position).at[9:].set(0.0)
         qvel = jax.random.uniform(k_vel, (self.nv,), minval=-5e-3, maxval=5e-3).at[7:].set(0.0)
-        data = self.physics_state(qpos, qvel, forward=True)  # the observation reads body positions
+        data = self.physics_state(qpos, qvel, kinematics=True)  # the observation reads body positions
         terms = self.reward_terms(data, jnp.zeros(self.action_size))
         metrics = {k: jnp.zeros((), jnp.float32) for k in terms} | {"task_score": terms["task_score"]}
         return data, self.observation(data), {k: v.astype(jnp.float32) for k, v in metrics.items()}

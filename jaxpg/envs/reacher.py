@@ -101,8 +101,8 @@ class Reacher(MjxEnv):
         arm = self.init_qpos[:2] + jax.random.uniform(k_arm, (2,), minval=-s, maxval=s)
         qpos = jnp.concatenate([arm, self.sample_target(k_target)])
         qvel = jnp.concatenate([jax.random.uniform(k_vel, (2,), minval=-v, maxval=v), jnp.zeros(2)])
-        # The observation reads the bodies' positions, so the reset state needs a forward pass.
-        data = self.physics_state(qpos, qvel, forward=True)
+        # The observation reads the bodies' positions: the kinematic pass computes them.
+        data = self.physics_state(qpos, qvel, kinematics=True)
         _, terms = self.reward(data, jnp.zeros(self.action_size))
         zero = jnp.zeros((), jnp.float32)
         metrics = {"reward_dist": zero, "reward_ctrl": zero, "task_score": terms["task_score"]}

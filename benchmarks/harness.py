@@ -5,6 +5,7 @@
   ``jax.block_until_ready`` so that asynchronous dispatch does not hide device time;
 - ``time_chained(fn, state, repeats)``: the median of synchronised calls ``state, out = fn(state)``,
   each continuing from the last (as a training loop chains them);
+- ``time_for(call, seconds)``: how many synchronised calls fit in ``seconds``;
 - ``time_back_to_back(fn, state, calls)``: seconds per call of ``calls`` calls dispatched back to
   back and synchronised once (as ``jaxpg.train`` dispatches its compiled calls);
 - ``environment()``: the device, backend and the versions of Python, JAX, MuJoCo and jaxpg;
@@ -82,6 +83,17 @@ def time_back_to_back(fn: Callable, state: Any, calls: int) -> tuple[float, floa
         state = fn(state)[0]
     _sync(state)
     return first, (time.perf_counter() - start) / max(calls, 1), state
+
+
+def time_for(call: Callable[[], Any], seconds: float) -> tuple[float, int]:
+    """``(elapsed seconds, calls)``: ``call()`` synchronised and repeated until ``seconds`` have
+    passed, after one warm-up call (for paths whose calls vary in length, e.g. host emulators)."""
+    _sync(call())
+    start, calls = time.perf_counter(), 0
+    while time.perf_counter() - start < seconds:
+        _sync(call())
+        calls += 1
+    return time.perf_counter() - start, calls
 
 
 def _version(package: str) -> str | None:

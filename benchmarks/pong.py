@@ -16,7 +16,7 @@ the Atari ROM):
            of envs (the experiment's learning rate unless ``--lr`` is given, no fps measurement),
            and their running reward against wall clock in ``RUN_DIR/pong_envs.png``: more envs
            learn faster in wall-clock time (on one H200 it held from 1 to 1024 envs:
-           BENCHMARKS.md, section J). ``--algo ppo`` runs the same comparison with PPO (the
+           docs/benchmarks_archive.md, section J). ``--algo ppo`` runs the same comparison with PPO (the
            experiment's settings, e.g. PPO's Atari recipe on the ROM, which learns there in
            minutes where MinPy's A2C needs tens of minutes per setting).
 

@@ -12,6 +12,7 @@ One script, five modes (``python benchmarks/throughput.py MODE --help`` for each
 
 Every figure is timed with ``benchmarks/harness.py`` (synchronised calls, median of repeats) and
 every mode prints a Markdown table; ``--json`` writes the rows.
+Lettered sections cited below are those of the benchmark record, ``docs/benchmarks_archive.md``.
 """
 
 from __future__ import annotations
@@ -213,16 +214,16 @@ For each (impl, num_envs) this measures, in a fresh process (so that peak memory
   raw    env steps/s of the simulation a training iteration needs: the same env (auto-reset
          included), batch and horizon, random actions, ``lax.scan`` over the horizon, each timed
          call continuing from the previous call's env states as training does ("raw from reset":
-         every call from the same reset states, this benchmark's baseline before BENCHMARKS.md
+         every call from the same reset states, this benchmark's baseline before the benchmark record's
          section AK, where the two agreed within 1 %), timed before anything else is compiled,
          and again after training ("raw after training": with the training programs and states
          resident too) and in the rounds that time training, one raw call after each scan and
          each group of single calls ("raw in the training rounds": both sides timed in the same
-         state of the process and the GPU; BENCHMARKS.md AS);
+         state of the process and the GPU; the benchmark record, section AS);
   train  env steps/s of full training iterations (sampling, GAE, policy step, value fit), several
          iterations per compiled call exactly as ``jaxpg.train`` runs them, and one per call
          (``iterations_per_call=1``), the two timed alternately from the same state (since
-         BENCHMARKS.md section AK; before, one iteration per call was timed after the scan, on a
+         the benchmark record section AK; before, one iteration per call was timed after the scan, on a
          more trained policy, as one timing of ``3 x iterations`` unsynchronised calls);
 and reports their ratio, both compile times and the peak device memory per env.
 
@@ -298,7 +299,7 @@ def train_measure(
         return jax.lax.scan(one, state, jax.random.split(key, iterations))
 
     # Raw simulation from the same reset state in every timed call (as this benchmark measured it
-    # up to section AK of BENCHMARKS.md), which might favour the first steps after a reset ...
+    # up to section AK of the benchmark record), which might favour the first steps after a reset ...
     raw_compile, raw_fresh_s, _ = harness.time_call(raw, state, jax.random.PRNGKey(1), repeats=repeats)
     raw_fresh_s /= iterations
 
@@ -322,7 +323,7 @@ def train_measure(
     # committed ones (MuJoCo Warp's buffers), while a jitted call's outputs are all committed, and
     # jit compiles a separate executable for each mix: without this the first timed call after
     # the compiling call compiled the whole program again, which an earlier version of this
-    # benchmark reported as a 10-17x slower scan (BENCHMARKS.md).
+    # benchmark reported as a 10-17x slower scan (docs/benchmarks_archive.md, section M).
     ts = jax.device_put(module.init(jax.random.PRNGKey(0), env, config), jax.devices()[0])
     # Several iterations in one compiled lax.scan, as jaxpg.train runs them by default ...
     block = jax.jit(lambda ts: train_lib.scan_updates(module.update, ts, iterations))
@@ -341,7 +342,7 @@ def train_measure(
     ts_single = ts2
     # Raw simulation is timed a third way in the same rounds (its chain continued), so that raw
     # and training are also compared in the same state of the process and the GPU: timed alone
-    # before anything else, raw ran 5-8 % faster than after training (BENCHMARKS.md AS).
+    # before anything else, raw ran 5-8 % faster than after training (the benchmark record, section AS).
     scan_times, single_times, raw_round_times = [], [], []
     for _ in range(repeats):
         start = time.perf_counter()
@@ -736,7 +737,7 @@ def scaling_main(argv: Sequence[str]) -> None:
 LEARNER_DOC = """Where the learner's fixed cost goes, and what cuts it: GAE's reverse loop and the value fit's
 minibatch loop, each in a few forms, timed alone on the default device.
 
-On a GPU both loops are chains of tiny kernels (BENCHMARKS.md, section AA: the card's learner
+On a GPU both loops are chains of tiny kernels (docs/benchmarks_archive.md, section AA: the card's learner
 costs 15-17 ms per iteration at every batch size, half of it the value fit's 160 Adam steps).
 This times, per batch size (``T = --horizon`` steps x ``--envs`` envs):
 
@@ -892,7 +893,7 @@ and the mean return and length reached (with the early stop, and the full evalua
 so that a faster implementation or device can be checked to score the policy alike. The two
 forms compute the same numbers (tested on the CPU); on a GPU MuJoCo Warp's steps are not
 bit-reproducible from one program to another, so a hopping policy's 1000-step returns differ in
-the last digits or more (BENCHMARKS.md, sections AC and AP).
+the last digits or more (docs/benchmarks_archive.md, sections AC and AP).
 
     python benchmarks/throughput.py eval RUN_DIR --impl warp jax --device default cpu --episodes 16 64
     python benchmarks/throughput.py eval --impl warp --episodes 16     # a fresh policy: episodes end early

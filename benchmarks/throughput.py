@@ -59,7 +59,7 @@ variants of the same task:
 actions is part of every variant.
 
     python benchmarks/throughput.py env --tasks hopper inverted_pendulum --batch-sizes 1024 4096 \\
-        --fidelity fast gymnasium --impl jax warp --horizon 100 --json env_throughput.json
+        --fidelity fast gymnasium --impl jax warp --horizon 100 --json env.json
 
 On the CPU, with tiny sizes: ``--tasks cartpole inverted_pendulum --batch-sizes 4 --horizon 10``.
 """

@@ -2,28 +2,28 @@
 # The GPU measurements of BENCHMARKS.md, in stages of at most 10 minutes each. Run from the repository root on the GPU machine, with jaxpg, JAX for CUDA and
 # MuJoCo Warp installed (docs/gpus.md) or on PYTHONPATH with the checkout:
 #
-#   bash benchmarks/device_session.sh card     # `python experiments/hopper.py --num-envs 256`, 3 seeds, cold and warm
-#   bash benchmarks/device_session.sh sweep    # NPG settings at 256 envs, 3 seeds vmapped, to 2 M env steps
-#   bash benchmarks/device_session.sh sweep8   # settings around the default, 8 seeds vmapped, to 1.97 M env steps
-#   bash benchmarks/device_session.sh ratio [FIELD=VALUE ...]  # train(+eval)/raw of the card's defaults
+#   bash benchmarks/gpu_stages.sh card     # `python experiments/hopper.py --num-envs 256`, 3 seeds, cold and warm
+#   bash benchmarks/gpu_stages.sh sweep    # NPG settings at 256 envs, 3 seeds vmapped, to 2 M env steps
+#   bash benchmarks/gpu_stages.sh sweep8   # settings around the default, 8 seeds vmapped, to 1.97 M env steps
+#   bash benchmarks/gpu_stages.sh ratio [FIELD=VALUE ...]  # train(+eval)/raw of the card's defaults
 #                                              # (with these preset overrides) at 256-65536 envs
-#   bash benchmarks/device_session.sh sweep1m  # settings around the card's preset, 8 seeds vmapped, to 0.98 M env steps
-#   bash benchmarks/device_session.sh ablation # each phase's cost inside the compiled iteration, at 1024 and 4096 envs
-#   bash benchmarks/device_session.sh ablation_check  # throughput.py train and the ablation at 1024 envs on one machine
+#   bash benchmarks/gpu_stages.sh sweep1m  # settings around the card's preset, 8 seeds vmapped, to 0.98 M env steps
+#   bash benchmarks/gpu_stages.sh ablation # each phase's cost inside the compiled iteration, at 1024 and 4096 envs
+#   bash benchmarks/gpu_stages.sh ablation_check  # throughput.py train and the ablation at 1024 envs on one machine
 #                                              # (the two disagreed on the rollouts' time)
-#   bash benchmarks/device_session.sh order_check  # the ablation timed interleaved and grouped; the card's
+#   bash benchmarks/gpu_stages.sh order_check  # the ablation timed interleaved and grouped; the card's
 #                                              # run, then one evaluation's cost per episodes, early stop or not;
 #                                              # the README's GPU NPG command and its evaluations' share
-#   bash benchmarks/device_session.sh trace    # jax.profiler trace of the card's block; phases at 65536 envs
-#   bash benchmarks/device_session.sh ttr      # time to a Hopper return of 3000, NPG and PPO, 3 seeds each
-#   bash benchmarks/device_session.sh env      # raw env throughput table, then Pong figures
-#   bash benchmarks/device_session.sh gym      # the README's GPU training commands, then Gymnasium evaluation
-#   bash benchmarks/device_session.sh scaling  # NPG over 1, 2, ... GPUs at a fixed batch per GPU
-#   bash benchmarks/device_session.sh extra S  # 2 GPUs: Pong A2C for S seconds on GPU 1 while GPU 0 tests
+#   bash benchmarks/gpu_stages.sh trace    # jax.profiler trace of the card's block; phases at 65536 envs
+#   bash benchmarks/gpu_stages.sh ttr      # time to a Hopper return of 3000, NPG and PPO, 3 seeds each
+#   bash benchmarks/gpu_stages.sh env      # raw env throughput table, then Pong figures
+#   bash benchmarks/gpu_stages.sh gym      # the README's GPU training commands, then Gymnasium evaluation
+#   bash benchmarks/gpu_stages.sh scaling  # NPG over 1, 2, ... GPUs at a fixed batch per GPU
+#   bash benchmarks/gpu_stages.sh extra S  # 2 GPUs: Pong A2C for S seconds on GPU 1 while GPU 0 tests
 #                                              # whether XLA command buffers slow the fused scan of iterations
-#   bash benchmarks/device_session.sh atari    # Atari Pong: frames/s of each path, then PPO (Nature CNN, 16 games,
+#   bash benchmarks/gpu_stages.sh atari    # Atari Pong: frames/s of each path, then PPO (Nature CNN, 16 games,
 #                                              # 2500 iterations or 8 minutes) scored in ALE/Pong-v5
-#   bash benchmarks/device_session.sh atari_envs SECONDS N ...  # PPO on the ROM with N games, SECONDS each
+#   bash benchmarks/gpu_stages.sh atari_envs SECONDS N ...  # PPO on the ROM with N games, SECONDS each
 #                                              # (needs ale-py: pip install -e ".[atari]")
 #
 # Logs and JSON go to $OUT (default: benchmarks/results/latest). Every stage caps its parts with
@@ -160,7 +160,7 @@ atari_envs)  # SECONDS N ...: PPO's Atari recipe with N games, one process and J
   done
   ;;
 *)
-  echo "usage: bash benchmarks/device_session.sh card|sweep|sweep8|sweep1m|ratio|ablation|ablation_check|order_check|trace|ttr|env|gym|scaling|extra|atari|atari_envs" >&2
+  echo "usage: bash benchmarks/gpu_stages.sh card|sweep|sweep8|sweep1m|ratio|ablation|ablation_check|order_check|trace|ttr|env|gym|scaling|extra|atari|atari_envs" >&2
   exit 2
   ;;
 esac

@@ -1,4 +1,39 @@
-"""The command jaxpg is known by, timed as a user runs it, then judged in Gymnasium.
+"""The command jaxpg is known by, ``python experiments/hopper.py --num-envs 256``, run as a user
+runs it: each run a fresh process, timed as a whole.
+
+Two modes (``python benchmarks/card_command.py MODE --help`` for each):
+
+  card         time the command per seed with empty caches (cold) and with caches a first run
+               filled (warm), then score each run's policy in Gymnasium's CPU Hopper-v5;
+  determinism  run the same seed several times per setting (MuJoCo Warp, XLA's deterministic
+               ops, MJX's JAX implementation) and find where two runs' metrics first differ.
+
+    python benchmarks/card_command.py card --seeds 0 1 2 --modes cold warm --json card.json
+    python benchmarks/card_command.py determinism --settings default deterministic jax --runs 3
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import re
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import harness
+
+RAW = argparse.RawDescriptionHelpFormatter
+ROOT = Path(__file__).resolve().parent.parent
+CARD_DOC = """The command jaxpg is known by, timed as a user runs it, then judged in Gymnasium.
 
 For each seed this runs, as a separate process, exactly
 
@@ -14,25 +49,32 @@ return in Gymnasium's CPU Hopper-v5. ``--cold`` gives every run empty caches (it
 compilation cache and MuJoCo Warp kernel cache, as on a fresh machine); ``--warm`` runs again
 with caches that a first run filled.
 
-    python benchmarks/card_command.py --seeds 0 1 2 --modes cold warm --json card.json
+    python benchmarks/card_command.py card --seeds 0 1 2 --modes cold warm --json card.json
 """
 
-from __future__ import annotations
+DETERMINISM_DOC = """Does one seed give the same numbers in two processes? Which part of a GPU run breaks it?
 
-import argparse
-import json
-import os
-import re
-import shutil
-import statistics
-import subprocess
-import sys
-import tempfile
-import time
-from pathlib import Path
-from typing import Any
+For each setting this runs the same training command several times, each run a fresh process,
+and compares the runs' ``metrics.jsonl`` field by field, iteration by iteration (wall-clock
+fields left out). Within a setting the first run starts with empty caches (it compiles and
+autotunes, as on a fresh machine) and the later runs load its compiled programs from the
+persistent compilation cache, so:
 
-ROOT = Path(__file__).resolve().parent.parent
+* ``warm vs warm`` differing means the same compiled program gives different numbers from run to
+  run (non-deterministic kernels, e.g. atomic additions in reductions or in MuJoCo Warp);
+* ``cold vs warm`` differing while ``warm vs warm`` agrees means compiling again changes the
+  numbers (e.g. XLA's autotuner choosing other GPU kernels).
+
+Settings (``--settings``): ``default`` (MuJoCo Warp when installed), ``deterministic``
+(``XLA_FLAGS=--xla_gpu_deterministic_ops=true``), ``jax`` (``--impl jax``: MJX's JAX
+implementation instead of Warp). The command is ``python experiments/hopper.py --num-envs 256
+--iterations N`` with ``--seed S``.
+
+    python benchmarks/card_command.py determinism --settings default deterministic jax --runs 3 --iterations 20
+"""
+
+
+# ========================================================================================== card
 
 
 def train_once(seed: int, run_dir: Path, caches: Path, log: Path, extra: list[str]) -> dict[str, Any]:
@@ -90,14 +132,14 @@ def collect(pending: list, wait: bool) -> None:
         print(f"  {row['mode']} seed {row['seed']}: Gymnasium {row['gymnasium_return']} ± {row['gymnasium_std']}")
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+def card_main(argv: Sequence[str]) -> None:
+    parser = argparse.ArgumentParser(prog="card_command.py card", description=CARD_DOC, formatter_class=RAW)
     parser.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2])
     parser.add_argument("--modes", nargs="+", choices=("cold", "warm"), default=["cold", "warm"])
     parser.add_argument("--out", default=None, help="where runs and logs go (default: a temporary directory)")
     parser.add_argument("--json", default=None)
     parser.add_argument("--extra", nargs=argparse.REMAINDER, default=[], help="extra flags (not the card's command)")
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
 
     out = Path(args.out or tempfile.mkdtemp(prefix="card-"))
     out.mkdir(parents=True, exist_ok=True)
@@ -122,11 +164,9 @@ def main() -> None:
             if mode == "cold" and "warm" in args.modes and not shared_caches.exists():
                 shutil.copytree(caches, shared_caches)  # the warm runs start from a first run's caches
             collect(pending, wait=False)
-            if args.json:
-                Path(args.json).write_text(json.dumps(rows, indent=1))
+            harness.write_json(args.json, rows, argv=list(argv))
     collect(pending, wait=True)
-    if args.json:
-        Path(args.json).write_text(json.dumps(rows, indent=1))
+    harness.write_json(args.json, rows, argv=list(argv))
     print("\n| mode | seed | wall clock s | env steps | evaluations (s) | in-run mean policy | Gymnasium Hopper-v5 |")
     print("|---|---|---|---|---|---|---|")
     for row in rows:
@@ -139,6 +179,122 @@ def main() -> None:
         walls = [r["wall_s"] for r in rows if r["mode"] == mode]
         gyms = [r["gymnasium_return"] or float("nan") for r in rows if r["mode"] == mode]
         print(f"{mode}: median wall clock {statistics.median(walls):.1f} s, Gymnasium min {min(gyms):.0f}")
+
+
+# ========================================================================================== determinism
+
+SETTINGS: dict[str, tuple[dict[str, str], list[str]]] = {
+    "default": ({}, []),
+    "deterministic": ({"XLA_FLAGS": "--xla_gpu_deterministic_ops=true"}, []),
+    "jax": ({}, ["--impl", "jax"]),
+}
+TIMING_FIELDS = ("wall_time_s", "eval_seconds")
+
+
+def run_once(
+    run_dir: Path, caches: Path, env_vars: dict[str, str], flags: list[str], args: argparse.Namespace
+) -> float:
+    """One training process with its own run directory and the setting's caches; its wall clock."""
+    env = {
+        **os.environ,
+        **env_vars,
+        "JAXPG_COMPILATION_CACHE": str(caches / "xla"),
+        "WARP_CACHE_PATH": str(caches / "warp"),
+        "PYTHONUNBUFFERED": "1",
+    }
+    command = [sys.executable, "experiments/hopper.py", "--num-envs", str(args.num_envs), "--seed", str(args.seed)]
+    command += ["--iterations", str(args.iterations), "--run-dir", str(run_dir), "--no-progress", *flags]
+    start = time.perf_counter()
+    with (run_dir.parent / f"{run_dir.name}.log").open("w") as log:
+        status = subprocess.run(command, cwd=ROOT, env=env, stdout=log, stderr=subprocess.STDOUT).returncode
+    if status != 0:
+        raise SystemExit(f"error: {' '.join(command)} exited with {status}; see {run_dir.parent / run_dir.name}.log")
+    return time.perf_counter() - start
+
+
+def read_metrics(run_dir: Path) -> list[dict[str, Any]]:
+    """The run's ``metrics.jsonl`` rows."""
+    return [json.loads(line) for line in (run_dir / "metrics.jsonl").read_text().splitlines() if line.strip()]
+
+
+def compare(a: list[dict[str, Any]], b: list[dict[str, Any]]) -> dict[str, Any]:
+    """Where two runs' metrics first differ: ``{"identical", "first_iteration", "field", "max_rel"}``
+    (``max_rel``: the largest relative difference of any numeric field at any iteration where both
+    values are finite; a NaN or infinity against another value is a difference without a size)."""
+    first: tuple[int, str] | None = None
+    max_rel = 0.0
+    for row_a, row_b in zip(a, b, strict=True):
+        for field in sorted(set(row_a) | set(row_b)):
+            if field in TIMING_FIELDS:
+                continue
+            x, y = row_a.get(field), row_b.get(field)
+            if x == y or (isinstance(x, float) and isinstance(y, float) and math.isnan(x) and math.isnan(y)):
+                continue
+            if first is None:
+                first = (int(row_a.get("iteration", -1)), field)
+            if isinstance(x, int | float) and isinstance(y, int | float) and math.isfinite(x) and math.isfinite(y):
+                max_rel = max(max_rel, abs(x - y) / max(abs(x), abs(y), 1e-12))
+    return {
+        "identical": first is None,
+        "first_iteration": None if first is None else first[0],
+        "field": None if first is None else first[1],
+        "max_rel": max_rel,
+    }
+
+
+def determinism_main(argv: Sequence[str]) -> None:
+    parser = argparse.ArgumentParser(
+        prog="card_command.py determinism", description=DETERMINISM_DOC, formatter_class=RAW
+    )
+    parser.add_argument("--settings", nargs="+", choices=tuple(SETTINGS), default=list(SETTINGS))
+    parser.add_argument("--runs", type=int, default=3, help="runs per setting (the first with empty caches)")
+    parser.add_argument("--iterations", type=int, default=20)
+    parser.add_argument("--num-envs", type=int, default=256)
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--out", default=None, help="where runs and logs go (default: a temporary directory)")
+    parser.add_argument("--json", default=None)
+    args = parser.parse_args(argv)
+    if args.runs < 2:
+        parser.error("--runs must be >= 2 (one cold run and at least one warm run to compare with it)")
+    out = Path(args.out or tempfile.mkdtemp(prefix="determinism-"))
+    out.mkdir(parents=True, exist_ok=True)
+
+    rows = []
+    for setting in args.settings:
+        env_vars, flags = SETTINGS[setting]
+        caches = out / setting / "caches"
+        caches.mkdir(parents=True, exist_ok=True)
+        metrics, walls = [], []
+        for i in range(args.runs):
+            run_dir = out / setting / f"run{i}"
+            walls.append(run_once(run_dir, caches, env_vars, flags, args))
+            metrics.append(read_metrics(run_dir))
+            print(f"  {setting} run {i}: {walls[-1]:.1f} s, {len(metrics[-1])} iterations", flush=True)
+        pairs = [("cold vs warm", 0, 1)] + [("warm vs warm", 1, j) for j in range(2, args.runs)]
+        for name, i, j in pairs:
+            result = compare(metrics[i], metrics[j])
+            where = "identical" if result["identical"] else f"first differs at iteration {result['first_iteration']}"
+            print(f"  {setting}, {name}: {where}, largest relative difference {result['max_rel']:.2e}", flush=True)
+            rows.append({"setting": setting, "pair": name, "runs": [i, j], "wall_s": walls, **result})
+
+    print(f"\nhopper, {args.num_envs} envs, seed {args.seed}, {args.iterations} iterations per run")
+    print("| setting | pair | identical | first differing iteration (field) | largest relative difference |")
+    print("|---|---|---|---|---|")
+    for r in rows:
+        where = "-" if r["identical"] else f"{r['first_iteration']} ({r['field']})"
+        print(f"| {r['setting']} | {r['pair']} | {'yes' if r['identical'] else 'no'} | {where} | {r['max_rel']:.2e} |")
+    harness.write_json(args.json, rows, argv=list(argv))
+
+
+MODES = {"card": card_main, "determinism": determinism_main}
+
+
+def main(argv: Sequence[str] | None = None) -> None:
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if not argv or argv[0] not in MODES:
+        print(__doc__)
+        raise SystemExit(f"usage: python benchmarks/card_command.py {{{','.join(MODES)}}} [options]")
+    MODES[argv[0]](argv[1:])
 
 
 if __name__ == "__main__":

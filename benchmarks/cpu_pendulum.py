@@ -4,7 +4,7 @@
 run is a fresh process whose clock starts before it imports its framework, and includes
 compilation and every evaluation:
 
-  jaxpg NPG, cold   ``time_to_return.py --task inverted_pendulum --algo npg --preset pendulum_cpu``
+  jaxpg NPG, cold   ``time_to_return.py run --task inverted_pendulum --algo npg --preset pendulum_cpu``
                     with the persistent compilation cache off: every program is compiled;
   jaxpg NPG, warm   the same with the cache on, after a warm-up run has filled it (the second
                     run of a program on a machine);
@@ -30,6 +30,8 @@ import sys
 import tempfile
 import time
 
+import harness
+
 HERE = os.path.dirname(os.path.abspath(__file__))
 
 
@@ -37,14 +39,13 @@ def jaxpg_runs(seeds: list[int], target: float, cache: str | None, warmup: bool)
     """``time_to_return.py`` rows for NPG on the pendulum (``cache``: a directory, or None: off)."""
     with tempfile.TemporaryDirectory() as tmp:
         out = os.path.join(tmp, "rows.json")
-        cmd = [sys.executable, os.path.join(HERE, "time_to_return.py"), "--task", "inverted_pendulum"]
+        cmd = [sys.executable, os.path.join(HERE, "time_to_return.py"), "run", "--task", "inverted_pendulum"]
         cmd += ["--algo", "npg", "--preset", "pendulum_cpu", "--impl", "jax", "--target", str(target)]
         cmd += ["--eval-envs", "10", "--block", "5", "--max-seconds", "180", "--json", out, "--seeds"]
         cmd += [str(s) for s in seeds] + (["--warmup"] if warmup else [])
         env = {**os.environ, "JAXPG_COMPILATION_CACHE": cache or "off", "JAX_PLATFORMS": "cpu"}
         subprocess.run(cmd, env=env, check=True, stdout=subprocess.DEVNULL)
-        with open(out) as f:
-            return json.load(f)
+        return harness.rows_of(out)
 
 
 def sb3_single(seed: int, target: float, threads: int, max_steps: int) -> dict:
@@ -131,9 +132,7 @@ def main() -> None:
     print(summary("jaxpg NPG `pendulum_cpu`, compilation cache warm", results["jaxpg_warm"]))
     if results["sb3_ppo"] is not None:
         print(summary("Stable-Baselines3 PPO, defaults", results["sb3_ppo"]))
-    if args.json:
-        with open(args.json, "w") as f:
-            json.dump(results, f, indent=1)
+    harness.write_json(args.json, results, target=args.target)
 
 
 if __name__ == "__main__":

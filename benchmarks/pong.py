@@ -16,7 +16,7 @@ the Atari ROM):
            of envs (the experiment's learning rate unless ``--lr`` is given, no fps measurement),
            and their running reward against wall clock in ``RUN_DIR/pong_envs.png``: more envs
            learn faster in wall-clock time (on one H200 it held from 1 to 1024 envs:
-           BENCHMARKS.md, section J). ``--algo ppo`` runs the same comparison with PPO (the
+           docs/benchmarks_archive.md, section J). ``--algo ppo`` runs the same comparison with PPO (the
            experiment's settings, e.g. PPO's Atari recipe on the ROM, which learns there in
            minutes where MinPy's A2C needs tens of minutes per setting).
 
@@ -38,6 +38,9 @@ comparison on the Atari ROM (``experiments/atari_pong.py``; needs ``pip install 
     python benchmarks/pong.py --task atari_pong --algo ppo --compare-envs 1 4 16 64 --seconds 150 --run-dir runs/ppo
     python benchmarks/pong.py --plot docs/pong_a2c_h200.png benchmarks/results/2026-11-22-h200/pong*.json
     python benchmarks/pong.py --fps-envs --train-envs 2048 --lr 1e-3 2e-3 4e-3 --seconds 125   # the lr sweep
+
+``python benchmarks/pong.py atari-fps`` measures the frames per second of the Atari ROM's paths
+instead (``atari-fps --help``).
 """
 
 from __future__ import annotations
@@ -48,15 +51,17 @@ import importlib.util
 import json
 import math
 import sys
-import time
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+import harness
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 from jaxpg import algos, cli, compile_cache, envs, runlog, session
+from jaxpg.envs import atari
 
 ROOT = Path(__file__).resolve().parents[1]
 RUNNING_DECAY = 0.99  # running reward: EMA over games, as in the seed
@@ -94,13 +99,14 @@ def env_fps(num_envs: int, horizon: int, size: int, repeats: int = 3) -> dict:
         return jax.random.randint(key, obs.shape[:1], 0, env.action_size), jnp.zeros(obs.shape[0])
 
     run = jax.jit(lambda s, k: rollout_lib.rollout(env, random_act, None, s, k, horizon)[0])
-    start = time.perf_counter()
-    state = jax.block_until_ready(run(state, jax.random.PRNGKey(1)))
-    compile_s = time.perf_counter() - start
-    start = time.perf_counter()
-    for i in range(repeats):
-        state = jax.block_until_ready(run(state, jax.random.PRNGKey(2 + i)))
-    return {"fps": num_envs * horizon * repeats / (time.perf_counter() - start), "compile_s": compile_s}
+    chain = [state]
+
+    def call(i: int) -> Any:  # each call continues from the last one's games
+        chain.append(run(chain[-1], jax.random.PRNGKey(1 + i)))
+        return chain[-1]
+
+    compile_s, seconds, _ = harness.time_calls(call, repeats)
+    return {"fps": num_envs * horizon / seconds, "compile_s": compile_s}
 
 
 def train_fps(num_envs: int, size: int, per_call: int = 1, iterations: int = 24) -> dict:
@@ -112,16 +118,9 @@ def train_fps(num_envs: int, size: int, per_call: int = 1, iterations: int = 24)
     config = a2c_config(num_envs)
     ts = train_lib.own_buffers(a2c.init(jax.random.PRNGKey(0), envs.make_shared("pong", size=size), config))
     step = train_lib.compiled_block(a2c.update, per_call, False)
-    start = time.perf_counter()
-    ts, _ = jax.block_until_ready(step(ts))
-    compile_s = time.perf_counter() - start
-    calls = max(1, iterations // per_call)
-    start = time.perf_counter()
-    for _ in range(calls):
-        ts, _ = step(ts)
-    jax.block_until_ready(ts)
+    compile_s, seconds, _ = harness.time_back_to_back(step, ts, max(1, iterations // per_call))
     return {
-        "fps": config.samples_per_iteration * per_call * calls / (time.perf_counter() - start),
+        "fps": config.samples_per_iteration * per_call / seconds,
         "compile_s": compile_s,
         "iterations_per_call": per_call,
     }
@@ -364,6 +363,9 @@ def check(args: argparse.Namespace) -> None:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point; returns the exit status (2 with one ``error:`` line for bad input)."""
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if argv[:1] == ["atari-fps"]:
+        return atari_fps_main(argv[1:])
     try:
         args = build_parser().parse_args(argv)
         if args.plot:
@@ -447,6 +449,114 @@ def main(argv: Sequence[str] | None = None) -> int:
         with open(args.json, "w") as f:
             result = {"device": device, "task": args.task, "size": size, "fps": fps_rows, "beat": beat_rows}
             json.dump(result, f, indent=1)
+    return 0
+
+
+# ---------------------------------------------------------------------------------------------
+# atari-fps: the Atari ROM's paths, frames per second
+
+ATARI_FPS_DOC = """Frames per second of each way to play Atari Pong on the host's CPU cores and the device.
+
+Rows (``B`` games stepped together, each path timed for ``--seconds`` after a warm-up call,
+compilation excluded):
+
+* ``ALE vector env``: ALE's games with ``atari_pong``'s settings (RGB 210x160 frames, four frames
+  per step), stepped from Python with random actions.
+* ``atari_pong scan``: the task (``jaxpg.envs.atari``) in a jitted ``lax.scan``: ALE through the
+  batched ``io_callback``, Karpathy's preprocessing and frame difference, and the 6400 -> 200 -> 2
+  policy sampling each action: what the learner's sampling phase costs.
+* ``a2c training``: ``experiments/atari_pong.py``'s A2C (horizon 8) end to end, learning included.
+
+``frames/s`` counts emulator frames (four per agent step).
+
+    python benchmarks/pong.py atari-fps                   # B = 1 4 16, about a minute on 2 cores
+    python benchmarks/pong.py atari-fps --envs 16 64 256 1024 --seconds 5
+"""
+
+
+def ale_vector(num_envs: int, seconds: float) -> float:
+    """Agent steps per second of ALE's vector env with ``atari_pong``'s settings."""
+    pool = atari.AlePool(num_envs, sticky=True, frameskip=atari.FRAMESKIP, max_frames=10**7, seed=0)
+    rng = np.random.default_rng(0)
+    zeros = np.ones(num_envs, np.int64)
+
+    def run() -> None:
+        pool.step(rng.integers(2, 4, size=num_envs), zeros)
+
+    elapsed, calls = harness.time_for(run, seconds)
+    return calls * num_envs / elapsed
+
+
+def a2c_state(num_envs: int) -> Any:
+    """A fresh A2C ``TrainState`` with ``experiments/atari_pong.py``'s settings on ``atari_pong``."""
+    from jaxpg.algos import a2c
+    from jaxpg.envs import EpisodeStats
+
+    env = EpisodeStats(atari.AtariPong())
+    network = dict(policy_hidden=(200,), policy_activation="relu", value_hidden=(200,), value_activation="relu")
+    config = a2c.Config(**network, num_envs=num_envs, horizon=8, lr=1e-3, gae_lambda=0.95, eval_envs=0)
+    return jax.jit(lambda k: a2c.init(k, env, config))(jax.random.PRNGKey(0))
+
+
+def atari_pong_scan(num_envs: int, seconds: float, blocks: int = 8) -> float:
+    """Agent steps per second of sampling alone (the task and the policy in a jitted scan)."""
+    from jaxpg.algos import core
+
+    box = [a2c_state(num_envs)]
+
+    @jax.jit
+    def run(ts: Any) -> Any:
+        def body(ts: Any, key: jax.Array) -> tuple[Any, None]:
+            env_state, _ = core.sample(ts, key)
+            return ts.replace(env_state=env_state), None
+
+        return jax.lax.scan(body, ts, jax.random.split(jax.random.PRNGKey(1), blocks))[0]
+
+    def step() -> Any:
+        box[0] = run(box[0])
+        return box[0].env_state.obs
+
+    elapsed, calls = harness.time_for(step, seconds)
+    return calls * blocks * box[0].config.samples_per_iteration / elapsed
+
+
+def a2c_training(num_envs: int, seconds: float, iterations: int = 8) -> float:
+    """Agent steps per second of A2C training (``experiments/atari_pong.py``'s settings)."""
+    from jaxpg import train as train_lib
+    from jaxpg.algos import a2c
+
+    box = [a2c_state(num_envs)]
+    block = train_lib.compiled_block(a2c.update, iterations, False)
+
+    def run() -> Any:
+        box[0], metrics = block(box[0])
+        return metrics
+
+    elapsed, calls = harness.time_for(run, seconds)
+    return calls * iterations * box[0].config.samples_per_iteration / elapsed
+
+
+def atari_fps_main(argv: Sequence[str]) -> int:
+    parser = argparse.ArgumentParser(
+        prog="python benchmarks/pong.py atari-fps",
+        description=ATARI_FPS_DOC,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument("--envs", type=int, nargs="+", default=[1, 4, 16], help="games stepped together")
+    parser.add_argument("--seconds", type=float, default=3.0, help="timing of each row")
+    args = parser.parse_args(argv)
+    atari.require_ale()
+    print(f"{harness.describe()}; frames/s = emulator frames per second")
+    print(f"{'path':18s} {'B':>5s} {'agent steps/s':>14s} {'frames/s':>12s}")
+    paths = (
+        ("ALE vector env", ale_vector, atari.FRAMESKIP),
+        ("atari_pong scan", atari_pong_scan, atari.FRAMESKIP),
+        ("a2c training", a2c_training, atari.FRAMESKIP),
+    )
+    for name, measure, frames_per_step in paths:
+        for num_envs in args.envs:
+            steps = measure(num_envs, args.seconds)
+            print(f"{name:18s} {num_envs:5d} {steps:14,.0f} {steps * frames_per_step:12,.0f}", flush=True)
     return 0
 
 

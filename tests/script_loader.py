@@ -5,6 +5,7 @@ The scripts are not a package: a test loads one by its path from the repository 
 from __future__ import annotations
 
 import importlib.util
+import sys
 import types
 from pathlib import Path
 
@@ -15,6 +16,9 @@ def load_script(script: str) -> types.ModuleType:
     """``script`` (a path from the repository root, e.g. ``"benchmarks/pong.py"``) run as a fresh
     module named after its path (``benchmarks_pong``), so that ``experiments/pong.py`` and
     ``benchmarks/pong.py`` stay apart."""
+    directory = str((ROOT / script).parent)
+    if directory not in sys.path:  # as ``python benchmarks/x.py`` runs it: its siblings (harness.py) importable
+        sys.path.insert(0, directory)
     spec = importlib.util.spec_from_file_location(script.replace("/", "_").removesuffix(".py"), ROOT / script)
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)

@@ -1,6 +1,6 @@
 """Several processes train as one, through ``jax.distributed`` (CPU collectives over gloo).
 
-Two processes on 127.0.0.1, one CPU device each, run the two command lines of the README's
+Two processes on 127.0.0.1, one CPU device each, run the two command lines of docs/gpus.md's
 "Several hosts" (``python -m jaxpg.cli ... --coordinator-address 127.0.0.1:7777 --num-processes 2
 --process-id I``, on a free port and in a temporary run directory): the env batch is split over
 the two devices of the two processes, and the metrics must equal those of one process on one
@@ -16,7 +16,7 @@ compared depends on what amplifies those bits:
   value loss) is float32 sums of at most a few thousand terms: rtol 1e-4 (relative difference
   <= ~1e-5). The step (KL, step length, the loss that includes the KL) solves ``(F + damping I) x = g``
   by conjugate gradient, which amplifies a relative perturbation by up to the condition number
-  ``1 + lambda_max(F) / damping``: at the README's ``--cg-damping 0.01`` with ``lambda_max(F)`` of
+  ``1 + lambda_max(F) / damping``: at the documented ``--cg-damping 0.01`` with ``lambda_max(F)`` of
   this policy 3.6-7 (computed densely over the first iterations) that is <= ~700, so those agree
   to ~7e-3 and are compared with rtol 3e-2. The evaluation after an iteration runs episodes of
   the new parameters, which can end a step earlier or later: compared as the later iterations.
@@ -57,8 +57,9 @@ DISTRIBUTED_FLAGS = ("--coordinator-address", "--num-processes", "--process-id")
 
 
 def readme_commands() -> list[list[str]]:
-    """The README's two launch commands of "Several hosts", as argument lists after ``python -m jaxpg.cli``."""
-    lines = [line.rstrip(" &") for line in (ROOT / "README.md").read_text().splitlines()]
+    """The two launch commands of "Several hosts" in ``docs/gpus.md``, as argument lists after
+    ``python -m jaxpg.cli``."""
+    lines = [line.rstrip(" &") for line in (ROOT / "docs" / "gpus.md").read_text().splitlines()]
     commands = [
         shlex.split(line)[3:] for line in lines if line.startswith("python -m jaxpg.cli") and "--process-id" in line
     ]
@@ -131,7 +132,7 @@ def launch(commands: list[list[str]], envs: list[dict[str, str]], timeout: float
 
 def run_processes(args: list[str], count: int = 2, timeout: float = HANG_GUARD_S) -> list[subprocess.CompletedProcess]:
     """``count`` processes of ``args``, told where the coordinator is by ``JAX_COORDINATOR_ADDRESS``,
-    ``JAX_NUM_PROCESSES`` and ``JAX_PROCESS_ID`` (the README's alternative to the flags)."""
+    ``JAX_NUM_PROCESSES`` and ``JAX_PROCESS_ID`` (docs/gpus.md's alternative to the flags)."""
     address = f"127.0.0.1:{free_port()}"
     env = {**cpu_env(), "JAX_COORDINATOR_ADDRESS": address, "JAX_NUM_PROCESSES": str(count)}
     return launch([args] * count, [{**env, "JAX_PROCESS_ID": str(i)} for i in range(count)], timeout)
@@ -179,7 +180,7 @@ def compare(reference: list[dict], other: list[dict], other_seed: list[dict], fi
 
 @pytest.fixture(scope="module")
 def one_process(tmp_path_factory) -> Path:
-    """The reference: the README's command as one process on one device; checkpoints at 2 and 4."""
+    """The reference: the documented command as one process on one device; checkpoints at 2 and 4."""
     run_dir = tmp_path_factory.mktemp("one") / "run"
     args = [*ARGS, "--checkpoint-every", "2", "--run-dir", str(run_dir)]
     proc = subprocess.run(cli(*args), capture_output=True, text=True, env=cpu_env(), timeout=HANG_GUARD_S)
@@ -206,7 +207,7 @@ def check_only_process_0_wrote(results: list[subprocess.CompletedProcess], run_d
 
 
 def test_two_processes_train_like_one(one_process, other_seed, tmp_path):
-    """The README's two commands, on a free port and into a temporary run directory."""
+    """The documented two commands, on a free port and into a temporary run directory."""
     run_dir, address = tmp_path / "run", f"127.0.0.1:{free_port()}"
     commands = readme_commands()
     assert [drop_options(c, DISTRIBUTED_FLAGS) for c in commands] == [drop_options(commands[0], DISTRIBUTED_FLAGS)] * 2

@@ -1,4 +1,4 @@
-"""``benchmarks/gpu_determinism.py``'s comparison of two runs' metrics: what counts as the same run
+"""``benchmarks/card_command.py determinism``'s comparison of two runs' metrics: what counts as the same run
 (timing fields aside, NaN equal to NaN) and where two runs first part."""
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 @pytest.fixture(scope="module")
 def determinism():
-    return load_script("benchmarks/gpu_determinism.py")
+    return load_script("benchmarks/card_command.py")
 
 
 def rows(**changes):

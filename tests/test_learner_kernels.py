@@ -1,4 +1,4 @@
-"""``benchmarks/learner_kernels.py`` times forms of GAE and of the value fit that it says compute the
+"""``benchmarks/throughput.py learner`` times forms of GAE and of the value fit that it says compute the
 same numbers: they do (on tiny shapes, on the CPU), and the larger-minibatch rows take fewer steps."""
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 @pytest.fixture(scope="module")
 def kernels():
-    return load_script("benchmarks/learner_kernels.py")
+    return load_script("benchmarks/throughput.py")
 
 
 def test_gae_forms_agree(kernels):

@@ -1,20 +1,28 @@
-"""Every command in the README's code blocks is exercised.
+"""Every command in the README's and its docs pages' code blocks is exercised, and the docs hold
+together.
+
+The README keeps its two commands at the top; the commands of the pages it links to (``DOC_PAGES``:
+tasks, algorithms, run directories, GPUs, Pong, notebooks) are checked here as if they were its own.
 
 * The main job (the first command: NPG on ``inverted_pendulum`` into ``runs/pendulum``) runs for
   real, as written, and must balance the pendulum: its final mean-policy return >= 950. Then the
-  README's ``python -m jaxpg.evaluate runs/pendulum ... --gymnasium`` replays it in Gymnasium's
+  documented ``python -m jaxpg.evaluate runs/pendulum ... --gymnasium`` replays it in Gymnasium's
   InvertedPendulum-v5 and must reach the same.
 * The GPU training commands are planned as the CLI plans them (flags, preset, config validated
   against the task, env built) without training, which needs a GPU; each flag lands in the plan
-  as typed, and what the README's text says a command trains (``README_CLAIMS``: algorithm,
+  as typed, and what the docs' text says a command trains (``README_CLAIMS``: algorithm,
   batch, preset values, iterations, env steps ...) is what it plans.
 * ``python -m jaxpg.evaluate`` of a Pong run is run by ``tests/test_pong.py`` on a tiny run.
 * The Pong benchmark's commands (``benchmarks/pong.py``, its own command line) pass that
   script's argument checks; ``tests/test_pong.py`` runs its comparison mode on the CPU.
 * The several-process launch lines are run word for word by ``tests/test_distributed.py``.
 * The install, test and venv steps are what ``.ci/run`` runs.
+* The README's "API in ten lines" runs, on a small scale, on the CPU.
+* The README stays under 200 lines, every relative link of the README, BENCHMARKS.md and
+  ``docs/*.md`` reaches an existing file (and heading), and ``benchmarks/`` holds at most 12 scripts,
+  each named by BENCHMARKS.md's commands as it exists.
 
-A python command of the README that none of these covers fails ``test_every_command_is_covered``.
+A python command of the docs that none of these covers fails ``test_every_command_is_covered``.
 """
 
 from __future__ import annotations
@@ -34,12 +42,23 @@ from jaxpg import cli
 
 ROOT = Path(__file__).resolve().parents[1]
 MAIN_JOB = "python experiments/pendulum.py --run-dir runs/pendulum"
+# The pages whose commands are the README's own: what the README links to for tasks, algorithms, run
+# directories, GPUs, Pong and notebooks.
+DOC_PAGES = (
+    "README.md",
+    *(f"docs/{name}.md" for name in ("tasks", "algorithms", "run_directories", "gpus", "pong", "notebooks")),
+)
+
+
+def docs_text() -> str:
+    """The README and ``DOC_PAGES``, one after the other."""
+    return "\n".join((ROOT / page).read_text() for page in DOC_PAGES)
 
 
 def readme_python_commands() -> list[str]:
-    """Every ``python ...`` command of the README's bash blocks (one per ``&&`` segment, comments
-    and a trailing ``&`` dropped)."""
-    text = (ROOT / "README.md").read_text()
+    """Every ``python ...`` command of the bash blocks of the README and its ``DOC_PAGES`` (one per
+    ``&&`` segment, comments and a trailing ``&`` dropped)."""
+    text = docs_text()
     commands = []
     for block in re.findall(r"```bash\n(.*?)```", text, flags=re.S):
         for line in block.splitlines():
@@ -84,11 +103,11 @@ def test_every_command_is_covered():
     commands = readme_python_commands()
     assert MAIN_JOB in commands
     evaluates = [c for c in commands if c.startswith("python -m jaxpg.evaluate runs/pendulum")]
-    assert evaluates, "the README evaluates the main job's run directory"
+    assert evaluates, "the docs evaluate the main job's run directory"
     uncovered = [
         c for c in commands if c != MAIN_JOB and c not in evaluates and not any(check(c) for check in COVERED_ELSEWHERE)
     ]
-    assert not uncovered, f"README commands no test runs: {uncovered}"
+    assert not uncovered, f"documented commands no test runs: {uncovered}"
 
 
 def test_ci_runs_the_readme_test_command_and_reports_skips():
@@ -103,8 +122,8 @@ def test_ci_runs_the_readme_test_command_and_reports_skips():
     assert re.search(r"&& pytest -q -rs -n 2 --dist loadfile$", ci[0]), ci[0]
 
 
-# What the README's text says its training commands train: (a phrase of the README, the values it
-# states). The phrase must be in the README (whitespace aside), so that this table follows the
+# What the docs' text says their training commands train: (a phrase of the docs, the values it
+# states). The phrase must be in the README or a ``DOC_PAGES`` page (whitespace aside), so that this table follows the
 # text; the values must be in the command's plan (``planned_values``). ``M env steps`` is
 # num_envs x horizon x iterations in millions, as rounded in the phrase.
 HOPPER = "python experiments/hopper.py --num-envs 256 --run-dir runs/hopper"
@@ -237,16 +256,16 @@ def test_training_commands_plan_what_the_readme_says(command, tmp_path):
         assert as_typed(words, planned) == (list(planned) if isinstance(planned, tuple) else planned), (
             f"--{name.replace('_', '-')} {' '.join(words)} planned as {planned!r}"
         )
-    readme = " ".join((ROOT / "README.md").read_text().split())
+    readme = " ".join(docs_text().split())
     for phrase, claimed in README_CLAIMS.get(command, []):
-        assert phrase in readme, f"the README no longer says: {phrase!r} (update README_CLAIMS)"
+        assert phrase in readme, f"the docs no longer say: {phrase!r} (update README_CLAIMS)"
         for name, want in claimed.items():
             got = values[name]
             if name == "M env steps":
                 got = f"{got:.{len(want.split('.')[1])}f}"
             elif isinstance(got, tuple):
                 got = list(got)
-            assert got == want, f"README: {phrase!r}; planned {name} = {got!r}"
+            assert got == want, f"docs: {phrase!r}; planned {name} = {got!r}"
 
 
 def test_readme_claims_name_readme_commands():
@@ -283,3 +302,101 @@ def test_main_job_balances_the_pendulum_and_gymnasium_agrees(tmp_path):
             assert out.returncode == 0, out.stderr[-3000:]
             returns = re.findall(r"^return: ([0-9.]+)", out.stdout, flags=re.M)
             assert returns and float(returns[0]) >= 950, out.stdout
+
+
+# --------------------------------------------------------------------------- the README's API
+
+
+def test_api_in_ten_lines_runs(tmp_path, monkeypatch):
+    """The README's "API in ten lines", run as written on the CPU, except: 2 iterations where it
+    says 50, on ``cartpole`` (the same calls; its pure-JAX physics compiles in seconds where MJX's
+    pendulum takes a minute a program), and a tiny trained run in ``runs/pendulum`` for
+    ``jaxpg.load_policy``, whose policy maps a NumPy observation to a NumPy action."""
+    import numpy as np
+
+    text = (ROOT / "README.md").read_text()
+    section = text[text.index("## The API in ten lines") :]
+    code = re.search(r"```python\n(.*?)```", section, flags=re.S).group(1)
+    assert len(code.strip().splitlines()) <= 14, code
+    small = re.sub(r"(train\.train\(npg\.update, \w+, )50\b", r"\g<1>2", code).replace("block_size=10", "block_size=2")
+    assert '"inverted_pendulum"' in small
+    small = small.replace('"inverted_pendulum"', '"cartpole"')
+    assert small.count(", 2,") + small.count(", 2)") >= 2, small
+    monkeypatch.chdir(tmp_path)
+    argv = ["--env", "cartpole", "--iterations", "1", "--num-envs", "8", "--horizon", "16"]
+    argv += ["--value-batch-size", "64", "--eval-envs", "2", "--run-dir", "runs/pendulum", "--no-progress"]
+    assert cli.main(argv) == 0
+    namespace: dict = {}
+    exec(compile(small, "README.md", "exec"), namespace)
+    assert int(namespace["state"].iteration) == 3  # one jitted update, then two
+    assert namespace["seeds"].iteration.shape == (5,)
+    policy = namespace["policy"]
+    action = policy(np.zeros(namespace["env"].observation_size, np.float32))
+    assert isinstance(action, np.ndarray | np.generic) and np.all(np.isfinite(action))
+
+
+# --------------------------------------------------------------------------- the docs hold together
+
+LINK = re.compile(r"\]\(([^)\s]+)\)")
+# Written on its own branch; the README links to it already.
+PAGES_WRITTEN_ELSEWHERE = {"docs/gymnasium.md"}
+
+
+def heading_anchors(text: str) -> set[str]:
+    """GitHub's anchors of a Markdown file's headings (``## The card command`` -> ``the-card-command``)."""
+    anchors, seen = set(), {}
+    for line in re.sub(r"```.*?```", "", text, flags=re.S).splitlines():
+        match = re.match(r"#+ (.*)", line)
+        if not match:
+            continue
+        slug = re.sub(r"[^\w\- ]", "", match.group(1).strip().lower()).replace(" ", "-")
+        count = seen.get(slug, 0)
+        seen[slug] = count + 1
+        anchors.add(slug if count == 0 else f"{slug}-{count}")
+    return anchors
+
+
+def markdown_files() -> list[Path]:
+    return [ROOT / "README.md", ROOT / "BENCHMARKS.md", *sorted((ROOT / "docs").glob("*.md"))]
+
+
+def test_readme_is_short():
+    assert len((ROOT / "README.md").read_text().splitlines()) < 200
+
+
+def test_relative_links_resolve():
+    """Every relative link of the README, BENCHMARKS.md and ``docs/*.md`` reaches a file of the
+    repository, and a ``#anchor`` into a Markdown file one of its headings."""
+    broken = []
+    for page in markdown_files():
+        text = page.read_text()
+        for target in LINK.findall(re.sub(r"```.*?```", "", text, flags=re.S)):
+            if re.match(r"[a-z]+:", target):
+                continue
+            path, _, anchor = target.partition("#")
+            file = (page.parent / path).resolve() if path else page
+            name = file.relative_to(ROOT).as_posix() if file.is_relative_to(ROOT) else str(file)
+            if not file.exists():
+                if name not in PAGES_WRITTEN_ELSEWHERE:
+                    broken.append(f"{page.relative_to(ROOT)}: {target}")
+                continue
+            if anchor and file.suffix == ".md" and anchor not in heading_anchors(file.read_text()):
+                broken.append(f"{page.relative_to(ROOT)}: {target} (no such heading)")
+    assert not broken, broken
+
+
+def test_benchmarks_are_at_most_twelve_scripts_and_the_docs_name_them_as_they_are():
+    scripts = sorted(p.name for p in (ROOT / "benchmarks").iterdir() if p.suffix in (".py", ".sh"))
+    assert len(scripts) <= 12, scripts
+    current = [ROOT / "README.md", ROOT / "BENCHMARKS.md", *(ROOT / "docs").glob("*.md")]
+    current = [p for p in current if p.name != "benchmarks_archive.md"]
+    wrong = []
+    for page in current:
+        for script, word in re.findall(r"benchmarks/(\w+\.(?:py|sh))(?: ([\w-]+))?", page.read_text()):
+            if script not in scripts:
+                wrong.append(f"{page.name}: benchmarks/{script}")
+                continue
+            modes = re.search(r"^MODES = \{(.*)\}", (ROOT / "benchmarks" / script).read_text(), flags=re.M)
+            if modes and word and not word.startswith("-") and word not in re.findall(r'"(\w+)"', modes.group(1)):
+                wrong.append(f"{page.name}: benchmarks/{script} {word}")
+    assert not wrong, wrong

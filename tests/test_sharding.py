@@ -243,14 +243,14 @@ def test_episodes_from_split_resets_equal_rollout_episodes(jit):
 
 
 def test_scaling_benchmark_runs_on_cpu(tmp_path):
-    """``benchmarks/scaling.py`` with its docstring's CPU command (tiny sizes, 2 forced devices)."""
+    """``benchmarks/throughput.py scaling`` with its docstring's CPU command (tiny sizes, 2 forced devices)."""
     out = tmp_path / "scaling.json"
     env = {**os.environ, "XLA_FLAGS": "--xla_force_host_platform_device_count=2", "JAX_PLATFORMS": "cpu"}
-    cmd = [sys.executable, str(ROOT / "benchmarks" / "scaling.py"), "--task", "cartpole"]
+    cmd = [sys.executable, str(ROOT / "benchmarks" / "throughput.py"), "scaling", "--task", "cartpole"]
     cmd += ["--envs-per-device", "8", "--horizon", "4", "--iterations", "1", "--json", str(out)]
     proc = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=600)
     assert proc.returncode == 0, proc.stderr[-3000:]
-    rows = json.loads(out.read_text())
+    rows = json.loads(out.read_text())["rows"]
     assert [(r["devices"], r["num_envs"]) for r in rows] == [(1, 8), (2, 16)]
     assert all(r["train_steps_per_s"] > 0 and r["raw_steps_per_s"] > 0 for r in rows)
     assert rows[0]["train_efficiency"] == 1.0

@@ -181,12 +181,12 @@ def test_hopper_command_line_defaults_hold_from_64_to_65536_envs(num_envs, tmp_p
 
 
 def test_eval_cost_benchmark_times_early_stop_and_full_evaluations_alike():
-    """``benchmarks/eval_cost.py`` on a fresh pendulum policy (its episodes end within a few
+    """``benchmarks/throughput.py eval`` on a fresh pendulum policy (its episodes end within a few
     steps): the evaluation with the early stop and the full one reach the same returns, and the
     row says how long the episodes were."""
-    bench = load_script("benchmarks/eval_cost.py")
+    bench = load_script("benchmarks/throughput.py")
     task, kwargs, policy, params, stats = bench.policy_to_evaluate(None, "inverted_pendulum")
-    row = bench.measure(task, kwargs, policy, params, stats, "jax", "default", episodes=2, repeats=1)
+    row = bench.eval_measure(task, kwargs, policy, params, stats, "jax", "default", episodes=2, repeats=1)
     assert row["horizon"] == 1000 and row["episodes"] == 2
     assert 1 <= row["length_mean"] <= row["length_max"] < 50
     assert row["eval_s"] > 0 and row["eval_full_s"] > 0 and np.isfinite(row["return_mean"])

@@ -140,7 +140,7 @@ TABLE: Mapping[tuple[str, str], Preset] = MappingProxyType(
             ),
         ),
         # Hopper from the command line (the defaults of experiments/hopper.py): 256 envs x 64
-        # steps, 120 iterations (1.97 M env steps). Chosen by benchmarks/hopper_sweep.py on one
+        # steps, 120 iterations (1.97 M env steps). Chosen by `benchmarks/time_to_return.py sweep` on one
         # H100 over eight seeds (BENCHMARKS.md): a kl_delta of 0.07, 10 value epochs per iteration
         # on standardised value targets (16 minibatches an epoch: 1024 samples at 256 x 64, and
         # the same number of steps at any --num-envs) and an initial log-std of 0 (std 1) took all

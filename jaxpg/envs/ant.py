@@ -33,7 +33,7 @@ one (the same state as above) leaving its forces in the data. That path has run 
 implementation's and agree with them to 2.3e-3 over 30 random steps, where the two float32
 trajectories have drifted ~1e-3 apart (tests/test_envs.py, test_warp_ant_computes_contact_forces,
 over 12 steps). On one H100 (fast fidelity, 4096 envs x 50 random steps,
-``benchmarks/warp_contact_check.py``) their mean norm in the observation was 0.442 with MuJoCo
+``docs/benchmarks_archive.md``) their mean norm in the observation was 0.442 with MuJoCo
 Warp against 0.440 with the jax implementation.
 
 Metrics: Gymnasium's ``info`` terms ``reward_forward``, ``reward_ctrl`` (negative),

@@ -18,7 +18,7 @@ last physics step. ``cfrc_ext`` is filled after the steps by ``mjx.rne_postconst
 impl), as Gymnasium fills it with ``mj_rnePostConstraint``; with MuJoCo Warp the model's
 ``run_rne_postconstraint`` option makes every step compute it (``mjx.rne_postconstraint`` itself
 raises for warp, so a missing ``cfrc_ext`` cannot pass silently). On one H100 (fast fidelity,
-4096 envs x 50 random steps, ``benchmarks/warp_contact_check.py``) the contact forces' mean norm in
+4096 envs x 50 random steps; ``docs/benchmarks_archive.md``) the contact forces' mean norm in
 the observation was 434.4 with MuJoCo Warp against 433.5 with the jax implementation.
 At reset the observation is that of Gymnasium's reset (a forward pass at the reset state, no
 control, ``cfrc_ext`` zero), from the kinematic passes alone (``physics_state``).

@@ -1,27 +1,30 @@
 #!/usr/bin/env bash
-# The GPU measurements of BENCHMARKS.md, in stages that each fit one call of the device tool
-# (10 minutes). Run from the repository root on the GPU machine, with jaxpg, JAX for CUDA and
-# MuJoCo Warp installed (README.md, "GPU and several GPUs") or on PYTHONPATH with the checkout:
+# The GPU measurements of BENCHMARKS.md, in stages of at most 10 minutes each. Run from the repository root on the GPU machine, with jaxpg, JAX for CUDA and
+# MuJoCo Warp installed (docs/gpus.md) or on PYTHONPATH with the checkout:
 #
-#   bash benchmarks/device_session.sh card     # `python experiments/hopper.py --num-envs 256`, 3 seeds, cold and warm
-#   bash benchmarks/device_session.sh sweep    # NPG settings at 256 envs, 3 seeds vmapped, to 2 M env steps
-#   bash benchmarks/device_session.sh sweep8   # settings around the default, 8 seeds vmapped, to 1.97 M env steps
-#   bash benchmarks/device_session.sh ratio [FIELD=VALUE ...]  # train(+eval)/raw of the card's defaults
+#   bash benchmarks/gpu_stages.sh card     # `python experiments/hopper.py --num-envs 256`, 3 seeds, cold and warm
+#   bash benchmarks/gpu_stages.sh sweep    # NPG settings at 256 envs, 3 seeds vmapped, to 2 M env steps
+#   bash benchmarks/gpu_stages.sh sweep8   # settings around the default, 8 seeds vmapped, to 1.97 M env steps
+#   bash benchmarks/gpu_stages.sh ratio [FIELD=VALUE ...]  # train(+eval)/raw of the card's defaults
 #                                              # (with these preset overrides) at 256-65536 envs
-#   bash benchmarks/device_session.sh sweep1m  # settings around the card's preset, 8 seeds vmapped, to 0.98 M env steps
-#   bash benchmarks/device_session.sh ablation # each phase's cost inside the compiled iteration, at 1024 and 4096 envs
-#   bash benchmarks/device_session.sh ablation_check  # train_throughput and the ablation at 1024 envs on one machine
-#                                              # (BENCHMARKS.md AI: the two disagree on the rollouts' time)
-#   bash benchmarks/device_session.sh order_check  # the ablation timed interleaved and grouped (AO); the card's
+#   bash benchmarks/gpu_stages.sh sweep1m  # settings around the card's preset, 8 seeds vmapped, to 0.98 M env steps
+#   bash benchmarks/gpu_stages.sh ablation # each phase's cost inside the compiled iteration, at 1024 and 4096 envs
+#   bash benchmarks/gpu_stages.sh ablation_check  # throughput.py train and the ablation at 1024 envs on one machine
+#                                              # (the two disagreed on the rollouts' time)
+#   bash benchmarks/gpu_stages.sh order_check  # the ablation timed interleaved and grouped; the card's
 #                                              # run, then one evaluation's cost per episodes, early stop or not;
 #                                              # the README's GPU NPG command and its evaluations' share
-#   bash benchmarks/device_session.sh trace    # jax.profiler trace of the card's block; phases at 65536 envs
-#   bash benchmarks/device_session.sh ttr      # time to a Hopper return of 3000, NPG and PPO, 3 seeds each
-#   bash benchmarks/device_session.sh env      # raw env throughput table, then Pong figures
-#   bash benchmarks/device_session.sh gym      # the README's GPU training commands, then Gymnasium evaluation
-#   bash benchmarks/device_session.sh scaling  # NPG over 1, 2, ... GPUs at a fixed batch per GPU
-#   bash benchmarks/device_session.sh extra S  # 2 GPUs: Pong A2C for S seconds on GPU 1 while GPU 0 tests
+#   bash benchmarks/gpu_stages.sh trace    # jax.profiler trace of the card's block; phases at 65536 envs
+#   bash benchmarks/gpu_stages.sh ttr      # time to a Hopper return of 3000, NPG and PPO, 3 seeds each
+#   bash benchmarks/gpu_stages.sh env      # raw env throughput table, then Pong figures
+#   bash benchmarks/gpu_stages.sh gym      # the README's GPU training commands, then Gymnasium evaluation
+#   bash benchmarks/gpu_stages.sh scaling  # NPG over 1, 2, ... GPUs at a fixed batch per GPU
+#   bash benchmarks/gpu_stages.sh extra S  # 2 GPUs: Pong A2C for S seconds on GPU 1 while GPU 0 tests
 #                                              # whether XLA command buffers slow the fused scan of iterations
+#   bash benchmarks/gpu_stages.sh atari    # Atari Pong: frames/s of each path, then PPO (Nature CNN, 16 games,
+#                                              # 2500 iterations or 8 minutes) scored in ALE/Pong-v5
+#   bash benchmarks/gpu_stages.sh atari_envs SECONDS N ...  # PPO on the ROM with N games, SECONDS each
+#                                              # (needs ale-py: pip install -e ".[atari]")
 #
 # Logs and JSON go to $OUT (default: benchmarks/results/latest). Every stage caps its parts with
 # `timeout`, so that a slow part costs its own figures, not the whole call.
@@ -34,21 +37,21 @@ nvidia-smi --query-gpu=name,memory.total,driver_version --format=csv,noheader > 
 
 case "${1:-}" in
 card)
-  timeout 570 $py benchmarks/card_command.py --seeds 0 1 2 --modes cold warm --out /tmp/card \
+  timeout 570 $py benchmarks/card_command.py card --seeds 0 1 2 --modes cold warm --out /tmp/card \
     --json "$OUT/card.json" 2>&1 | tee "$OUT/card.log" | grep -v "^WARN"
   ;;
 sweep)
-  timeout 570 $py benchmarks/hopper_sweep.py --impl warp --settings base step07 step07vep10 s10vep10 \
+  timeout 570 $py benchmarks/time_to_return.py sweep --impl warp --settings base step07 step07vep10 s10vep10 \
     --seeds 0 1 2 --steps 2e6 --json "$OUT/sweep.json" 2>&1 | tee "$OUT/sweep.log" | grep -v "^WARN"
   ;;
 sweep8)
-  timeout 575 $py benchmarks/hopper_sweep.py --impl warp \
+  timeout 575 $py benchmarks/time_to_return.py sweep --impl warp \
     --settings step07vep10 vnorm std0 vnorm_std0 lam95 vnorm_s10 vep20 vnorm_vep5 \
     --seeds 0 1 2 3 4 5 6 7 --steps 1966080 --marks 1 1.5 1.966 --json "$OUT/sweep8.json" 2>&1 \
     | tee "$OUT/sweep8.log" | grep -v "^WARN"
   ;;
 sweep1m)
-  timeout 575 $py benchmarks/hopper_sweep.py --impl warp --block 4 \
+  timeout 575 $py benchmarks/time_to_return.py sweep --impl warp --block 4 \
     --settings ${SETTINGS:-card card_s085 card_s10 card_h48 card_lam97 card_g995 card_vep15} \
     --seeds 0 1 2 3 4 5 6 7 --steps 983040 --marks 0.5 0.75 0.983 --json "$OUT/sweep1m.json" 2>&1 \
     | tee "$OUT/sweep1m.log" | grep -v "^WARN"
@@ -58,7 +61,7 @@ ablation)
     --json "$OUT/ablation.json" 2>&1 | tee "$OUT/ablation.log" | grep -v "^WARN"
   ;;
 ablation_check)
-  timeout 240 $py benchmarks/train_throughput.py --impl warp --preset hopper --horizon 64 --iterations 10 \
+  timeout 240 $py benchmarks/throughput.py train --impl warp --preset hopper --horizon 64 --iterations 10 \
     --repeats 5 --batch-sizes 1024 --json "$OUT/check_ratio.json" 2>&1 | tee "$OUT/check_ratio.log" | grep -v "^WARN\|^#"
   timeout 330 $py benchmarks/iteration_ablation.py --num-envs 1024 --iterations 10 --rounds 5 --changes unroll \
     --json "$OUT/check_ablation.json" 2>&1 | tee "$OUT/check_ablation.log" | grep -v "^WARN\|compiled in"
@@ -68,9 +71,9 @@ order_check)
     --order interleaved grouped --json "$OUT/order.json" 2>&1 | tee "$OUT/order.log" | grep -v "^WARN\|compiled in"
   timeout 150 $py experiments/hopper.py --num-envs 256 --run-dir /tmp/card0 --overwrite --no-progress \
     > "$OUT/card0.log" 2>&1; tail -4 "$OUT/card0.log"
-  timeout 100 $py benchmarks/eval_cost.py /tmp/card0 --impl warp --episodes 16 64 --json "$OUT/eval_trained.json" \
+  timeout 100 $py benchmarks/throughput.py eval /tmp/card0 --impl warp --episodes 16 64 --json "$OUT/eval_trained.json" \
     2>&1 | tee "$OUT/eval_trained.log" | grep "^|"
-  timeout 60 $py benchmarks/eval_cost.py --impl warp --episodes 16 --json "$OUT/eval_fresh.json" \
+  timeout 60 $py benchmarks/throughput.py eval --impl warp --episodes 16 --json "$OUT/eval_fresh.json" \
     2>&1 | tee "$OUT/eval_fresh.log" | grep "^|"
   timeout 120 $py experiments/hopper.py --preset hopper_gpu --iterations 150 --run-dir /tmp/gpu --overwrite \
     --no-progress > "$OUT/hopper_gpu.log" 2>&1; grep -v "^WARN" "$OUT/hopper_gpu.log" | tail -5
@@ -78,7 +81,7 @@ order_check)
 ratio)
   shift
   sets=(); [ $# -gt 0 ] && sets=(--set "$@")
-  timeout 575 $py benchmarks/train_throughput.py --impl warp --preset hopper --horizon 64 --iterations 5 \
+  timeout 575 $py benchmarks/throughput.py train --impl warp --preset hopper --horizon 64 --iterations 5 \
     --batch-sizes ${SIZES:-256 1024 4096 16384 65536} "${sets[@]}" --json "$OUT/ratio.json" 2>&1 \
     | tee "$OUT/ratio.log" | grep -v "^WARN\|^#"
   ;;
@@ -90,19 +93,19 @@ trace)
   ;;
 ttr)
   common=(--block 10 --seeds 0 1 2 --warmup --max-seconds 150)
-  timeout 330 $py benchmarks/time_to_return.py --algo npg --preset hopper_gpu "${common[@]}" \
+  timeout 330 $py benchmarks/time_to_return.py run --algo npg --preset hopper_gpu "${common[@]}" \
     --json "$OUT/ttr_npg.json" 2>&1 | tee "$OUT/ttr_npg.log" | grep -v "^  seed"
-  timeout 240 $py benchmarks/time_to_return.py --algo ppo --preset hopper_gpu "${common[@]}" \
+  timeout 240 $py benchmarks/time_to_return.py run --algo ppo --preset hopper_gpu "${common[@]}" \
     --json "$OUT/ttr_ppo.json" 2>&1 | tee "$OUT/ttr_ppo.log" | grep -v "^  seed"
   ;;
 env)
   {
-    timeout 150 $py benchmarks/env_throughput.py --tasks hopper --fidelity fast --impl warp jax \
+    timeout 150 $py benchmarks/throughput.py env --tasks hopper --fidelity fast --impl warp jax \
       --batch-sizes 4096 16384 65536 --variants raw env --horizon 100 --repeats 3 --json "$OUT/env_hopper.json"
-    timeout 110 $py benchmarks/env_throughput.py --tasks inverted_pendulum inverted_double_pendulum cartpole \
+    timeout 110 $py benchmarks/throughput.py env --tasks inverted_pendulum inverted_double_pendulum cartpole \
       --fidelity fast --impl warp jax --batch-sizes 4096 16384 --variants raw env --horizon 100 --repeats 3 \
       --json "$OUT/env_others.json"
-    timeout 100 $py benchmarks/env_throughput.py --tasks inverted_pendulum inverted_double_pendulum hopper \
+    timeout 100 $py benchmarks/throughput.py env --tasks inverted_pendulum inverted_double_pendulum hopper \
       --fidelity gymnasium --impl warp jax --batch-sizes 4096 --variants env --horizon 100 --repeats 3 \
       --json "$OUT/env_gymnasium.json"
   } 2>&1 | tee "$OUT/env.log" | grep "^|"
@@ -121,7 +124,7 @@ gym)
   done
   ;;
 scaling)
-  timeout 420 $py benchmarks/scaling.py --task hopper --envs-per-device 16384 --horizon 32 --iterations 5 \
+  timeout 420 $py benchmarks/throughput.py scaling --task hopper --envs-per-device 16384 --horizon 32 --iterations 5 \
     --json "$OUT/scaling.json" 2>&1 | tee "$OUT/scaling.log" | grep -E "^\||^#|rror"
   ;;
 extra)
@@ -129,14 +132,35 @@ extra)
   CUDA_VISIBLE_DEVICES=1 timeout $((seconds + 60)) $py benchmarks/pong.py --fps-envs --train-envs 2048 \
     --seconds "$seconds" --json "$OUT/pong_long.json" > "$OUT/pong_long.log" 2>&1 &
   for flags in "" "--xla_gpu_enable_command_buffer="; do
-    CUDA_VISIBLE_DEVICES=0 XLA_FLAGS="$flags" timeout 150 $py benchmarks/train_throughput.py --task hopper \
+    CUDA_VISIBLE_DEVICES=0 XLA_FLAGS="$flags" timeout 150 $py benchmarks/throughput.py train --task hopper \
       --impl warp --batch-sizes 4096 --horizon 32 --iterations 5 2>&1 | grep -E "^\| warp" | sed "s|^|XLA_FLAGS='$flags' |"
   done
   wait
   grep -A4 "^| A2C" "$OUT/pong_long.log"
   ;;
+atari)
+  timeout 200 $py benchmarks/pong.py atari-fps --envs 16 64 256 1024 --seconds 5 2>&1 | grep -v "A.L.E\|Stella" \
+    | tee "$OUT/atari_fps.txt"
+  rm -rf runs/atari-ppo
+  timeout 480 $py experiments/atari_pong.py --run-dir runs/atari-ppo --checkpoint-every 100 --no-progress 2>&1 \
+    | grep -v "A.L.E\|Stella" | tee "$OUT/atari-ppo.log" | tail -4
+  for sticky in --sticky --no-sticky; do
+    timeout 60 $py -m jaxpg.evaluate runs/atari-ppo --ale --episodes 10 $sticky 2>&1 | grep -v "A.L.E\|Stella" \
+      | tee -a "$OUT/atari-ppo.eval.txt"
+  done
+  ;;
+atari_envs)  # SECONDS N ...: PPO's Atari recipe with N games, one process and JSON per number of games
+  seconds=$2
+  shift 2
+  for n in "$@"; do
+    rm -rf runs/ppo-envs-$n
+    timeout $((${seconds%.*} + 150)) $py benchmarks/pong.py --task atari_pong --algo ppo --compare-envs $n \
+      --seconds $seconds --run-dir runs/ppo-envs-$n --json "$OUT/ppo-envs-$n.json" 2>&1 \
+      | grep -v "A.L.E\|Stella" | tee "$OUT/ppo-envs-$n.log" | tail -4
+  done
+  ;;
 *)
-  echo "usage: bash benchmarks/device_session.sh card|sweep|ttr|env|gym|scaling|extra [seconds]" >&2
+  echo "usage: bash benchmarks/gpu_stages.sh card|sweep|sweep8|sweep1m|ratio|ablation|ablation_check|order_check|trace|ttr|env|gym|scaling|extra|atari|atari_envs" >&2
   exit 2
   ;;
 esac

@@ -1,0 +1,152 @@
+"""The small harness every benchmark script shares: timing, machine info, JSON results, a table.
+
+- ``time_call(fn, *args, repeats=)`` and ``time_calls(call, repeats)``: the first call's seconds
+  (compilation included) and the median of ``repeats`` later calls, each synchronised with
+  ``jax.block_until_ready`` so that asynchronous dispatch does not hide device time;
+- ``time_chained(fn, state, repeats)``: the median of synchronised calls ``state, out = fn(state)``,
+  each continuing from the last (as a training loop chains them);
+- ``time_for(call, seconds)``: how many synchronised calls fit in ``seconds``;
+- ``time_back_to_back(fn, state, calls)``: seconds per call of ``calls`` calls dispatched back to
+  back and synchronised once (as ``jaxpg.train`` dispatches its compiled calls);
+- ``environment()``: the device, backend and the versions of Python, JAX, MuJoCo and jaxpg;
+- ``write_json(path, rows, **meta)``: the rows with ``environment()`` and ``meta``;
+- ``table(rows, columns)``: a Markdown table, and ``rate(x)``: ``1.23 M`` / ``45.6 k``.
+
+The scripts are run from the repository root (``python benchmarks/NAME.py``) and import this
+module as their sibling: Python puts a script's own directory first on ``sys.path``.
+"""
+
+from __future__ import annotations
+
+import json
+import platform
+import statistics
+import time
+from collections.abc import Callable, Sequence
+from importlib import metadata
+from pathlib import Path
+from typing import Any
+
+
+def _sync(out: Any) -> Any:
+    import jax
+
+    return jax.block_until_ready(out)
+
+
+def time_calls(call: Callable[[int], Any], repeats: int) -> tuple[float, float, Any]:
+    """``(seconds of call(0), median seconds of call(1) ... call(repeats), output of call(0))``;
+    ``call(i)`` is synchronised each time (``i`` lets a call take a fresh key)."""
+    start = time.perf_counter()
+    first_out = _sync(call(0))
+    first = time.perf_counter() - start
+    times = []
+    for i in range(1, repeats + 1):
+        start = time.perf_counter()
+        _sync(call(i))
+        times.append(time.perf_counter() - start)
+    return first, statistics.median(times) if times else first, first_out
+
+
+def time_call(fn: Callable, *args: Any, repeats: int) -> tuple[float, float, Any]:
+    """``time_calls`` of ``fn(*args)``: compile seconds, median seconds, the last output."""
+    out = []
+
+    def call(i: int) -> Any:
+        out.append(fn(*args))
+        return out[-1]
+
+    first, median, _ = time_calls(call, repeats)
+    return first, median, out[-1]
+
+
+def time_chained(fn: Callable, state: Any, repeats: int) -> tuple[float, tuple[Any, Any]]:
+    """Median seconds of ``repeats`` synchronised calls ``state, out = fn(state)``, each on the last
+    call's state; the caller has compiled and warmed ``fn``. Returns the last ``(state, out)``."""
+    times, out = [], None
+    for _ in range(repeats):
+        start = time.perf_counter()
+        state, out = _sync(fn(state))
+        times.append(time.perf_counter() - start)
+    return statistics.median(times), (state, out)
+
+
+def time_back_to_back(fn: Callable, state: Any, calls: int) -> tuple[float, float, Any]:
+    """``(seconds of the first call, seconds per call after a warm-up, state)`` for ``state =
+    fn(state)[0]`` dispatched ``calls`` times back to back and synchronised once."""
+    start = time.perf_counter()
+    state = _sync(fn(state))[0]
+    first = time.perf_counter() - start
+    state = _sync(fn(state))[0]
+    start = time.perf_counter()
+    for _ in range(calls):
+        state = fn(state)[0]
+    _sync(state)
+    return first, (time.perf_counter() - start) / max(calls, 1), state
+
+
+def time_for(call: Callable[[], Any], seconds: float) -> tuple[float, int]:
+    """``(elapsed seconds, calls)``: ``call()`` synchronised and repeated until ``seconds`` have
+    passed, after one warm-up call (for paths whose calls vary in length, e.g. host emulators)."""
+    _sync(call())
+    start, calls = time.perf_counter(), 0
+    while time.perf_counter() - start < seconds:
+        _sync(call())
+        calls += 1
+    return time.perf_counter() - start, calls
+
+
+def _version(package: str) -> str | None:
+    try:
+        return metadata.version(package)
+    except metadata.PackageNotFoundError:
+        return None
+
+
+def environment() -> dict[str, Any]:
+    """What a result was measured on: device kind and count, backend, host, library versions."""
+    import jax
+
+    device = jax.devices()[0]
+    return {
+        "device": device.device_kind,
+        "device_count": jax.device_count(),
+        "backend": jax.default_backend(),
+        "host": platform.node(),
+        "python": platform.python_version(),
+        **{name: _version(name) for name in ("jax", "jaxlib", "mujoco", "mujoco-mjx", "warp-lang", "jaxpg")},
+    }
+
+
+def describe() -> str:
+    """One line: ``device (backend), N devices, jax X, mujoco Y``."""
+    env = environment()
+    return (
+        f"{env['device']} ({env['backend']}), {env['device_count']} device(s), jax {env['jax']}, mujoco {env['mujoco']}"
+    )
+
+
+def write_json(path: str | Path | None, rows: Any, **meta: Any) -> None:
+    """Writes ``{"environment": ..., "meta": meta, "rows": rows}`` to ``path`` (nothing if None)."""
+    if not path:
+        return
+    Path(path).write_text(json.dumps({"environment": environment(), "meta": meta, "rows": rows}, indent=1))
+    print(f"wrote {path}", flush=True)
+
+
+def rows_of(path: str | Path) -> list[dict[str, Any]]:
+    """The rows of a file ``write_json`` wrote (or of an older plain list of rows)."""
+    data = json.loads(Path(path).read_text())
+    return data["rows"] if isinstance(data, dict) and "rows" in data else data
+
+
+def rate(x: float) -> str:
+    """``1.23 M``, ``45.6 k`` or ``789``."""
+    return f"{x / 1e6:.2f} M" if x >= 1e6 else f"{x / 1e3:.1f} k" if x >= 1e3 else f"{x:.0f}"
+
+
+def table(rows: Sequence[Any], columns: Sequence[tuple[str, Callable[[Any], Any]]]) -> str:
+    """A Markdown table: one column per ``(header, cell(row))``."""
+    lines = ["| " + " | ".join(h for h, _ in columns) + " |", "|" + "---|" * len(columns)]
+    lines += ["| " + " | ".join(str(cell(r)) for _, cell in columns) + " |" for r in rows]
+    return "\n".join(lines)

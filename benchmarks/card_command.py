@@ -45,9 +45,12 @@ training, evaluations, checkpoints), then
     python -m jaxpg.evaluate RUN --gymnasium --episodes 10
 
 and prints, per seed: wall clock, env steps, the last in-run mean-policy return and the mean
-return in Gymnasium's CPU Hopper-v5. ``--cold`` gives every run empty caches (its own XLA
-compilation cache and MuJoCo Warp kernel cache, as on a fresh machine); ``--warm`` runs again
-with caches that a first run filled.
+return in Gymnasium's CPU Hopper-v5. ``--cold`` gives every run empty caches, as on a bare
+machine: its own XLA compilation cache, MuJoCo Warp kernel cache and CUDA driver compute cache
+(``CUDA_CACHE_PATH``: the driver compiles the PTX it is handed for the GPU and keeps the result
+there; 34 MB after one run on an H100, and with it kept a run with the other two caches empty took
+26-35 s less); ``--warm``
+runs again with the caches that a first run filled.
 
     python benchmarks/card_command.py card --seeds 0 1 2 --modes cold warm --json card.json
 """
@@ -83,6 +86,7 @@ def train_once(seed: int, run_dir: Path, caches: Path, log: Path, extra: list[st
         **os.environ,
         "JAXPG_COMPILATION_CACHE": str(caches / "xla"),
         "WARP_CACHE_PATH": str(caches / "warp"),
+        "CUDA_CACHE_PATH": str(caches / "cuda"),  # the driver's cache of the PTX it compiled
         "PYTHONUNBUFFERED": "1",
     }
     command = [sys.executable, "experiments/hopper.py", "--num-envs", "256", "--seed", str(seed)]
@@ -200,6 +204,7 @@ def run_once(
         **env_vars,
         "JAXPG_COMPILATION_CACHE": str(caches / "xla"),
         "WARP_CACHE_PATH": str(caches / "warp"),
+        "CUDA_CACHE_PATH": str(caches / "cuda"),  # the driver's cache of the PTX it compiled
         "PYTHONUNBUFFERED": "1",
     }
     command = [sys.executable, "experiments/hopper.py", "--num-envs", str(args.num_envs), "--seed", str(args.seed)]

@@ -44,10 +44,10 @@ Retention: the ``keep`` latest steps plus the best one (highest ``score``, which
 computes, e.g. ``jaxpg.runlog.checkpoint_score``); the newest step is always kept, whatever
 ``keep`` is, so that the final checkpoint of a run survives.
 
-Several processes (``jaxpg.distributed``): every process calls ``save``, which gathers the
+Several processes (``jaxpg.run.processes``): every process calls ``save``, which gathers the
 state to the host (a collective: arrays split over processes are all-gathered); process 0 alone
 writes. Every process restores, each reading the files itself (a shared file system across
-hosts), onto its own first device; ``jaxpg.distributed.shard_state`` then places the state on the
+hosts), onto its own first device; ``jaxpg.algos.core.shard_state`` then places the state on the
 global mesh. Each process's Orbax manager works alone (no barriers across processes).
 """
 
@@ -71,7 +71,8 @@ from typing import Any
 import jax
 import numpy as np
 
-from jaxpg import distributed
+from jaxpg import mesh as mesh_lib
+from jaxpg.run import processes
 
 STATE, POLICY, META = "state", "policy", "meta"
 ITEMS = (STATE, POLICY, META)
@@ -329,7 +330,7 @@ class Checkpointer:
 
         self.directory = Path(directory).absolute()
         self.keep = keep
-        self.writer = distributed.is_primary()
+        self.writer = processes.is_primary()
         if not create and not self.directory.is_dir():
             if self.directory.exists():
                 raise CheckpointError(f"no checkpoints: {self.directory} is a file, not a directory")
@@ -559,7 +560,7 @@ class Checkpointer:
         Raises ``CheckpointError`` (one line: what happened, what to do) when the disk is full,
         the directory is not writable or the step does not read back (it is then removed).
         """
-        train_state = distributed.host_copy(train_state)
+        train_state = mesh_lib.host_copy(train_state)
         if not self.writer:
             return
         step = int(step)

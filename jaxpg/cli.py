@@ -26,7 +26,7 @@ Bad input (unknown task or algorithm, impossible sizes, a run directory that exi
 a missing or foreign directory, an unusable checkpoint) is reported as one ``error: ...`` line on
 stderr with exit status 2, before anything is compiled or written.
 
-Several devices and processes (``jaxpg.distributed``): ``--num-envs`` is split over every device
+Several devices and processes (``jaxpg.mesh``, ``jaxpg.run.processes``): ``--num-envs`` is split over every device
 (``--shard``, on when there are several). Several processes run one command each, adding
 ``--coordinator-address HOST:PORT --num-processes K --process-id I`` (or the ``JAX_*`` variables);
 ``start_processes`` joins them before anything else touches JAX, a coordinator that cannot be
@@ -38,7 +38,6 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import datetime
-import math
 import os
 import sys
 import typing
@@ -47,12 +46,9 @@ from pathlib import Path
 from typing import Any
 
 from jaxpg import algos, runlog, session
+from jaxpg.run.flags import UsageError, check_backend, finite_float, seed_value
 from jaxpg.runlog import RunConfig
 from jaxpg.session import Plan, execute
-
-
-class UsageError(ValueError):
-    """Bad command-line input; reported as one ``error:`` line with exit status 2."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -126,29 +122,6 @@ def _show(value: Any) -> str:
     if isinstance(value, tuple | list):
         return " ".join(map(str, value)) if value else "(empty)"
     return repr(value) if isinstance(value, str) else str(value)
-
-
-def finite_float(text: str) -> float:
-    """A float flag's value: any number but ``nan`` and ``inf`` (``ArgumentTypeError`` otherwise)."""
-    value = float(text)
-    if not math.isfinite(value):
-        raise argparse.ArgumentTypeError(f"must be a finite number, got {text}")
-    return value
-
-
-finite_float.__name__ = "float"  # argparse names the type in "invalid float value: 'x'"
-
-
-def seed_value(text: str) -> int:
-    """A training seed: an integer in ``[0, runlog.MAX_SEED]``, so that distinct seeds give
-    distinct 32-bit PRNG keys (``ArgumentTypeError`` otherwise)."""
-    value = int(text)
-    if not 0 <= value <= runlog.MAX_SEED:
-        raise argparse.ArgumentTypeError(f"must be an integer in [0, {runlog.MAX_SEED}] (a 32-bit seed), got {text}")
-    return value
-
-
-seed_value.__name__ = "int"
 
 
 def _parser_type(tp: type) -> Any:
@@ -330,7 +303,7 @@ def build_parser(experiment: Experiment, algo: str, config_cls: type | None, con
 
 
 def add_distributed_flags(parser: argparse.ArgumentParser) -> None:
-    """``--shard`` and the flags of ``jaxpg.distributed.initialize`` (one launch command per process)."""
+    """``--shard`` and the flags of ``jaxpg.run.processes.initialize`` (one launch command per process)."""
     group = parser.add_argument_group(
         "several devices and processes",
         "--num-envs is split over every device of every process. Several processes (hosts): run the same "
@@ -359,22 +332,22 @@ def start_processes(argv: Sequence[str]) -> None:
     """``jax.distributed.initialize`` when ``argv`` or the environment name several processes;
     before anything else touches JAX's devices. ``DistributedError`` (one line) on bad settings or
     an unreachable coordinator."""
-    from jaxpg import distributed
+    from jaxpg.run import processes
 
     config = distributed_config(argv)
     if config is not None:
-        distributed.initialize(config)
+        processes.initialize(config)
 
 
 def distributed_config(argv: Sequence[str]) -> Any:
-    """The ``jaxpg.distributed.DistributedConfig`` that ``argv`` and the environment ask for
+    """The ``jaxpg.run.processes.DistributedConfig`` that ``argv`` and the environment ask for
     (``None``: one process), read before the full parse so that JAX is initialised first."""
-    from jaxpg import distributed
+    from jaxpg.run import processes
 
     pre = Parser(add_help=False)
     add_distributed_flags(pre)
     args, _ = pre.parse_known_args(argv)
-    return distributed.DistributedConfig.resolve(
+    return processes.DistributedConfig.resolve(
         args.coordinator_address, args.num_processes, args.process_id, timeout_s=args.distributed_timeout
     )
 
@@ -510,14 +483,16 @@ def available_memory() -> tuple[int, str, bool] | None:
 
 def check_memory(config: Any, env: Any, num_seeds: int, shares: int) -> None:
     """``UsageError`` (one line: how much is needed, how much there is, what to lower) when the
-    config's ``memory_lower_bound`` for ``num_seeds`` seeds, its batch split over ``shares``
+    ``core.memory_lower_bound`` of the config for ``num_seeds`` seeds, its batch split over ``shares``
     devices, exceeds the memory available (``available_memory``), so that an absurd size is
     refused up front instead of hanging in an allocation."""
+    from jaxpg.algos import core
+
     memory = available_memory()
     if memory is None:
         return
     available, where, shared = memory
-    bound = config.memory_lower_bound(env)
+    bound = core.memory_lower_bound(config, env)
     batch = bound["rollout"] + bound["env_states"]
     if shared:  # every device's share, and a copy of the parameters per device, in one memory
         need = num_seeds * (bound["parameters"] * shares + batch)
@@ -712,23 +687,6 @@ def videos_requested(argv: Sequence[str], experiment: Experiment) -> bool:
         return False  # the full parser reports the bad value
 
 
-def check_backend() -> None:
-    """``UsageError`` (one line) when JAX cannot start a device: the platform ``JAX_PLATFORMS``
-    names is not installed or has no usable device."""
-    import jax
-
-    try:
-        jax.devices()
-    except Exception as e:  # noqa: BLE001 - JAX raises RuntimeError, or AssertionError for a platform it lacks
-        lines = str(e).strip().splitlines()
-        reason = lines[0] if lines else "no such platform is installed here"
-        platforms = os.environ.get("JAX_PLATFORMS")
-        what = f"the platform JAX_PLATFORMS={platforms} asks for" if platforms else "any device"
-        raise UsageError(
-            f"JAX cannot use {what} ({reason}); set JAX_PLATFORMS to one this machine has (e.g. cpu), or unset it"
-        ) from None
-
-
 def main(argv: Sequence[str] | None = None, experiment: Experiment | None = None) -> int:
     """Entry point of ``python -m jaxpg.cli`` and the experiment scripts; returns the exit status."""
     from jaxpg import compile_cache
@@ -758,14 +716,14 @@ def recover_run_dir(argv: Sequence[str]) -> None:
     """Before planning: put back the run that an ``--overwrite`` of the command's run directory
     (``--run-dir`` or ``--resume``) moved aside, if its process ended before the new run's first
     checkpoint, or point to it (``session.recover_replaced``). Process 0 alone; the others wait."""
-    from jaxpg import distributed
+    from jaxpg.run import processes
 
     pre = _pre_parse(argv)
     target = pre.resume if pre.resume is not None else pre.run_dir
-    if target is not None and distributed.is_primary():
+    if target is not None and processes.is_primary():
         for line in session.recover_replaced(target):
             print(line, file=sys.stderr)
-    distributed.barrier("jaxpg: run directory recovered")
+    processes.barrier("jaxpg: run directory recovered")
 
 
 DEFAULT_EPILOG = """\

@@ -275,7 +275,7 @@ def output_problem(path: Path) -> str | None:
 
 def main(argv: Sequence[str] | None = None) -> int:
     from jaxpg import video as video_lib
-    from jaxpg.cli import UsageError, check_backend, seed_value
+    from jaxpg.run.flags import UsageError, check_backend, seed_value
 
     parser = argparse.ArgumentParser(
         prog="python -m jaxpg.evaluate",

@@ -291,14 +291,14 @@ class _Callbacks:
             self.progress.write(f"warning: curves.png not updated ({type(e).__name__}: {e})")
 
     def video(self, ts: Any, step: int) -> None:
-        from jaxpg import distributed
         from jaxpg import evaluate as evaluate_lib
+        from jaxpg import mesh as mesh_lib
 
         path = self.plan.run_dir / runlog.VIDEO_DIR / f"iter_{step:06d}.mp4"
         try:
             # Host copies: the video is recorded by process 0 alone, off the training mesh.
-            params = _seed_slice(distributed.host_copy(ts.params), 0, self.run.vmap_seeds)
-            stats = _seed_slice(distributed.host_copy(ts.obs_stats), 0, self.run.vmap_seeds)
+            params = _seed_slice(mesh_lib.host_copy(ts.params), 0, self.run.vmap_seeds)
+            stats = _seed_slice(mesh_lib.host_copy(ts.obs_stats), 0, self.run.vmap_seeds)
             out, ret, length = evaluate_lib.record_policy(self.plan.env, ts.policy, params, stats, path, seed=step)
             self.progress.write(
                 f"video {out} (mean policy, seed {self.run.seeds[0]}: return {ret:.1f}, {length} steps)"
@@ -309,10 +309,10 @@ class _Callbacks:
 
 
 def _primary() -> bool:
-    """This process writes files and prints (``jaxpg.distributed.is_primary``)."""
-    from jaxpg import distributed
+    """This process writes files and prints (``jaxpg.run.processes.is_primary``)."""
+    from jaxpg.run import processes
 
-    return distributed.is_primary()
+    return processes.is_primary()
 
 
 def _print(line: str) -> None:
@@ -707,7 +707,7 @@ def execute(plan_: Plan) -> int:
     with 130 / 143; a second SIGINT exits at once. Write errors (disk full, permissions) and
     checkpoint errors are one ``error:`` line with status 2.
     """
-    from jaxpg import distributed
+    from jaxpg.run import processes
 
     run, run_dir = plan_.run, plan_.run_dir
     primary = _primary()
@@ -728,7 +728,7 @@ def execute(plan_: Plan) -> int:
             print(f"\n{name}: stopped before training started; nothing was written", file=sys.stderr)
             return _exit_status(interrupts.requested or signal.SIGINT)
         # Process 0 writes the run directory once every process has checked it, before any reads it.
-        distributed.barrier("jaxpg: planned")
+        processes.barrier("jaxpg: planned")
         lock = runlog.RunLock(run_dir)
         try:
             try:
@@ -762,11 +762,14 @@ def _train(plan_: Plan, ts: Any, wall_offset: float, interrupts: _Interrupts) ->
     import jax
 
     from jaxpg import checkpoint as ckpt_lib
-    from jaxpg import distributed, train
+    from jaxpg import mesh as mesh_lib
+    from jaxpg import train
+    from jaxpg.algos import core
+    from jaxpg.run import processes
 
     run, run_dir = plan_.run, plan_.run_dir
     primary = _primary()
-    distributed.barrier("jaxpg: run directory ready")
+    processes.barrier("jaxpg: run directory ready")
     verb = f"resuming at iteration {plan_.start}" if plan_.start else "training"
     seeds = " ".join(map(str, run.seeds))
     _print(
@@ -776,12 +779,12 @@ def _train(plan_: Plan, ts: Any, wall_offset: float, interrupts: _Interrupts) ->
         f"{f' in {jax.process_count()} processes' if jax.process_count() > 1 else ''} -> {run_dir}"
     )
     update, evaluate = plan_.module.update, train.evaluate_state
-    mesh = distributed.env_mesh() if run.shard else None
+    mesh = mesh_lib.env_mesh() if run.shard else None
     if mesh is not None:
         # The env batch splits over the mesh: sampling under shard_map, learning under jit's partitioner.
-        ts = distributed.shard_state(ts, run.vmap_seeds, mesh)
-        update = distributed.on_mesh(update, mesh)
-        evaluate = distributed.on_mesh(evaluate, mesh)
+        ts = core.shard_state(ts, run.vmap_seeds, mesh)
+        update = mesh_lib.on_mesh(update, mesh)
+        evaluate = mesh_lib.on_mesh(evaluate, mesh)
     if plan_.profile:
         with jax.set_mesh(mesh) if mesh is not None else contextlib.nullcontext():
             timings = run_profile(plan_, ts, _print)
@@ -879,7 +882,7 @@ def _train(plan_: Plan, ts: Any, wall_offset: float, interrupts: _Interrupts) ->
         print(f"the run stopped before its first checkpoint{note}", file=sys.stderr)
     if status == 0 and primary:
         _report_end(plan_, callbacks)
-    distributed.barrier("jaxpg: done")  # the processes leave together (JAX's shutdown waits for all)
+    processes.barrier("jaxpg: done")  # the processes leave together (JAX's shutdown waits for all)
     return status
 
 

@@ -83,7 +83,7 @@ def test_the_presets_import_no_algorithm():
 
 
 def test_the_core_imports_no_algorithm():
-    for name in ("advantages", "batch", "config", "iteration", "sampling", "state", "value_fit"):
+    for name in ("advantages", "batch", "config", "iteration", "placement", "sampling", "state", "value_fit"):
         assert algos_imports(f"jaxpg.algos.core.{name}") <= {"core"}, name
 
 

@@ -24,6 +24,7 @@ import pytest
 
 import jaxpg
 from jaxpg import algos, cli, compile_cache, envs, evaluate, runlog
+from jaxpg.algos import core
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -96,7 +97,7 @@ def test_memory_lower_bound_counts_parameters_and_the_rollout_by_hand():
     (4*8 + 8) + (8*1 + 1) + 1 = 50 numbers; value 4-8-1: (4*8 + 8) + (8 + 1) = 49; float32."""
     env = envs.make("inverted_pendulum")
     config = algos.get("npg").Config(num_envs=16, horizon=10, policy_hidden=(8,), value_hidden=(8,), eval_envs=0)
-    bound = config.memory_lower_bound(env)
+    bound = core.memory_lower_bound(config, env)
     assert bound["parameters"] == 4 * (50 + 49)
     # Each of the 16 x 10 samples holds its observation, action, reward, done, log-prob and value.
     assert bound["rollout"] == 4 * 16 * 10 * (4 + 1 + 4)

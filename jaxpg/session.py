@@ -91,13 +91,13 @@ def _seed_slice(tree: Any, index: int, vmap_seeds: bool) -> Any:
 
 
 def run_profile(plan_: Plan, ts: Any, out: Any) -> dict[str, float] | None:
-    """Time each phase of one iteration (``jaxpg.profiling.profile_phases``)."""
-    from jaxpg import profiling
+    """Time each phase of one iteration (``jaxpg.run.profiling.profile_phases``)."""
+    from jaxpg.run import profiling
 
     run = plan_.run
-    if run.algo not in profiling.PHASES:
-        known = ", ".join(sorted(profiling.PHASES))
-        out(f"--profile: profiling isn't available for {run.algo} (jaxpg.profiling has phases for {known})")
+    if run.algo not in profiling.phased_algorithms():
+        known = ", ".join(profiling.phased_algorithms())
+        out(f"--profile: profiling isn't available for {run.algo} (these algorithms declare their phases: {known})")
         return None
     out(f"profiling one {run.algo} iteration as separately jitted phases (compiling them first) ...")
     _, timings = profiling.profile_phases(run.algo, _seed_slice(ts, 0, run.vmap_seeds))

@@ -350,15 +350,15 @@ def test_config_flags_parse_into_config(runs, monkeypatch):
 
 
 def test_profile(runs, capsys):
-    from jaxpg import profiling
     from jaxpg.algos import ppo
+    from jaxpg.run import profiling
 
     run = runlog.RunConfig("t", "ppo", {}, [0], 1)
     plan = session.Plan(run=run, run_dir=runs, module=ppo, env=None, config=None)
     lines = []
     assert session.run_profile(plan, None, lines.append) is None
     assert "profiling isn't available for ppo" in lines[0]
-    assert "npg" in profiling.PHASES
+    assert {"npg", "trpo"} <= set(profiling.phased_algorithms()) and "ppo" not in profiling.phased_algorithms()
 
 
 # --------------------------------------------------------------------------- policies, evaluation, videos

@@ -41,7 +41,7 @@ step that does not read back is removed. Disk-full, permission and read-only-fil
 become one-line ``CheckpointError``s saying what to do. Every ``CheckpointError`` is one line.
 
 Retention: the ``keep`` latest steps plus the best one (highest ``score``, which the caller
-computes, e.g. ``jaxpg.runlog.checkpoint_score``); the newest step is always kept, whatever
+computes, e.g. ``jaxpg.run.metrics_log.checkpoint_score``); the newest step is always kept, whatever
 ``keep`` is, so that the final checkpoint of a run survives.
 
 Several processes (``jaxpg.run.processes``): every process calls ``save``, which gathers the

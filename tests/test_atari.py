@@ -185,7 +185,7 @@ def load_experiment():
 )
 def test_short_training_run_and_evaluation_on_ale(algo, flags, tmp_path, capsys):
     """Two iterations of a tiny network on 2 games, then its policy plays ALE/Pong-v5."""
-    from jaxpg.cli import main
+    from jaxpg.run.main import main
 
     run_dir = tmp_path / algo
     argv = ["--algo", algo, "--num-envs", "2", "--iterations", "2", "--log-every", "1", "--policy-hidden", "8"]
@@ -208,14 +208,15 @@ def test_short_training_run_and_evaluation_on_ale(algo, flags, tmp_path, capsys)
 
 
 def test_several_seeds_in_one_program_are_refused():
-    from jaxpg import cli
+    from jaxpg.run import planning
+    from jaxpg.run.flags import UsageError
 
-    with pytest.raises(cli.UsageError, match="one seed per command"):
-        cli.plan(["--seeds", "0", "1", "--num-envs", "2"], load_experiment().EXPERIMENT)
+    with pytest.raises(UsageError, match="one seed per command"):
+        planning.plan(["--seeds", "0", "1", "--num-envs", "2"], load_experiment().EXPERIMENT)
 
 
 def test_evaluate_ale_refuses_other_tasks(tmp_path, capsys):
-    from jaxpg.cli import main
+    from jaxpg.run.main import main
 
     run_dir = tmp_path / "cartpole"
     argv = ["--task", "cartpole", "--algo", "a2c", "--iterations", "1", "--num-envs", "2", "--horizon", "4"]

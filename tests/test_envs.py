@@ -610,8 +610,8 @@ def test_training_smoke_run_from_the_command_line(task, tmp_path):
     evaluation): the run succeeds and logs both iterations with the samples they drew, the 8
     episodes that ended in each, finite returns and task scores, no non-finite step and no
     rejected update. The task is also the Gymnasium id jaxpg registers, with Gymnasium's limit."""
-    from jaxpg import cli
     from jaxpg.envs import gymnasium_api
+    from jaxpg.run import main
 
     gym_id = gymnasium_api.gymnasium_id(task)
     assert gym_id == f"jaxpg/{GYM_IDS[task]}"
@@ -621,7 +621,7 @@ def test_training_smoke_run_from_the_command_line(task, tmp_path):
     run_dir = tmp_path / "run"
     argv = ["--env", task, "--impl", "jax", "--num-envs", "4", "--horizon", "16", "--max-episode-steps", "8"]
     argv += ["--eval-envs", "0"]
-    assert cli.main([*argv, "--iterations", "2", "--no-progress", "--run-dir", str(run_dir)]) == 0
+    assert main.main([*argv, "--iterations", "2", "--no-progress", "--run-dir", str(run_dir)]) == 0
     records = [json.loads(line) for line in (run_dir / "metrics.jsonl").read_text().splitlines()]
     records = [r for r in records if "return_stochastic" in r]
     assert [r["env_steps"] for r in records] == [64, 128], records

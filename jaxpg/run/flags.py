@@ -8,7 +8,7 @@ import os
 
 import jax
 
-from jaxpg.runlog import MAX_SEED
+from jaxpg.run.layout import MAX_SEED
 
 
 class UsageError(ValueError):

@@ -15,8 +15,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxpg import checkpoint as ckpt_lib
-from jaxpg.run import config_io, layout
+from jaxpg.run import checkpoint_format, checkpointer, config_io, layout
 
 
 def abstract_train_state(run: config_io.RunConfig, env: Any = None) -> Any:
@@ -54,7 +53,7 @@ def restore_train_state(run_dir: str | os.PathLike, step: int | str | None = Non
     checkpoints with a warning line."""
     run = load_run_config(run_dir)
     target = abstract_train_state(run)
-    checkpoints = ckpt_lib.Checkpointer(Path(run_dir) / layout.CHECKPOINT_DIR, keep=None)
+    checkpoints = checkpointer.Checkpointer(Path(run_dir) / layout.CHECKPOINT_DIR, keep=None)
     step = checkpoints.resolve_step(step)
     return checkpoints.restore(target, step, expect=checkpoint_expectations(run)), step
 
@@ -176,8 +175,8 @@ def load_policy(
     if seed not in run.seeds:
         raise ValueError(f"seed {seed} is not one of the run's seeds {run.seeds}")
     seed_index = run.seeds.index(seed)
-    target = ckpt_lib.policy_part(abstract_train_state(run, env))
-    checkpoints = ckpt_lib.Checkpointer(Path(run_dir) / layout.CHECKPOINT_DIR, keep=None)
+    target = checkpoint_format.policy_part(abstract_train_state(run, env))
+    checkpoints = checkpointer.Checkpointer(Path(run_dir) / layout.CHECKPOINT_DIR, keep=None)
     step = checkpoints.resolve_step(step)
     part = checkpoints.restore_policy(target, step, expect=checkpoint_expectations(run))
     if run.vmap_seeds:

@@ -21,9 +21,10 @@ import pytest
 from test_checkpoint import make_state
 
 import jaxpg
-from jaxpg import algos, checkpoint
-from jaxpg.checkpoint import Checkpointer, CheckpointError
-from jaxpg.run import command_line, config_io, layout, main, metrics_log, planning, session
+from jaxpg import algos
+from jaxpg.run import checkpoint_format, command_line, config_io, layout, main, metrics_log, planning, session
+from jaxpg.run.checkpoint_errors import CheckpointError
+from jaxpg.run.checkpointer import Checkpointer
 
 
 def listing(path: Path) -> dict:
@@ -140,7 +141,7 @@ def test_no_intact_checkpoint_is_one_error_line(run_dir, capfd):
 
 def test_a_missing_manifest_of_a_new_checkpoint_is_damage(pristine, run_dir, capfd):
     """A save killed after Orbax's commit but before the manifest: meta promises one."""
-    (run_dir / "checkpoints" / "4" / checkpoint.MANIFEST).unlink()
+    (run_dir / "checkpoints" / "4" / checkpoint_format.MANIFEST).unlink()
     policy = jaxpg.load_policy(run_dir)
     err = capfd.readouterr().err.splitlines()
     assert err == [
@@ -152,10 +153,10 @@ def test_a_missing_manifest_of_a_new_checkpoint_is_damage(pristine, run_dir, cap
 
 def make_old(step_dir: Path) -> None:
     """``step_dir`` as an older jaxpg wrote it: no manifest, and no promise of one in ``meta``."""
-    (step_dir / checkpoint.MANIFEST).unlink()
+    (step_dir / checkpoint_format.MANIFEST).unlink()
     meta_path = step_dir / "meta" / "metadata"
     meta = json.loads(meta_path.read_text())
-    del meta[checkpoint.CHECKSUMS_KEY]
+    del meta[checkpoint_format.CHECKSUMS_KEY]
     meta_path.write_text(json.dumps(meta))
 
 

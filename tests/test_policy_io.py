@@ -13,8 +13,9 @@ import pytest
 
 import jaxpg
 from jaxpg import algos, evaluate, policy_io
-from jaxpg.checkpoint import Checkpointer, CheckpointError
 from jaxpg.run import command_line, config_io, layout, main, planning
+from jaxpg.run.checkpoint_errors import CheckpointError
+from jaxpg.run.checkpointer import Checkpointer
 
 
 def listing(path: Path) -> dict:

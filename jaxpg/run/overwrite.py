@@ -29,18 +29,18 @@ def has_checkpoint(run_dir: str | os.PathLike) -> bool:
     """Whether ``run_dir`` holds a committed checkpoint (a step ``--resume`` could start from);
     ``True`` as well when its checkpoint directory cannot be read, so that nothing is taken for
     empty that is not known to be."""
-    from jaxpg import checkpoint as ckpt_lib
+    from jaxpg.run import checkpoint_errors, checkpointer
 
     ckpt_dir = Path(run_dir) / layout.CHECKPOINT_DIR
     if not ckpt_dir.is_dir():
         return False
     try:
-        checkpoints = ckpt_lib.Checkpointer(ckpt_dir, keep=None)
+        checkpoints = checkpointer.Checkpointer(ckpt_dir, keep=None)
         try:
             return bool(checkpoints.steps())
         finally:
             checkpoints.close()
-    except (OSError, ckpt_lib.CheckpointError):
+    except (OSError, checkpoint_errors.CheckpointError):
         return True
 
 

@@ -159,8 +159,8 @@ def plan_fresh(args: argparse.Namespace, experiment: Experiment, module: Any, al
 
 
 def plan_resume(args: argparse.Namespace, run: RunConfig, run_dir: Path) -> Plan:
-    from jaxpg import checkpoint as ckpt_lib
     from jaxpg import policy_io
+    from jaxpg.run import checkpointer
 
     fixed = [flag_name(k) for k in (*_explicit_config(args), *_explicit_env(args))]
     for key in ("seed", "seeds", "preset", "fidelity", "impl", "max_episode_steps", "run_dir", "overwrite"):
@@ -195,7 +195,7 @@ def plan_resume(args: argparse.Namespace, run: RunConfig, run_dir: Path) -> Plan
     )
     if not (run_dir / layout.CHECKPOINT_DIR).is_dir():
         raise no_checkpoint
-    checkpoints = ckpt_lib.Checkpointer(run_dir / layout.CHECKPOINT_DIR, keep=None)
+    checkpoints = checkpointer.Checkpointer(run_dir / layout.CHECKPOINT_DIR, keep=None)
     step = checkpoints.latest_step()
     if step is None:
         raise no_checkpoint

@@ -120,11 +120,10 @@ def _train(plan_: Plan, ts: Any, wall_offset: float, interrupts: Interrupts) -> 
     """The training loop of ``execute``, in a prepared and locked run directory."""
     import jax
 
-    from jaxpg import checkpoint as ckpt_lib
     from jaxpg import mesh as mesh_lib
     from jaxpg import train
     from jaxpg.algos import core
-    from jaxpg.run import processes
+    from jaxpg.run import checkpoint_errors, checkpointer, processes
 
     run, run_dir = plan_.run, plan_.run_dir
     primary = is_primary()
@@ -160,7 +159,9 @@ def _train(plan_: Plan, ts: Any, wall_offset: float, interrupts: Interrupts) -> 
     callbacks: Callbacks | None = None
     try:
         with interrupts.attributed():
-            checkpoints = ckpt_lib.Checkpointer(run_dir / layout.CHECKPOINT_DIR, keep=run.keep_checkpoints, create=True)
+            checkpoints = checkpointer.Checkpointer(
+                run_dir / layout.CHECKPOINT_DIR, keep=run.keep_checkpoints, create=True
+            )
             writer = metrics_log.MetricsWriter(run_dir, run.seeds, start_iteration=plan_.start) if primary else Silent()
             if plan_.start == 0:
                 writer.add_text("config", "```\n" + json.dumps(run.to_json(), indent=2) + "\n```")
@@ -218,7 +219,7 @@ def _train(plan_: Plan, ts: Any, wall_offset: float, interrupts: Interrupts) -> 
         progress.close()
         failure, kept = str(e), f"; metrics and checkpoints up to then are in {run_dir}"
         status = 1
-    except (OSError, ckpt_lib.CheckpointError) as e:
+    except (OSError, checkpoint_errors.CheckpointError) as e:
         if progress is not None:
             progress.close()
         what = f"{e.strerror}: {e.filename}" if isinstance(e, OSError) and e.strerror else str(e).splitlines()[0]
@@ -273,9 +274,9 @@ def _report_end(plan_: Plan, callbacks: Callbacks) -> None:
         seeds = f", {len(run.seeds)} seeds vmapped" if run.vmap_seeds else ""
         show(f"fused update (scan of {run.block_size} iterations{seeds}): {secs / iters * 1e3:.2f} ms per iteration")
     try:
-        from jaxpg import checkpoint as ckpt_lib
+        from jaxpg.run import checkpointer
 
-        checkpoints = ckpt_lib.Checkpointer(run_dir / layout.CHECKPOINT_DIR, keep=None)
+        checkpoints = checkpointer.Checkpointer(run_dir / layout.CHECKPOINT_DIR, keep=None)
         # Both verified: a damaged step is skipped (with a warning line), never recommended.
         best, latest = checkpoints.resolve_step("best"), checkpoints.resolve_step("latest")
         if best is not None and best != latest:

@@ -1,4 +1,4 @@
-"""The package's import graph: every module imports alone, and no module imports itself back.
+"""The package's shape: every module imports alone, no module imports itself back, no file is long.
 
 The graph is read from the source (``ast``), function-level imports included, so that an import
 moved into a function to hide a circle still counts. ``from jaxpg.a import b`` is an edge to the
@@ -118,3 +118,12 @@ def test_every_module_imports_alone_in_a_fresh_interpreter():
     )
     done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stdout + done.stderr
+
+
+MAX_LINES = 400
+
+
+def test_no_package_file_is_over_400_lines():
+    """One job per file: a file that outgrows 400 lines does several and is split."""
+    long = {name: n for name, path in MODULES.items() if (n := len(path.read_text().splitlines())) > MAX_LINES}
+    assert not long, long

@@ -26,6 +26,7 @@ import jaxpg
 from jaxpg import algos, compile_cache, envs, evaluate
 from jaxpg.algos import core
 from jaxpg.run import command_line, config_io, layout, main, planning
+from jaxpg.run.flags import UsageError
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -83,7 +84,7 @@ def test_sizes_that_cannot_fit_in_memory_are_refused_when_planning(flags, messag
     """``plan`` (not ``main``: were the check missing, main would try to train them) refuses them
     in one line saying what is needed, what there is and what to lower."""
     argv = ["--env", "inverted_pendulum", "--run-dir", str(tmp_path / "new"), *flags]
-    with pytest.raises(flags.UsageError) as e:
+    with pytest.raises(UsageError) as e:
         planning.plan(argv, command_line.Experiment())
     line = str(e.value)
     assert "\n" not in line and message in line, line

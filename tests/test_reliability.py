@@ -26,7 +26,7 @@ import test_cli
 
 from jaxpg import envs
 from jaxpg.algos import npg, ppo
-from jaxpg.run import command_line, layout, main, metrics_log, overwrite, planning, run_lock, session
+from jaxpg.run import command_line, layout, main, metrics_log, planning, replacing, run_lock, session
 
 ROOT = Path(__file__).resolve().parent.parent
 TINY = test_cli.TINY  # the same tiny run as tests/test_cli.py: the two share its compiled programs
@@ -182,10 +182,10 @@ def test_overwritten_run_comes_back_when_the_new_run_writes_no_checkpoint(existi
     before = digest(copy)
     plan = planning.plan([*TINY, "--iterations", "4", "--run-dir", str(copy), "--overwrite"], command_line.Experiment())
     lock = run_lock.RunLock(copy)
-    overwrite.prepare_run_dir(plan, lock)
+    replacing.prepare_run_dir(plan, lock)
     assert plan.replaced is not None and plan.replaced.exists() and digest(copy) != before
     assert lock.held and (copy / layout.LOCK_FILE).exists()  # the new directory is locked
-    note = overwrite.finish_run_dir(plan, checkpointed=False)
+    note = replacing.finish_run_dir(plan, checkpointed=False)
     lock.release()
     assert "is back" in note and digest(copy) == before and not plan.replaced.exists()
     assert names(tmp_path) == ["copy"]

@@ -6,7 +6,7 @@ import sys
 from collections.abc import Sequence
 from typing import Any
 
-from jaxpg.run import overwrite
+from jaxpg.run import replacing
 from jaxpg.run.command_line import (
     DEFAULT_EPILOG,
     Experiment,
@@ -72,12 +72,12 @@ def main(argv: Sequence[str] | None = None, experiment: Experiment | None = None
 def recover_run_dir(argv: Sequence[str]) -> None:
     """Before planning: put back the run that an ``--overwrite`` of the command's run directory
     (``--run-dir`` or ``--resume``) moved aside, if its process ended before the new run's first
-    checkpoint, or point to it (``overwrite.recover_replaced``). Process 0 alone; the others wait."""
+    checkpoint, or point to it (``replacing.recover_replaced``). Process 0 alone; the others wait."""
     from jaxpg.run import processes
 
     pre = pre_parse(argv)
     target = pre.resume if pre.resume is not None else pre.run_dir
     if target is not None and processes.is_primary():
-        for line in overwrite.recover_replaced(target):
+        for line in replacing.recover_replaced(target):
             print(line, file=sys.stderr)
     processes.barrier("jaxpg: run directory recovered")

@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import Any
 
 from jaxpg import algos
-from jaxpg.run import config_io, directory, layout, metrics_log, run_lock
+from jaxpg.run import config_io, directory, layout, metrics_log, replacing, run_lock
 from jaxpg.run.command_line import (
     CONFIG_PREFIX,
     ENV_PREFIX,
@@ -68,7 +68,7 @@ def _check_fresh_run_dir(run_dir: Path, overwrite: bool) -> None:
     if not any(run_dir.iterdir()):
         return
     if not overwrite:
-        raise UsageError(overwrite.exists_message(run_dir))
+        raise UsageError(replacing.exists_message(run_dir))
     directory.check_replaceable(run_dir)
     run_lock.check_unlocked(run_dir)
 

@@ -31,8 +31,8 @@ from jaxpg.run import console, layout, metrics_log, run_lock
 from jaxpg.run.callbacks import Callbacks
 from jaxpg.run.interrupts import Interrupts, Stop, TimeUp, exit_status
 from jaxpg.run.output import Silent, is_primary, seed_slice, show
-from jaxpg.run.overwrite import finish_run_dir, prepare_run_dir, resume_command
 from jaxpg.run.plan import Plan, initial_state
+from jaxpg.run.replacing import finish_run_dir, prepare_run_dir, resume_command
 
 
 def run_profile(plan_: Plan, ts: Any, out: Any) -> dict[str, float] | None:

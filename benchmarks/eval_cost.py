@@ -41,7 +41,7 @@ def policy_to_evaluate(run_dir: str | None, task: str) -> tuple[str, dict[str, A
     """``(task, env_kwargs, policy, params, obs_stats)`` of ``run_dir``'s latest checkpoint, or of
     a fresh NPG policy for ``task`` (its ``hopper`` preset's networks for Hopper)."""
     if run_dir:
-        from jaxpg import policy_io
+        from jaxpg.run import policy_io
 
         loaded = policy_io.load_policy(run_dir)
         return loaded.run.task, dict(loaded.run.env_kwargs), loaded.policy, loaded.params, loaded.obs_stats

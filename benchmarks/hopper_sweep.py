@@ -175,7 +175,7 @@ def main() -> None:
     parser.add_argument("--json", default=None)
     args = parser.parse_args()
 
-    from jaxpg import compile_cache
+    from jaxpg.run import compile_cache
 
     compile_cache.enable()
     rows = []

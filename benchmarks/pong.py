@@ -56,8 +56,8 @@ from typing import Any
 import jax
 import jax.numpy as jnp
 
-from jaxpg import algos, compile_cache, envs
-from jaxpg.run import command_line, config_io, flags, layout, metrics_log, planning, session
+from jaxpg import algos, envs
+from jaxpg.run import command_line, compile_cache, config_io, flags, layout, metrics_log, planning, session
 from jaxpg.run import plan as plan_lib
 
 ROOT = Path(__file__).resolve().parents[1]

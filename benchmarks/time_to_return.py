@@ -39,7 +39,7 @@ def run_one(args: argparse.Namespace, seed: int) -> dict:
     start = time.perf_counter()
     import jax
 
-    from jaxpg import compile_cache
+    from jaxpg.run import compile_cache
 
     cache = None if args.no_compilation_cache else compile_cache.enable()
 

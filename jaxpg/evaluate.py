@@ -322,7 +322,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"error: {e}", file=sys.stderr)
         return 2
     try:
-        from jaxpg import policy_io
+        from jaxpg.run import policy_io
 
         if args.ale:
             from jaxpg.envs import atari

@@ -12,7 +12,7 @@ from jaxpg import video  # noqa: E402
 
 video.configure_gl()
 
-# jaxpg's command lines keep compiled programs in a persistent cache (jaxpg.compile_cache): give the
+# jaxpg's command lines keep compiled programs in a persistent cache (jaxpg.run.compile_cache): give the
 # test session a fresh one, so tests never read programs compiled by an older checkout.
 if "JAXPG_COMPILATION_CACHE" not in os.environ:
     import tempfile

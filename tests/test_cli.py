@@ -19,8 +19,19 @@ import numpy as np
 import pytest
 
 import jaxpg
-from jaxpg import evaluate, plotting, policy_io
-from jaxpg.run import command_line, config_io, console, layout, main, metrics_log, planning, session
+from jaxpg import evaluate
+from jaxpg.run import (
+    command_line,
+    config_io,
+    console,
+    layout,
+    main,
+    metrics_log,
+    planning,
+    plotting,
+    policy_io,
+    session,
+)
 from jaxpg.run.plan import Plan
 
 ROOT = Path(__file__).resolve().parent.parent

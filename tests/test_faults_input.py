@@ -23,9 +23,9 @@ import numpy as np
 import pytest
 
 import jaxpg
-from jaxpg import algos, compile_cache, envs, evaluate
+from jaxpg import algos, envs, evaluate
 from jaxpg.algos import core
-from jaxpg.run import command_line, config_io, layout, main, planning
+from jaxpg.run import command_line, compile_cache, config_io, layout, main, planning
 from jaxpg.run.flags import UsageError
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -87,7 +87,7 @@ def test_find_cycle_finds_one():
 def test_the_graph_sees_function_level_imports():
     graph = import_graph()
     assert "jaxpg.algos.core" in graph["jaxpg.algos.npg"]
-    assert "jaxpg.policy_io" in graph["jaxpg"]  # ``jaxpg.load_policy`` imports it when first used
+    assert "jaxpg.run.policy_io" in graph["jaxpg"]  # ``jaxpg.load_policy`` imports it when first used
 
 
 def test_no_import_circle():

@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 import jaxpg
-from jaxpg import algos, evaluate, policy_io
-from jaxpg.run import command_line, config_io, layout, main, planning
+from jaxpg import algos, evaluate
+from jaxpg.run import command_line, config_io, layout, main, planning, policy_io
 from jaxpg.run.checkpoint_errors import CheckpointError
 from jaxpg.run.checkpointer import Checkpointer
 

@@ -17,8 +17,7 @@ import numpy as np
 import pytest
 import test_cli
 
-from jaxpg import policy_io
-from jaxpg.run import main, metrics_log
+from jaxpg.run import main, metrics_log, policy_io
 
 COMMON = [
     "--env", "inverted_pendulum", "--num-envs", "8", "--horizon", "32", "--eval-envs", "2", "--eval-horizon", "32",

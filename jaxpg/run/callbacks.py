@@ -184,7 +184,7 @@ class Callbacks:
 
     def plot(self) -> None:
         try:
-            from jaxpg import plotting
+            from jaxpg.run import plotting
 
             plotting.plot_run(self.plan.run_dir, task_score_name=self.plan.env.task_score_name)
         except Exception as e:  # noqa: BLE001 - a plot must never stop training

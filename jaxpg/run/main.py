@@ -46,8 +46,8 @@ def distributed_config(argv: Sequence[str]) -> Any:
 
 def main(argv: Sequence[str] | None = None, experiment: Experiment | None = None) -> int:
     """Entry point of ``python -m jaxpg.cli`` and the experiment scripts; returns the exit status."""
-    from jaxpg import compile_cache
     from jaxpg import video as video_lib
+    from jaxpg.run import compile_cache
 
     experiment = experiment or Experiment(prog="python -m jaxpg.cli", epilog=DEFAULT_EPILOG)
     argv = list(sys.argv[1:] if argv is None else argv)

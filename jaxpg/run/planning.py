@@ -159,8 +159,7 @@ def plan_fresh(args: argparse.Namespace, experiment: Experiment, module: Any, al
 
 
 def plan_resume(args: argparse.Namespace, run: RunConfig, run_dir: Path) -> Plan:
-    from jaxpg import policy_io
-    from jaxpg.run import checkpointer
+    from jaxpg.run import checkpointer, policy_io
 
     fixed = [flag_name(k) for k in (*_explicit_config(args), *_explicit_env(args))]
     for key in ("seed", "seeds", "preset", "fidelity", "impl", "max_episode_steps", "run_dir", "overwrite"):

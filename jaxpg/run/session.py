@@ -4,7 +4,7 @@ evaluation between compiled calls, videos, curves, interrupts and the end-of-run
 ``jaxpg.cli`` parses a command into a ``Plan`` (nothing written or compiled yet) and hands it to
 ``execute``; notebooks and benchmarks can do the same with a plan of their own
 (``planning.plan(argv, experiment)``) to get a run directory that ``jaxpg.evaluate``,
-``jaxpg.policy_io.load_policy`` and ``--resume`` read.
+``jaxpg.run.policy_io.load_policy`` and ``--resume`` read.
 
     plan = jaxpg.run.planning.plan(["--env", "cartpole", "--iterations", "20", "--run-dir", "runs/cp"], experiment)
     status = jaxpg.run.session.execute(plan)    # 0: trained; 130/143: interrupted, checkpoint written

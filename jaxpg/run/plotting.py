@@ -1,6 +1,6 @@
 """Learning curves of a run directory: ``curves.png``.
 
-    python -m jaxpg.plotting RUN_DIR [RUN_DIR ...] [--out curves.png]
+    python -m jaxpg.run.plotting RUN_DIR [RUN_DIR ...] [--out curves.png]
 
 Top panel: episode return of the stochastic (sampling) policy and of the mean (deterministic)
 policy over iterations. With several seeds, the line is the mean over seeds and the band spans
@@ -137,7 +137,7 @@ def plot_run(
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m jaxpg.plotting", description=__doc__.split("\n\n")[0])
+    parser = argparse.ArgumentParser(prog="python -m jaxpg.run.plotting", description=__doc__.split("\n\n")[0])
     parser.add_argument("run_dirs", nargs="+", help="run directories (several: drawn on the same axes)")
     parser.add_argument("--out", help="output image (default: RUN_DIR/curves.png for one run, curves.png otherwise)")
     args = parser.parse_args(argv)

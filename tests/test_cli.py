@@ -19,11 +19,11 @@ import numpy as np
 import pytest
 
 import jaxpg
-from jaxpg import evaluate
 from jaxpg.run import (
     command_line,
     config_io,
     console,
+    evaluate_cli,
     layout,
     main,
     metrics_log,
@@ -225,7 +225,7 @@ def test_run_saved_under_old_field_names_loads_evaluates_and_resumes(trained, ru
     assert config_io.RunConfig.load(old).algo_config() == config_io.RunConfig.load(trained).algo_config()
     obs = np.random.default_rng(1).normal(size=(3, 4)).astype(np.float32)
     np.testing.assert_array_equal(jaxpg.load_policy(old)(obs), jaxpg.load_policy(trained)(obs))
-    assert evaluate.main([str(old), "--episodes", "1"]) == 0
+    assert evaluate_cli.main([str(old), "--episodes", "1"]) == 0
     assert "return:" in capsys.readouterr().out
     assert main.main(["--resume", str(old), "--iterations", "6"]) == 0
     resaved = json.loads((old / "config.json").read_text())["config"]
@@ -404,13 +404,13 @@ def test_load_policy(trained):
 
 
 def test_evaluate_in_jaxpg_and_gymnasium(trained, tmp_path, capsys):
-    assert evaluate.main([str(trained), "--episodes", "1"]) == 0
+    assert evaluate_cli.main([str(trained), "--episodes", "1"]) == 0
     out = capsys.readouterr().out
     assert "jaxpg inverted_pendulum" in out and "return:" in out and "length:" in out
-    assert evaluate.main([str(trained), "--episodes", "2", "--gymnasium"]) == 0
+    assert evaluate_cli.main([str(trained), "--episodes", "2", "--gymnasium"]) == 0
     out = capsys.readouterr().out
     assert "Gymnasium InvertedPendulum-v5" in out and "return:" in out
-    assert evaluate.main([str(tmp_path / "missing"), "--episodes", "1"]) == 2
+    assert evaluate_cli.main([str(tmp_path / "missing"), "--episodes", "1"]) == 2
     assert capsys.readouterr().err.startswith("error: run directory")
 
 
@@ -418,7 +418,7 @@ def test_evaluate_in_jaxpg_and_gymnasium(trained, tmp_path, capsys):
 def test_evaluate_writes_a_video(gl, trained, tmp_path, capsys, gymnasium):
     video = tmp_path / "episode.gif"
     argv = [str(trained), "--episodes", "1", "--video", str(video)] + (["--gymnasium"] if gymnasium else [])
-    assert evaluate.main(argv) == 0, capsys.readouterr().err
+    assert evaluate_cli.main(argv) == 0, capsys.readouterr().err
     assert f"video of episode 1: {video}" in capsys.readouterr().out
     frames = imageio.mimread(video)
     assert len(frames) > 1 and max(int(f.max()) for f in frames) > 0
@@ -432,9 +432,9 @@ def test_evaluate_chooses_a_gl_backend_only_for_a_video(monkeypatch, tmp_path, c
     calls = []
     monkeypatch.setattr(video, "configure_gl", lambda: calls.append("configure_gl"))
     missing = str(tmp_path / "missing")
-    assert evaluate.main([missing, "--episodes", "1"]) == 2
+    assert evaluate_cli.main([missing, "--episodes", "1"]) == 2
     assert calls == []
-    assert evaluate.main([missing, "--episodes", "1", "--video", str(tmp_path / "v.gif")]) == 2
+    assert evaluate_cli.main([missing, "--episodes", "1", "--video", str(tmp_path / "v.gif")]) == 2
     assert calls == ["configure_gl"]
     capsys.readouterr()
 

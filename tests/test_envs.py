@@ -556,14 +556,14 @@ def test_episode_totals_match_the_full_rollout_and_stop_early(rollout_case, chec
 
 
 def test_evaluate_rollout_matches_a_python_loop_of_the_mean_policy(pendulum_case):
-    """``jaxpg.evaluate.rollout`` (mean-policy episodes with their physics states, through
+    """``jaxpg.run.policy_episodes.play_episodes`` (mean-policy episodes with their physics states, through
     ``jaxpg.rollout``) against single envs stepped one at a time with the policy's mode."""
-    from jaxpg import evaluate
     from jaxpg.algos import npg
+    from jaxpg.run import policy_episodes
 
     env = pendulum_case["env"]
     ts = npg.init(jax.random.key(0), env, npg.Config(num_envs=4, horizon=16, value_batch_size=64, eval_envs=0))
-    eps = evaluate.rollout(env, ts.policy, ts.params, ts.obs_stats, seed=3, num_episodes=2, horizon=8)
+    eps = policy_episodes.play_episodes(env, ts.policy, ts.params, ts.obs_stats, seed=3, num_episodes=2, horizon=8)
 
     reset_key, _ = jax.random.split(jax.random.PRNGKey(3))
     step = jax.jit(env.step)

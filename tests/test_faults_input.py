@@ -23,9 +23,9 @@ import numpy as np
 import pytest
 
 import jaxpg
-from jaxpg import algos, envs, evaluate
+from jaxpg import algos, envs
 from jaxpg.algos import core
-from jaxpg.run import command_line, compile_cache, config_io, layout, main, planning
+from jaxpg.run import command_line, compile_cache, config_io, evaluate_cli, layout, main, planning
 from jaxpg.run.flags import UsageError
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -113,7 +113,7 @@ def test_long_run_directory_names_are_one_line(tmp_path, capsys):
     one_error(capsys, "--run-dir: a name in")
     assert main.main(["--resume", str(long)]) == 2
     one_error(capsys, "--resume: a name in")
-    assert evaluate.main([str(long), "--episodes", "1"]) == 2
+    assert evaluate_cli.main([str(long), "--episodes", "1"]) == 2
     one_error(capsys, "a name in")
     with pytest.raises(layout.RunDirError, match="longer than the"):
         jaxpg.load_policy(long)
@@ -166,7 +166,7 @@ def test_bad_config_json_is_one_line_in_resume_evaluate_and_load_policy(case, ru
     assert main.main(["--resume", str(run_dir)]) == 2
     one_error(capsys, message)
     if case not in ("num_envs huge", "kl_delta Infinity"):  # evaluation reads neither field
-        assert evaluate.main([str(run_dir), "--episodes", "1"]) == 2
+        assert evaluate_cli.main([str(run_dir), "--episodes", "1"]) == 2
         one_error(capsys, message)
         with pytest.raises(ValueError, match="^[^\n]*$"):
             jaxpg.load_policy(run_dir)
@@ -185,7 +185,7 @@ def test_unwritable_video_path_is_refused_before_evaluating(run_dir, tmp_path, c
         ("/proc/jaxpg-out.mp4", "cannot write"),
         (str(tmp_path / "file" / "out.mp4"), "not a directory"),
     ):
-        assert evaluate.main([str(run_dir), "--video", path]) == 2
+        assert evaluate_cli.main([str(run_dir), "--video", path]) == 2
         line = one_error(capsys, f"--video {path}: ")
         assert reason in line, line
     assert (tmp_path / "file").read_text() == "x"
@@ -205,10 +205,10 @@ def test_unusable_compilation_cache_is_one_warning_line(tmp_path, capsys):
 PLATFORM_SCRIPT = textwrap.dedent(
     """
     import sys
-    from jaxpg import evaluate
+    from jaxpg.run import evaluate_cli
     from jaxpg.run import command_line, main, planning
     print(main.main(["--iterations", "1", "--run-dir", sys.argv[1] + "/new"]))
-    print(evaluate.main([sys.argv[1] + "/run", "--episodes", "1"]))
+    print(evaluate_cli.main([sys.argv[1] + "/run", "--episodes", "1"]))
     """
 )
 

@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 import jaxpg
-from jaxpg import algos, evaluate
-from jaxpg.run import command_line, config_io, layout, main, planning, policy_io
+from jaxpg import algos
+from jaxpg.run import command_line, config_io, evaluate_cli, layout, main, planning, policy_io
 from jaxpg.run.checkpoint_errors import CheckpointError
 from jaxpg.run.checkpointer import Checkpointer
 
@@ -132,6 +132,6 @@ def test_a_file_is_not_a_run_directory(run_dir, capsys):
         jaxpg.load_policy(path)
     with pytest.raises(layout.RunDirError, match="is a file, not a run directory"):
         policy_io.restore_train_state(path)
-    assert evaluate.main([str(path), "--episodes", "1"]) == 2
+    assert evaluate_cli.main([str(path), "--episodes", "1"]) == 2
     err = capsys.readouterr().err.splitlines()
     assert len(err) == 1 and err[0].startswith("error: ") and "is a file, not a run directory" in err[0]

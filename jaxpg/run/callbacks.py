@@ -191,15 +191,15 @@ class Callbacks:
             self.progress.write(f"warning: curves.png not updated ({type(e).__name__}: {e})")
 
     def video(self, ts: Any, step: int) -> None:
-        from jaxpg import evaluate as evaluate_lib
         from jaxpg import mesh as mesh_lib
+        from jaxpg.run import policy_episodes
 
         path = self.plan.run_dir / layout.VIDEO_DIR / f"iter_{step:06d}.mp4"
         try:
             # Host copies: the video is recorded by process 0 alone, off the training mesh.
             params = seed_slice(mesh_lib.host_copy(ts.params), 0, self.run.vmap_seeds)
             stats = seed_slice(mesh_lib.host_copy(ts.obs_stats), 0, self.run.vmap_seeds)
-            out, ret, length = evaluate_lib.record_policy(self.plan.env, ts.policy, params, stats, path, seed=step)
+            out, ret, length = policy_episodes.record_policy(self.plan.env, ts.policy, params, stats, path, seed=step)
             self.progress.write(
                 f"video {out} (mean policy, seed {self.run.seeds[0]}: return {ret:.1f}, {length} steps)"
             )

@@ -289,9 +289,9 @@ def _report_end(plan_: Plan, callbacks: Callbacks) -> None:
     if run.task == "atari_pong":  # the real game is ALE's: play it there
         show(f"evaluate: python -m jaxpg.evaluate {shlex.quote(str(run_dir))} --ale --episodes 10 [--no-sticky]")
         return
-    from jaxpg import evaluate
+    from jaxpg.run import replay
 
-    gymnasium = " [--gymnasium]" if run.task in evaluate.GYMNASIUM_IDS else ""
+    gymnasium = " [--gymnasium]" if run.task in replay.GYMNASIUM_IDS else ""
     quoted = shlex.quote(str(run_dir))
     video = f"[--video {shlex.quote(str(run_dir / layout.VIDEO_DIR / 'final.mp4'))}]"
     show(f"evaluate: python -m jaxpg.evaluate {quoted} --episodes 10{gymnasium} {video}")

@@ -28,7 +28,7 @@ import sys
 from typing import Any
 
 from jaxpg.run import console, layout, metrics_log, run_lock
-from jaxpg.run.callbacks import Callbacks
+from jaxpg.run.callbacks import BlockClock, HostCallbacks, host_callbacks
 from jaxpg.run.interrupts import Interrupts, Stop, TimeUp, exit_status
 from jaxpg.run.output import Silent, is_primary, seed_slice, show
 from jaxpg.run.plan import Plan, initial_state
@@ -156,7 +156,7 @@ def _train(plan_: Plan, ts: Any, wall_offset: float, interrupts: Interrupts) -> 
     status = 0
     failure: str | None = None  # the error line, once the run directory is put in order
     kept = ""  # what the error line adds when the run keeps its checkpoints
-    callbacks: Callbacks | None = None
+    callbacks: HostCallbacks | None = None
     try:
         with interrupts.attributed():
             checkpoints = checkpointer.Checkpointer(
@@ -172,7 +172,7 @@ def _train(plan_: Plan, ts: Any, wall_offset: float, interrupts: Interrupts) -> 
                 if primary
                 else Silent()
             )
-            callbacks = Callbacks(plan_, checkpoints, writer, progress, wall_offset, interrupts)
+            callbacks = host_callbacks(plan_, checkpoints, writer, progress, wall_offset, interrupts)
             block = run.block_size
             # Blocks start at multiples of block_size, as in an uninterrupted run.
             segments = []
@@ -187,7 +187,7 @@ def _train(plan_: Plan, ts: Any, wall_offset: float, interrupts: Interrupts) -> 
                     ts,
                     count,
                     block_size=min(block, count),
-                    callbacks=[callbacks],
+                    callbacks=callbacks.callables,
                     seeds=run.vmap_seeds,
                     evaluate=evaluate,
                     final_eval=index == len(segments) - 1,  # the run's last iteration is always evaluated
@@ -241,7 +241,7 @@ def _train(plan_: Plan, ts: Any, wall_offset: float, interrupts: Interrupts) -> 
     elif note:
         print(f"the run stopped before its first checkpoint{note}", file=sys.stderr)
     if status == 0 and primary:
-        _report_end(plan_, callbacks)
+        _report_end(plan_, callbacks.clock)
     processes.barrier("jaxpg: done")  # the processes leave together (JAX's shutdown waits for all)
     return status
 
@@ -251,24 +251,25 @@ def _without_resume_advice(message: str) -> str:
     return re.sub(r"[,;]?\s*(then )?continue with --resume\b.*$", "", message)
 
 
-def _report_end(plan_: Plan, callbacks: Callbacks) -> None:
+def _report_end(plan_: Plan, clock: BlockClock) -> None:
+    """The end-of-run report: speed, evaluation share, best checkpoint, how to evaluate."""
     run, run_dir = plan_.run, plan_.run_dir
     # The first block includes compilation.
-    timed = callbacks.block_times[1:]
+    timed = clock.block_times[1:]
     iters = sum(n for n, _ in timed)
     secs = sum(t for _, t in timed)
-    total = sum(t for _, t in callbacks.block_times)
-    total += callbacks.eval_seconds
+    total = sum(t for _, t in clock.block_times)
+    total += clock.eval_seconds
     if iters and secs > 0:
-        rate = callbacks.samples * iters / secs
+        rate = clock.samples * iters / secs
         show(f"done in {total:.1f} s: {secs / iters:.3f} s per iteration, {rate:,.0f} env steps/s after compilation")
     else:
         show(f"done in {total:.1f} s (including compilation)")
-    if callbacks.evaluations:
-        share = 100 * callbacks.eval_seconds / max(total, 1e-9)
+    if clock.evaluations:
+        share = 100 * clock.eval_seconds / max(total, 1e-9)
         show(
-            f"evaluation: {callbacks.evaluations} of the mean policy ({run.config.get('eval_envs')} episodes each), "
-            f"{callbacks.eval_seconds:.1f} s ({share:.1f}% of the training loop's wall clock)"
+            f"evaluation: {clock.evaluations} of the mean policy ({run.config.get('eval_envs')} episodes each), "
+            f"{clock.eval_seconds:.1f} s ({share:.1f}% of the training loop's wall clock)"
         )
     if plan_.profile and iters:
         seeds = f", {len(run.seeds)} seeds vmapped" if run.vmap_seeds else ""

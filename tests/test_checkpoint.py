@@ -1,4 +1,4 @@
-"""jaxpg.checkpoint: exact round trips, retention (latest k + best), and one clear error for
+"""jaxpg.run.checkpointer: exact round trips, retention (latest k + best), and one clear error for
 missing, corrupt, interrupted or incompatible checkpoints. Synthetic pytrees: nothing compiles."""
 
 import errno

@@ -1,5 +1,6 @@
-"""The host side of a training run: the run directory, the training loop's callbacks, checkpoints,
-evaluation between compiled calls, videos, curves, interrupts and the end-of-run report.
+"""A training run on the host: lock and prepare the run directory (``replacing``), train with the
+host's callbacks (``callbacks``) under the interrupt handlers (``interrupts``), put the directory
+in order and report.
 
 ``jaxpg.cli`` parses a command into a ``Plan`` (nothing written or compiled yet) and hands it to
 ``execute``; notebooks and benchmarks can do the same with a plan of their own

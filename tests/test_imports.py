@@ -127,3 +127,40 @@ def test_no_package_file_is_over_400_lines():
     """One job per file: a file that outgrows 400 lines does several and is split."""
     long = {name: n for name, path in MODULES.items() if (n := len(path.read_text().splitlines())) > MAX_LINES}
     assert not long, long
+
+
+def top_level_names(path: Path) -> set[str]:
+    """The names a module defines or imports at its top level."""
+    names = set()
+    for node in ast.parse(path.read_text()).body:
+        if isinstance(node, ast.FunctionDef | ast.ClassDef):
+            names.add(node.name)
+        elif isinstance(node, ast.Assign):
+            names |= {t.id for t in node.targets if isinstance(t, ast.Name)}
+        elif isinstance(node, ast.ImportFrom | ast.Import):
+            names |= {a.asname or a.name.split(".")[0] for a in node.names}
+    return names
+
+
+def test_no_local_name_hides_a_host_module():
+    """A function whose argument or variable is named like a ``jaxpg.run`` module (``overwrite``,
+    ``flags``) cannot reach that module: ``overwrite.exists_message`` on a bool is an
+    ``AttributeError`` only when that line runs."""
+    run_modules = {name.rsplit(".", 1)[1]: MODULES[name] for name in MODULES if name.startswith("jaxpg.run.")}
+    exported = {name: top_level_names(path) for name, path in run_modules.items()}
+    hidden = []
+    for module, path in MODULES.items():
+        for fn in ast.walk(ast.parse(path.read_text())):
+            if not isinstance(fn, ast.FunctionDef):
+                continue
+            bound = {a.arg for a in fn.args.args + fn.args.kwonlyargs}
+            bound |= {n.id for n in ast.walk(fn) if isinstance(n, ast.Name) and isinstance(n.ctx, ast.Store)}
+            for node in ast.walk(fn):
+                if (
+                    isinstance(node, ast.Attribute)
+                    and isinstance(node.value, ast.Name)
+                    and node.value.id in bound
+                    and node.attr in exported.get(node.value.id, ())
+                ):
+                    hidden.append(f"{module}.{fn.name}: {node.value.id}.{node.attr}")
+    assert not hidden, hidden

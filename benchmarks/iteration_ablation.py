@@ -14,10 +14,14 @@ repeats one program (on one machine both orders gave the same rollouts: BENCHMAR
 
 Variants, cumulative (each keeps what it computes alive, so that nothing is eliminated):
 
-  sample      the rollout (``core.phase_sample``): policy and physics for ``horizon`` steps;
-  +advantages value predictions and GAE (``core.phase_advantages``);
-  +policy     the gradient, the conjugate-gradient natural step and the KL backtracking;
+  sample      the rollout (NPG's phase ``sampling``): policy and physics for ``horizon`` steps;
+  +advantages value predictions and GAE (``advantages``);
+  +policy     the gradient, the conjugate-gradient natural step and the KL backtracking
+              (``gradient``, ``natural_step``, ``kl_backoff``);
   full        ``npg.update`` as it is (adds the value fit and the iteration's bookkeeping);
+
+The cumulative variants are NPG's own iteration (``npg.iteration``) stopped after a phase
+(``cut_after``), not a copy of it.
 
 and changes of the full iteration (``--changes``):
 
@@ -50,10 +54,9 @@ from typing import Any
 
 import jax
 import jax.numpy as jnp
-from jax.flatten_util import ravel_pytree
 
 from jaxpg import rollout as rollout_lib
-from jaxpg.algos import core, natural_gradient, npg
+from jaxpg.algos import core, npg
 
 PHASES = ("sample", "+advantages", "+policy", "full")
 CHANGES = ("gae_parallel", "vmb8", "unroll", "carry")
@@ -61,10 +64,46 @@ UNROLL = 4  # env steps per loop iteration of the rollout in the ``unroll`` rows
 PARALLEL_GAE = functools.partial(core.gae_advantages, parallel=True)  # GAE as an associative scan
 
 
-def sample_only(ts: core.TrainState) -> tuple[core.TrainState, dict[str, jax.Array]]:
-    """The rollout of one iteration; the state carries the env state on."""
-    ts, traj, _ = core.phase_sample(ts)
-    return ts, {"reward": jnp.sum(traj.rewards)}
+class _Cut(Exception):
+    """Raised while tracing, after the phase an ablation stops at, carrying what it returned."""
+
+    def __init__(self, outputs: Any) -> None:
+        super().__init__()
+        self.outputs = outputs
+
+
+def cut_after(last_phase: str) -> Callable:
+    """``ts -> (ts, metrics)``: NPG's own iteration (``npg.iteration``) stopped after its phase
+    ``last_phase`` (one of ``npg.PHASES``): the phases run as ``update`` runs them, and every
+    floating output of the last one is summed into the metrics, so that nothing it computes is
+    eliminated. The state returned is the last one a phase returned (the sampler's, carrying the
+    env state on, until the value fit)."""
+    if last_phase not in npg.PHASES:
+        raise ValueError(f"{last_phase!r} is not one of NPG's phases {npg.PHASES}")
+
+    def iteration(ts: core.TrainState) -> tuple[core.TrainState, dict[str, jax.Array]]:
+        latest = [ts]
+
+        def run_phase(name: str, fn: Callable, *args: Any) -> Any:
+            out = fn(*args)
+            first = out[0] if isinstance(out, tuple) else out
+            if isinstance(first, core.TrainState):
+                latest.append(first)
+            if name == last_phase:
+                raise _Cut(out)
+            return out
+
+        try:
+            return npg.iteration(ts, run_phase)
+        except _Cut as cut:
+            leaves = [x for x in jax.tree.leaves(cut.outputs) if jnp.issubdtype(jnp.asarray(x).dtype, jnp.floating)]
+            return latest[-1], {"kept": sum(jnp.sum(x) for x in leaves)}
+
+    iteration.__name__ = f"npg_through_{last_phase}"
+    return iteration
+
+
+sample_only = cut_after("sampling")
 
 
 def uniform_act(action_size: int) -> rollout_lib.ActFn:
@@ -118,32 +157,12 @@ def raw_env_block(iterations: int) -> Callable:
     return block
 
 
-def through_advantages(ts: core.TrainState) -> tuple[core.TrainState, dict[str, jax.Array]]:
-    """The rollout and its advantages and value targets."""
-    ts, traj, _ = core.phase_sample(ts)
-    batch = core.phase_advantages(ts, traj)
-    return ts, {"advantage": jnp.sum(batch.advantages * batch.value_targets)}
-
-
-def through_policy_step(ts: core.TrainState) -> tuple[core.TrainState, dict[str, jax.Array]]:
-    """The rollout, its advantages and NPG's policy step (as ``npg.update_using`` takes it); no
-    value fit."""
-    ts, traj, _ = core.phase_sample(ts)
-    batch = core.phase_advantages(ts, traj)
-    grads = natural_gradient.policy_gradient(ts, batch)
-    natural_step = npg.scale_by_natural_gradient(ts.config.kl_delta, ts.config.cg_iters, ts.config.loop_unroll)
-    fvp = natural_gradient.fisher_operator(ts, *natural_gradient.fisher_subsample(ts, batch))
-    _, solve = natural_step.update(grads, natural_step.init(ts.params), ts.params, fisher_vector_product=fvp)
-    new_params, kl, _ = npg.step_within_kl(ts, batch, solve.direction, solve.step_size, npg.kl_bound(ts.config))
-    return ts.replace(params=new_params), {"kl": kl, "grad_norm": jnp.linalg.norm(ravel_pytree(grads)[0])}
-
-
 def variants(changes: list[str]) -> dict[str, tuple[Callable | None, dict[str, Any]]]:
     """Name -> (update function, config overrides) of every variant timed."""
     table: dict[str, tuple[Callable | None, dict[str, Any]]] = {
         "sample": (sample_only, {}),
-        "+advantages": (through_advantages, {}),
-        "+policy": (through_policy_step, {}),
+        "+advantages": (cut_after("advantages"), {}),
+        "+policy": (cut_after("kl_backoff"), {}),
         "full": (npg.update, {}),
     }
     if "gae_parallel" in changes:

@@ -20,8 +20,8 @@ the Atari ROM):
            experiment's settings, e.g. PPO's Atari recipe on the ROM, which learns there in
            minutes where MinPy's A2C needs tens of minutes per setting).
 
-Every A2C run is a standard run of the command line (``jaxpg.cli.plan`` of ``experiments/pong.py``
-with ``--minutes``, run by ``jaxpg.session.execute``) in ``RUN_DIR/envs<N>-tmax<T>-lr<LR>-seed<S>``,
+Every A2C run is a standard run of the command line (``jaxpg.run.planning.plan`` of ``experiments/pong.py``
+with ``--minutes``, run by ``jaxpg.run.session.execute``) in ``RUN_DIR/envs<N>-tmax<T>-lr<LR>-seed<S>``,
 so ``python -m jaxpg.evaluate``, ``jaxpg.load_policy`` and ``--resume`` work on each. The running
 reward is the seed's, computed from its ``metrics.jsonl``: an exponential moving average of the
 final score difference of the games, ``running = 0.99 running + 0.01 game`` at every finished
@@ -60,8 +60,10 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxpg import algos, cli, compile_cache, envs, runlog, session
+from jaxpg import algos, envs
 from jaxpg.envs import atari
+from jaxpg.run import command_line, compile_cache, config_io, flags, layout, metrics_log, planning, session
+from jaxpg.run import plan as plan_lib
 
 ROOT = Path(__file__).resolve().parents[1]
 RUNNING_DECAY = 0.99  # running reward: EMA over games, as in the seed
@@ -69,7 +71,7 @@ EXPERIMENTS = {"pong": "experiments/pong.py", "atari_pong": "experiments/atari_p
 NO_LIMIT = 10**9  # iterations of a run that stops at its time limit
 
 
-def load_experiment(task: str) -> cli.Experiment:
+def load_experiment(task: str) -> command_line.Experiment:
     """The ``EXPERIMENT`` of the experiment script that trains ``task``."""
     path = ROOT / EXPERIMENTS[task]
     spec = importlib.util.spec_from_file_location(f"{task}_experiment", path)
@@ -178,8 +180,8 @@ def run_argv(
     return argv
 
 
-def train_run(plan: session.Plan) -> None:
-    """Run one planned command line (``jaxpg.session.execute``); ``RuntimeError`` if it does not
+def train_run(plan: plan_lib.Plan) -> None:
+    """Run one planned command line (``jaxpg.run.session.execute``); ``RuntimeError`` if it does not
     finish with status 0."""
     status = session.execute(plan)
     if status != 0:
@@ -223,8 +225,8 @@ def summarize(run_dir: Path, thresholds: Sequence[float]) -> dict:
     wall-clock seconds
     and env steps at which the running reward first exceeded each threshold (``None`` where it never
     did), the final running reward, and the curve at most twice a second."""
-    run = runlog.RunConfig.load(run_dir)
-    records = runlog.read_metrics(run_dir / runlog.METRICS_FILE)
+    run = config_io.RunConfig.load(run_dir)
+    records = metrics_log.read_metrics(run_dir / layout.METRICS_FILE)
     curve = running_reward(records, run.block_size)
     block = min(run.block_size, records[-1]["iteration"])
     first_block = next(r["wall_time_s"] for r in records if r["iteration"] == block)
@@ -309,7 +311,7 @@ def plot_files(json_paths: Sequence[str], out: str) -> None:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = cli.Parser(
+    parser = command_line.Parser(
         prog="python benchmarks/pong.py",
         description=__doc__.split("\n\n")[0],
         formatter_class=argparse.RawDescriptionHelpFormatter,
@@ -350,15 +352,15 @@ def check(args: argparse.Namespace) -> None:
     """``UsageError`` (one line) for arguments that cannot run, before anything is written."""
     counts = [*(args.fps_envs or []), *(args.compare_envs or args.train_envs)]
     if any(n < 1 for n in counts):
-        raise cli.UsageError(f"numbers of envs must be >= 1, got {' '.join(map(str, counts))}")
+        raise flags.UsageError(f"numbers of envs must be >= 1, got {' '.join(map(str, counts))}")
     if not args.seconds > 0:
-        raise cli.UsageError(f"--seconds must be > 0, got {args.seconds:g}")
+        raise flags.UsageError(f"--seconds must be > 0, got {args.seconds:g}")
     if args.iterations is not None and args.iterations < 1:
-        raise cli.UsageError(f"--iterations must be >= 1, got {args.iterations}")
+        raise flags.UsageError(f"--iterations must be >= 1, got {args.iterations}")
     if args.task != "pong" and (args.size is not None or args.fps_envs):
-        raise cli.UsageError("--size and --fps-envs are jaxpg Pong's (--task pong)")
+        raise flags.UsageError("--size and --fps-envs are jaxpg Pong's (--task pong)")
     if args.run_dir is not None and args.run_dir.exists():
-        raise cli.UsageError(f"{args.run_dir} exists; choose another --run-dir (nothing was changed)")
+        raise flags.UsageError(f"{args.run_dir} exists; choose another --run-dir (nothing was changed)")
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -380,7 +382,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             seconds=args.seconds, iterations=args.iterations, size=args.size, call_steps=args.call_steps, algo=args.algo
         )
         plans = [
-            cli.plan(
+            planning.plan(
                 run_argv(root / run_name(n, t_max, lr, seed, args.algo), args.task, n, seed, lr, t_max, **budget),
                 experiment,
             )

@@ -515,7 +515,7 @@ SCALING_DOC = """Scaling of NPG training over devices: env steps/s on 1, 2, 4, .
 
 For each device count ``k`` (in a fresh process; the env mesh over the first ``k`` of
 ``jax.devices()``), with ``k * --envs-per-device`` envs split over the ``k`` devices exactly as
-``python -m jaxpg.cli`` splits them (``jaxpg.distributed``):
+``python -m jaxpg.cli`` splits them (``jaxpg.mesh``):
 
   raw       env steps/s of the simulation alone: the same env (automatic reset included), batch and
             horizon, random actions, each device stepping its own envs under ``jax.shard_map``;
@@ -557,14 +557,15 @@ def scaling_measure(
     import jax
     import jax.numpy as jnp
 
-    from jaxpg import distributed, envs, train
+    from jaxpg import envs, train
+    from jaxpg import mesh as mesh_lib
     from jaxpg import rollout as rollout_lib
     from jaxpg.algos import core, npg
-    from jaxpg.distributed import shard_state
+    from jaxpg.algos.core import shard_state
 
     if jax.device_count() < devices:
         raise SystemExit(f"only {jax.device_count()} devices are visible, {devices} asked for")
-    mesh = distributed.env_mesh(jax.devices()[:devices])
+    mesh = mesh_lib.env_mesh(jax.devices()[:devices])
     num_envs = devices * envs_per_device
     env_kwargs = {"impl": impl} if impl else {}
     env = envs.make(task, batch=envs_per_device, **env_kwargs)
@@ -574,7 +575,7 @@ def scaling_measure(
 
     # raw: random actions, the env batch split over the devices as sampling splits it
     sampler = core.sampler_env(ts.env, ts.config)
-    state_specs = jax.tree.map(distributed.batch_spec, core.env_batch_mask(sampler, ts.env_state))
+    state_specs = jax.tree.map(mesh_lib.batch_spec, core.env_batch_mask(sampler, ts.env_state))
 
     def random_act(params: Any, obs: jax.Array, key: jax.Array) -> tuple[jax.Array, jax.Array]:
         del params
@@ -594,10 +595,10 @@ def scaling_measure(
         state = core.split_over_envs(simulate, num_envs, specs, state_specs, state, step_key)
         return (state, key), None
 
-    raw = jax.jit(distributed.on_mesh(raw_step, mesh), donate_argnums=0)
+    raw = jax.jit(mesh_lib.on_mesh(raw_step, mesh), donate_argnums=0)
     raw_copy = jax.tree.map(jnp.copy, ts.env_state)
     raw_first, raw_s, _ = harness.time_back_to_back(
-        raw, (raw_copy, distributed.replicated(jax.random.PRNGKey(1), mesh)), iterations
+        raw, (raw_copy, mesh_lib.replicated(jax.random.PRNGKey(1), mesh)), iterations
     )
 
     # sample: NPG's sampling alone, the policy acting
@@ -605,12 +606,12 @@ def scaling_measure(
         ts, traj, _ = core.phase_sample(ts)
         return ts, jnp.mean(traj.rewards)
 
-    sample = jax.jit(distributed.on_mesh(sample_step, mesh), donate_argnums=0)
+    sample = jax.jit(mesh_lib.on_mesh(sample_step, mesh), donate_argnums=0)
     _, sample_s, _ = harness.time_back_to_back(sample, jax.tree.map(jnp.copy, ts), iterations)
 
     # train: whole iterations, compiled and called as jaxpg.train does (one scan per block)
     per_call = iterations
-    block = train.compiled_block(distributed.on_mesh(npg.update, mesh), per_call, False)
+    block = train.compiled_block(mesh_lib.on_mesh(npg.update, mesh), per_call, False)
     calls = max(iterations // per_call, 1)
     train_first, train_s, ts = harness.time_back_to_back(block, ts, calls)
     return {
@@ -908,7 +909,7 @@ def policy_to_evaluate(run_dir: str | None, task: str) -> tuple[str, dict[str, A
     """``(task, env_kwargs, policy, params, obs_stats)`` of ``run_dir``'s latest checkpoint, or of
     a fresh NPG policy for ``task`` (its ``hopper`` preset's networks for Hopper)."""
     if run_dir:
-        from jaxpg import policy_io
+        from jaxpg.run import policy_io
 
         loaded = policy_io.load_policy(run_dir)
         return loaded.run.task, dict(loaded.run.env_kwargs), loaded.policy, loaded.params, loaded.obs_stats

@@ -212,7 +212,7 @@ def train(
       iterations_per_call: iterations fused into one compiled ``lax.scan`` (default: the whole
         block). The block's metrics are the same either way.
       evaluate: the evaluation run between calls (default ``evaluate_state``; ``None``: none). Wrap
-        it like ``update`` (e.g. ``jaxpg.distributed.on_mesh``) when training on a mesh.
+        it like ``update`` (e.g. ``jaxpg.mesh.on_mesh``) when training on a mesh.
       eval_every: evaluate after every iteration whose 1-based count is a multiple of this
         (default: ``config.eval_every``; evaluation is off when ``config.eval_envs`` is 0).
       final_eval: also evaluate after the last of the ``num_iterations``.

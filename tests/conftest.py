@@ -12,7 +12,7 @@ from jaxpg import video  # noqa: E402
 
 video.configure_gl()
 
-# jaxpg's command lines keep compiled programs in a persistent cache (jaxpg.compile_cache): give the
+# jaxpg's command lines keep compiled programs in a persistent cache (jaxpg.run.compile_cache): give the
 # test session a fresh one, so tests never read programs compiled by an older checkout.
 if "JAXPG_COMPILATION_CACHE" not in os.environ:
     import tempfile
@@ -25,7 +25,7 @@ _CACHE_DIR_AT_START: list = []  # JAX's jax_compilation_cache_dir when the first
 
 @pytest.fixture(autouse=True)
 def _persistent_compilation_cache_left_as_found():
-    """``jaxpg.cli.main`` turns JAX's persistent compilation cache on for the rest of its process
+    """``jaxpg.run.main.main`` turns JAX's persistent compilation cache on for the rest of its process
     (so that a second run loads its programs). Tests that run the command line in this process
     (module fixtures too) would leave it on for every later test, which then writes each program it
     compiles to disk: after each test the cache is set back to how the session found it, so that

@@ -14,8 +14,9 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from jaxpg import evaluate, rollout
+from jaxpg import rollout
 from jaxpg.envs import AutoReset, EpisodeStats
+from jaxpg.run import evaluate_cli, replay
 
 ROOT = Path(__file__).resolve().parents[1]
 ale_py = pytest.importorskip("ale_py")
@@ -154,19 +155,19 @@ def test_without_ale_one_line_names_the_install(monkeypatch, tmp_path, capsys):
         with pytest.raises(ImportError) as info:
             make()
         assert str(info.value).count("\n") == 0 and "pip install 'jaxpg[atari]'" in str(info.value)
-    assert evaluate.main([str(tmp_path), "--ale"]) == 2
+    assert evaluate_cli.main([str(tmp_path), "--ale"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("error:") and "jaxpg[atari]" in err[0]
 
 
 def test_ale_action_sets():
-    assert evaluate.ale_action_set("atari_pong", {}) == "updown"
-    assert evaluate.ale_action_set("atari_pong", {"action_set": "stay"}) == "stay"
-    assert evaluate.ale_action_set("pong", {"stay_action": True}) == "stay"
+    assert replay.ale_action_set("atari_pong", {}) == "updown"
+    assert replay.ale_action_set("atari_pong", {"action_set": "stay"}) == "stay"
+    assert replay.ale_action_set("pong", {"stay_action": True}) == "stay"
     with pytest.raises(ValueError, match="80x80"):
-        evaluate.ale_action_set("pong", {"size": 40})
+        replay.ale_action_set("pong", {"size": 40})
     with pytest.raises(ValueError, match="not a Pong task"):
-        evaluate.ale_action_set("hopper", {})
+        replay.ale_action_set("hopper", {})
 
 
 def load_experiment():
@@ -185,7 +186,7 @@ def load_experiment():
 )
 def test_short_training_run_and_evaluation_on_ale(algo, flags, tmp_path, capsys):
     """Two iterations of a tiny network on 2 games, then its policy plays ALE/Pong-v5."""
-    from jaxpg.cli import main
+    from jaxpg.run.main import main
 
     run_dir = tmp_path / algo
     argv = ["--algo", algo, "--num-envs", "2", "--iterations", "2", "--log-every", "1", "--policy-hidden", "8"]
@@ -200,7 +201,7 @@ def test_short_training_run_and_evaluation_on_ale(algo, flags, tmp_path, capsys)
     assert records[-1]["env_steps"] == 2 * 2 * int(flags[1])
     capsys.readouterr()
 
-    assert evaluate.main([str(run_dir), "--ale", "--episodes", "2", "--no-sticky", "--sample"]) == 0
+    assert evaluate_cli.main([str(run_dir), "--ale", "--episodes", "2", "--no-sticky", "--sample"]) == 0
     out = capsys.readouterr().out
     assert "2 games of ALE/Pong-v5 (repeat_action_probability=0)" in out and "sampled actions" in out
     score = float(out.split("mean score:")[1].split()[0])
@@ -208,18 +209,19 @@ def test_short_training_run_and_evaluation_on_ale(algo, flags, tmp_path, capsys)
 
 
 def test_several_seeds_in_one_program_are_refused():
-    from jaxpg import cli
+    from jaxpg.run import planning
+    from jaxpg.run.flags import UsageError
 
-    with pytest.raises(cli.UsageError, match="one seed per command"):
-        cli.plan(["--seeds", "0", "1", "--num-envs", "2"], load_experiment().EXPERIMENT)
+    with pytest.raises(UsageError, match="one seed per command"):
+        planning.plan(["--seeds", "0", "1", "--num-envs", "2"], load_experiment().EXPERIMENT)
 
 
 def test_evaluate_ale_refuses_other_tasks(tmp_path, capsys):
-    from jaxpg.cli import main
+    from jaxpg.run.main import main
 
     run_dir = tmp_path / "cartpole"
     argv = ["--task", "cartpole", "--algo", "a2c", "--iterations", "1", "--num-envs", "2", "--horizon", "4"]
     assert main([*argv, "--eval-envs", "0", "--run-dir", str(run_dir), "--no-progress"]) == 0
     capsys.readouterr()
-    assert evaluate.main([str(run_dir), "--ale", "--episodes", "1"]) == 2
+    assert evaluate_cli.main([str(run_dir), "--ale", "--episodes", "1"]) == 2
     assert "not a Pong task" in capsys.readouterr().err

@@ -19,7 +19,20 @@ import numpy as np
 import pytest
 
 import jaxpg
-from jaxpg import cli, evaluate, plotting, policy_io, runlog, session
+from jaxpg.run import (
+    command_line,
+    config_io,
+    console,
+    evaluate_cli,
+    layout,
+    main,
+    metrics_log,
+    planning,
+    plotting,
+    policy_io,
+    session,
+)
+from jaxpg.run.plan import Plan
 
 ROOT = Path(__file__).resolve().parent.parent
 TINY = [
@@ -75,7 +88,7 @@ def runs(tmp_path_factory):
 def trained(runs):
     """4 iterations straight, checkpoints at 2 and 4, a video at 4."""
     run_dir = runs / "straight"
-    assert cli.main([*TINY, "--iterations", "4", "--video-every", "4", "--run-dir", str(run_dir)]) == 0
+    assert main.main([*TINY, "--iterations", "4", "--video-every", "4", "--run-dir", str(run_dir)]) == 0
     return run_dir
 
 
@@ -94,10 +107,10 @@ def test_run_directory_holds_everything_to_rerun(trained):
     assert config["config"]["num_envs"] == 8 and config["config"]["policy_hidden"] == [64, 64]
     assert {"jax", "mujoco", "jaxpg", "python"} <= set(config["info"]["versions"])
     assert config["info"]["device"]["backend"] == "cpu"
-    run = runlog.RunConfig.load(trained)
+    run = config_io.RunConfig.load(trained)
     assert run.algo_config() == npg.Config(num_envs=8, horizon=32, eval_envs=2, eval_horizon=32)
 
-    records = runlog.read_metrics(trained)
+    records = metrics_log.read_metrics(trained)
     assert [r["iteration"] for r in records] == [1, 2, 3, 4]
     assert all(REQUIRED_METRICS | {"kl", "value_loss", "episode_length"} <= set(r) for r in records)
     assert records[-1]["env_steps"] == 4 * 8 * 32
@@ -115,7 +128,7 @@ def test_training_writes_the_requested_video(gl, trained):
 
 def test_existing_run_directory_is_never_overwritten(trained, capsys):
     before = listing(trained)
-    assert cli.main([*TINY, "--run-dir", str(trained)]) == 2
+    assert main.main([*TINY, "--run-dir", str(trained)]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and err.startswith("error: ") and "--overwrite" in err
     assert listing(trained) == before
@@ -124,14 +137,14 @@ def test_existing_run_directory_is_never_overwritten(trained, capsys):
 def test_overwrite_replaces_only_a_run_directory(trained, runs, capsys):
     copy = runs / "overwritten"
     shutil.copytree(trained, copy)
-    assert cli.main([*TINY, "--run-dir", str(copy), "--overwrite", "--iterations", "2"]) == 0
-    assert [r["iteration"] for r in runlog.read_metrics(copy)] == [1, 2]
+    assert main.main([*TINY, "--run-dir", str(copy), "--overwrite", "--iterations", "2"]) == 0
+    assert [r["iteration"] for r in metrics_log.read_metrics(copy)] == [1, 2]
     assert json.loads((copy / "config.json").read_text())["iterations"] == 2
     foreign = runs / "foreign"
     foreign.mkdir()
     (foreign / "thesis.tex").write_text("precious")
     capsys.readouterr()
-    assert cli.main([*TINY, "--run-dir", str(foreign), "--overwrite"]) == 2
+    assert main.main([*TINY, "--run-dir", str(foreign), "--overwrite"]) == 2
     assert "not a jaxpg run directory" in capsys.readouterr().err
     assert (foreign / "thesis.tex").read_text() == "precious"
 
@@ -140,12 +153,12 @@ def test_overwrite_replaces_only_a_run_directory(trained, runs, capsys):
 
 
 def test_resume_is_bit_identical_to_an_uninterrupted_run(trained, runs):
-    expected = without_wall_time(runlog.read_metrics(trained))
+    expected = without_wall_time(metrics_log.read_metrics(trained))
     # 2 iterations, then resumed to a total of 4.
     split = runs / "split"
-    assert cli.main([*TINY, "--iterations", "2", "--run-dir", str(split)]) == 0
-    assert cli.main(["--resume", str(split), "--iterations", "4"]) == 0
-    same_run(runlog.read_metrics(split), runlog.read_metrics(trained), stopped_at={2})
+    assert main.main([*TINY, "--iterations", "2", "--run-dir", str(split)]) == 0
+    assert main.main(["--resume", str(split), "--iterations", "4"]) == 0
+    same_run(metrics_log.read_metrics(split), metrics_log.read_metrics(trained), stopped_at={2})
     assert json.loads((split / "config.json").read_text())["iterations"] == 4
 
     # Killed while writing the checkpoint of iteration 4: metrics of iterations 3-4 were logged,
@@ -155,25 +168,25 @@ def test_resume_is_bit_identical_to_an_uninterrupted_run(trained, runs):
     shutil.move(killed / "checkpoints" / "4", killed / "checkpoints" / "4.orbax-checkpoint-tmp-1763800000000000")
     with (killed / "metrics.jsonl").open("a") as f:
         f.write('{"iteration": 5, "seed": 0, "env_st')  # a torn line
-    assert cli.main(["--resume", str(killed)]) == 0
-    assert without_wall_time(runlog.read_metrics(killed)) == expected
+    assert main.main(["--resume", str(killed)]) == 0
+    assert without_wall_time(metrics_log.read_metrics(killed)) == expected
 
 
 def test_minutes_stop_after_the_time_limit_with_a_checkpoint(trained, runs, capsys):
     """``--minutes``: the clock starts after the first block (which compiles); the run stops at
     the first block end past the limit, status 0, with a checkpoint that ``--resume`` continues."""
     limited = runs / "limited"
-    assert cli.main([*TINY, "--iterations", "8", "--minutes", "1e-9", "--run-dir", str(limited)]) == 0
+    assert main.main([*TINY, "--iterations", "8", "--minutes", "1e-9", "--run-dir", str(limited)]) == 0
     assert "time limit of 1e-09 min reached after iteration 4" in capsys.readouterr().out
-    records = runlog.read_metrics(limited)
+    records = metrics_log.read_metrics(limited)
     assert [r["iteration"] for r in records] == [1, 2, 3, 4]
     keys = ("iteration", "env_steps", "return_stochastic", "loss")
     assert [[r.get(k) for k in keys] for r in records] == [
-        [r.get(k) for k in keys] for r in runlog.read_metrics(trained)
+        [r.get(k) for k in keys] for r in metrics_log.read_metrics(trained)
     ]
     assert max(int(c.name) for c in (limited / "checkpoints").iterdir() if c.name.isdigit()) == 4
-    assert cli.main(["--resume", str(limited), "--iterations", "6"]) == 0
-    assert runlog.read_metrics(limited)[-1]["iteration"] == 6
+    assert main.main(["--resume", str(limited), "--iterations", "6"]) == 0
+    assert metrics_log.read_metrics(limited)[-1]["iteration"] == 6
 
 
 def test_minutes_bound_the_eta(runs, capsys):
@@ -181,7 +194,7 @@ def test_minutes_bound_the_eta(runs, capsys):
     comes before the last iteration (here 10^6 iterations, about an hour at this rate, against a
     limit of 0.01 s)."""
     run_dir = runs / "eta_limited"
-    assert cli.main([*TINY, "--iterations", "1000000", "--minutes", "2e-4", "--run-dir", str(run_dir)]) == 0
+    assert main.main([*TINY, "--iterations", "1000000", "--minutes", "2e-4", "--run-dir", str(run_dir)]) == 0
     out = capsys.readouterr().out
     etas = re.findall(r"ETA (\S+)", out)
     assert etas and all(eta == "0:00" for eta in etas), out
@@ -205,20 +218,20 @@ def test_run_saved_under_old_field_names_loads_evaluates_and_resumes(trained, ru
         "task_score_mean_policy": "eval_metric_mean_policy",
         "step_length": "step_size",
     }
-    lines = [json.dumps({renamed.get(k, k): v for k, v in r.items()}) for r in runlog.read_metrics(trained)]
+    lines = [json.dumps({renamed.get(k, k): v for k, v in r.items()}) for r in metrics_log.read_metrics(trained)]
     (old / "metrics.jsonl").write_text("\n".join(lines) + "\n")
-    assert runlog.read_metrics(old) == runlog.read_metrics(trained)
+    assert metrics_log.read_metrics(old) == metrics_log.read_metrics(trained)
 
-    assert runlog.RunConfig.load(old).algo_config() == runlog.RunConfig.load(trained).algo_config()
+    assert config_io.RunConfig.load(old).algo_config() == config_io.RunConfig.load(trained).algo_config()
     obs = np.random.default_rng(1).normal(size=(3, 4)).astype(np.float32)
     np.testing.assert_array_equal(jaxpg.load_policy(old)(obs), jaxpg.load_policy(trained)(obs))
-    assert evaluate.main([str(old), "--episodes", "1"]) == 0
+    assert evaluate_cli.main([str(old), "--episodes", "1"]) == 0
     assert "return:" in capsys.readouterr().out
-    assert cli.main(["--resume", str(old), "--iterations", "6"]) == 0
+    assert main.main(["--resume", str(old), "--iterations", "6"]) == 0
     resaved = json.loads((old / "config.json").read_text())["config"]
     assert resaved["kl_delta"] == saved["step_size"] and resaved["network_init"] == saved["policy_init"]
     assert "step_size" not in resaved and "policy_init" not in resaved
-    assert max(r["iteration"] for r in runlog.read_metrics(old)) == 6
+    assert max(r["iteration"] for r in metrics_log.read_metrics(old)) == 6
     written = [json.loads(line) for line in (old / "metrics.jsonl").read_text().splitlines()]
     assert all("task_score" in r and "step_length" in r and not set(renamed.values()) & set(r) for r in written)
 
@@ -228,13 +241,13 @@ def test_old_field_names_map_to_current_ones():
     becomes ``kl_delta``; a current name already present wins."""
     from jaxpg.algos import npg, ppo, trpo
 
-    assert runlog.config_from_dict(trpo.Config, {"step_size": 0.05, "max_kl": 0.02}) == trpo.Config(max_kl=0.02)
-    assert runlog.config_from_dict(npg.Config, {"step_size": 0.2, "policy_init": "pytorch"}) == npg.Config(
+    assert config_io.config_from_dict(trpo.Config, {"step_size": 0.05, "max_kl": 0.02}) == trpo.Config(max_kl=0.02)
+    assert config_io.config_from_dict(npg.Config, {"step_size": 0.2, "policy_init": "pytorch"}) == npg.Config(
         kl_delta=0.2, network_init="pytorch"
     )
-    assert runlog.current_field_names(npg.Config, {"step_size": 0.2, "kl_delta": 0.3}) == {"kl_delta": 0.3}
-    with pytest.raises(runlog.RunDirError, match="does not know: step_size"):  # PPO never had one
-        runlog.config_from_dict(ppo.Config, {"step_size": 0.2})
+    assert config_io.current_field_names(npg.Config, {"step_size": 0.2, "kl_delta": 0.3}) == {"kl_delta": 0.3}
+    with pytest.raises(layout.RunDirError, match="does not know: step_size"):  # PPO never had one
+        config_io.config_from_dict(ppo.Config, {"step_size": 0.2})
 
 
 def test_resume_of_missing_or_foreign_directory_or_changed_settings(trained, runs, capsys):
@@ -253,7 +266,7 @@ def test_resume_of_missing_or_foreign_directory_or_changed_settings(trained, run
     ]
     for argv, message in cases:
         before = listing(runs)
-        assert cli.main(argv) == 2, argv
+        assert main.main(argv) == 2, argv
         err = capsys.readouterr().err
         assert err.count("\n") == 1 and err.startswith("error: ") and message in err, (argv, err)
         assert listing(runs) == before
@@ -266,7 +279,7 @@ def test_resume_with_incompatible_checkpoint(trained, runs, capsys):
     config["config"]["policy_hidden"] = [32, 32]
     (other / "config.json").write_text(json.dumps(config))
     before = listing(other)
-    assert cli.main(["--resume", str(other)]) == 2
+    assert main.main(["--resume", str(other)]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "does not fit this run" in err and "params" in err
     assert listing(other) == before
@@ -301,7 +314,7 @@ def test_bad_input_is_one_error_line_with_status_2(extra, message, runs, capsys,
     monkeypatch.chdir(runs)
     before = listing(runs)
     argv = ["--env", "inverted_pendulum", "--num-envs", "8", *extra, "--run-dir", str(runs / "bad")]
-    assert cli.main(argv) == 2
+    assert main.main(argv) == 2
     err = capsys.readouterr().err
     assert err.startswith("error: ") and err.count("\n") == 1 and message in err, err
     assert "Traceback" not in err
@@ -334,31 +347,31 @@ def test_help_lists_config_flags_and_gpu_command():
 
 def test_config_flags_parse_into_config(runs, monkeypatch):
     monkeypatch.chdir(runs)
-    plan = cli.plan(
+    plan = planning.plan(
         ["--env", "inverted_pendulum", "--policy-hidden", "16", "--normalize-observations", "--gamma", "0.9",
          "--preset", "lyceum", "--seeds", "1", "2", "3", "--run-dir", "planned"],
-        cli.Experiment(),
+        command_line.Experiment(),
     )  # fmt: skip
     config = plan.config
     assert config.policy_hidden == (16,) and config.normalize_observations and config.gamma == 0.9
     assert config.value_hidden == (128, 128) and config.sampling == "episodic"  # from the preset
     assert plan.run.seeds == [1, 2, 3] and plan.run.vmap_seeds
     assert not (runs / "planned").exists()
-    experiment = cli.Experiment(config={"*": {"horizon": 16, "no_such_field": 1}, "npg": {"kl_delta": 0.1}})
-    plan = cli.plan(["--run-dir", "planned"], experiment)
+    experiment = command_line.Experiment(config={"*": {"horizon": 16, "no_such_field": 1}, "npg": {"kl_delta": 0.1}})
+    plan = planning.plan(["--run-dir", "planned"], experiment)
     assert plan.config.horizon == 16 and plan.config.kl_delta == 0.1
 
 
 def test_profile(runs, capsys):
-    from jaxpg import profiling
     from jaxpg.algos import ppo
+    from jaxpg.run import profiling
 
-    run = runlog.RunConfig("t", "ppo", {}, [0], 1)
-    plan = session.Plan(run=run, run_dir=runs, module=ppo, env=None, config=None)
+    run = config_io.RunConfig("t", "ppo", {}, [0], 1)
+    plan = Plan(run=run, run_dir=runs, module=ppo, env=None, config=None)
     lines = []
     assert session.run_profile(plan, None, lines.append) is None
     assert "profiling isn't available for ppo" in lines[0]
-    assert "npg" in profiling.PHASES
+    assert {"npg", "trpo"} <= set(profiling.phased_algorithms()) and "ppo" not in profiling.phased_algorithms()
 
 
 # --------------------------------------------------------------------------- policies, evaluation, videos
@@ -391,13 +404,13 @@ def test_load_policy(trained):
 
 
 def test_evaluate_in_jaxpg_and_gymnasium(trained, tmp_path, capsys):
-    assert evaluate.main([str(trained), "--episodes", "1"]) == 0
+    assert evaluate_cli.main([str(trained), "--episodes", "1"]) == 0
     out = capsys.readouterr().out
     assert "jaxpg inverted_pendulum" in out and "return:" in out and "length:" in out
-    assert evaluate.main([str(trained), "--episodes", "2", "--gymnasium"]) == 0
+    assert evaluate_cli.main([str(trained), "--episodes", "2", "--gymnasium"]) == 0
     out = capsys.readouterr().out
     assert "Gymnasium InvertedPendulum-v5" in out and "return:" in out
-    assert evaluate.main([str(tmp_path / "missing"), "--episodes", "1"]) == 2
+    assert evaluate_cli.main([str(tmp_path / "missing"), "--episodes", "1"]) == 2
     assert capsys.readouterr().err.startswith("error: run directory")
 
 
@@ -405,7 +418,7 @@ def test_evaluate_in_jaxpg_and_gymnasium(trained, tmp_path, capsys):
 def test_evaluate_writes_a_video(gl, trained, tmp_path, capsys, gymnasium):
     video = tmp_path / "episode.gif"
     argv = [str(trained), "--episodes", "1", "--video", str(video)] + (["--gymnasium"] if gymnasium else [])
-    assert evaluate.main(argv) == 0, capsys.readouterr().err
+    assert evaluate_cli.main(argv) == 0, capsys.readouterr().err
     assert f"video of episode 1: {video}" in capsys.readouterr().out
     frames = imageio.mimread(video)
     assert len(frames) > 1 and max(int(f.max()) for f in frames) > 0
@@ -419,9 +432,9 @@ def test_evaluate_chooses_a_gl_backend_only_for_a_video(monkeypatch, tmp_path, c
     calls = []
     monkeypatch.setattr(video, "configure_gl", lambda: calls.append("configure_gl"))
     missing = str(tmp_path / "missing")
-    assert evaluate.main([missing, "--episodes", "1"]) == 2
+    assert evaluate_cli.main([missing, "--episodes", "1"]) == 2
     assert calls == []
-    assert evaluate.main([missing, "--episodes", "1", "--video", str(tmp_path / "v.gif")]) == 2
+    assert evaluate_cli.main([missing, "--episodes", "1", "--video", str(tmp_path / "v.gif")]) == 2
     assert calls == ["configure_gl"]
     capsys.readouterr()
 
@@ -448,13 +461,13 @@ def test_several_seeds_records_summary_and_curves(tmp_path):
         "return_mean_policy": np.array([[2.0, 4.0], [6.0, 8.0]]),
         "kl": np.array([[0.01, 0.02], [0.03, 0.04]], np.float32),
     }
-    records = runlog.block_records(metrics, 4, [1, 2], [1.0, 2.0])
+    records = metrics_log.block_records(metrics, 4, [1, 2], [1.0, 2.0])
     assert [(r["iteration"], r["seed"]) for r in records] == [(5, 1), (5, 2), (6, 1), (6, 2)]
     assert records[2]["return_stochastic"] is None and records[3]["return_stochastic"] == 5.0
     assert records[0]["kl"] == float(np.float32(0.01))  # float32 values survive JSON exactly
-    line = runlog.summary_line(metrics, 6, 10, 12345.0)
+    line = console.summary_line(metrics, 6, 10, 12345.0)
     assert line.startswith("[ 6/10]") and "12.3k steps/s" in line and "mean policy 5.0±" in line
-    assert runlog.latest_score(metrics) == 7.0
+    assert metrics_log.latest_score(metrics) == 7.0
     iterations, values = plotting.seed_curves(records, "return_mean_policy")
     assert iterations.tolist() == [5, 6] and values.tolist() == [[2.0, 4.0], [6.0, 8.0]]
     out = plotting.plot_runs([("run", records)], tmp_path / "curves.png", title="t", task_score_name="return")
@@ -469,10 +482,10 @@ def test_every_algorithm_config_round_trips_through_json():
         config = module.Config()
         for preset in getattr(module, "PRESETS", {}).values():
             config = module.Config(**preset)
-            data = json.loads(json.dumps(runlog.config_to_dict(config)))
-            assert runlog.config_from_dict(module.Config, data) == config
-        with pytest.raises(runlog.RunDirError, match="does not know: bogus"):
-            runlog.config_from_dict(module.Config, {"bogus": 1})
+            data = json.loads(json.dumps(config_io.config_to_dict(config)))
+            assert config_io.config_from_dict(module.Config, data) == config
+        with pytest.raises(layout.RunDirError, match="does not know: bogus"):
+            config_io.config_from_dict(module.Config, {"bogus": 1})
 
 
 def test_every_hyperparameter_flag_says_what_it_is():
@@ -489,20 +502,22 @@ def test_every_hyperparameter_flag_says_what_it_is():
         assert not missing, (name, missing)
     assert field_choices(algos.get("a2c").Config, "optimizer") == ("rmsprop", "adam")
     assert field_choices(algos.get("vpg").Config, "optimizer") == ("adam", "adamw")
-    parser = cli.build_parser(cli.Experiment(task="inverted_pendulum"), "npg", algos.get("npg").Config, {})
+    parser = command_line.build_parser(
+        command_line.Experiment(task="inverted_pendulum"), "npg", algos.get("npg").Config, {}
+    )
     text = parser.format_help()
     assert "Fisher-vector product" in text and "{gauss_newton,kl_hessian}" in text
 
 
 def test_gl_backend_is_chosen_only_when_videos_may_be_drawn():
     """``main`` leaves ``MUJOCO_GL`` alone unless the command may draw a video."""
-    experiment = cli.Experiment(task="inverted_pendulum")
-    assert not cli.videos_requested(["--iterations", "3"], experiment)
-    assert not cli.videos_requested(["--video-every", "0"], experiment)
-    assert cli.videos_requested(["--video-every", "2"], experiment)
-    assert cli.videos_requested(["--video-every=5"], experiment)
-    assert cli.videos_requested(["--resume", "runs/x"], experiment)
-    assert cli.videos_requested([], cli.Experiment(task="inverted_pendulum", video_every=10))
-    assert not cli.videos_requested(["--video-every", "many"], experiment)
-    assert cli.videos_requested(["--video", "5"], experiment)  # an abbreviation argparse accepts
-    assert not cli.videos_requested(["--video-every"], experiment)
+    experiment = command_line.Experiment(task="inverted_pendulum")
+    assert not command_line.videos_requested(["--iterations", "3"], experiment)
+    assert not command_line.videos_requested(["--video-every", "0"], experiment)
+    assert command_line.videos_requested(["--video-every", "2"], experiment)
+    assert command_line.videos_requested(["--video-every=5"], experiment)
+    assert command_line.videos_requested(["--resume", "runs/x"], experiment)
+    assert command_line.videos_requested([], command_line.Experiment(task="inverted_pendulum", video_every=10))
+    assert not command_line.videos_requested(["--video-every", "many"], experiment)
+    assert command_line.videos_requested(["--video", "5"], experiment)  # an abbreviation argparse accepts
+    assert not command_line.videos_requested(["--video-every"], experiment)

@@ -83,7 +83,7 @@ def test_the_presets_import_no_algorithm():
 
 
 def test_the_core_imports_no_algorithm():
-    for name in ("advantages", "batch", "config", "iteration", "sampling", "state", "value_fit"):
+    for name in ("advantages", "batch", "config", "iteration", "placement", "sampling", "state", "value_fit"):
         assert algos_imports(f"jaxpg.algos.core.{name}") <= {"core"}, name
 
 
@@ -103,10 +103,10 @@ def jaxpg_imports(module_name: str) -> set[str]:
 
 
 def test_videos_draw_and_evaluation_rolls_out_with_no_import_cycle():
-    """``video`` draws and writes frames; ``evaluate`` rolls policies out (and records a policy's
-    video through ``video``). The dependency goes one way only."""
-    assert "evaluate" not in jaxpg_imports("jaxpg.video")
-    assert "video" in jaxpg_imports("jaxpg.evaluate")
+    """``video`` draws and writes frames; ``run.policy_episodes`` rolls policies out (and records a
+    policy's video through ``video``). The dependency goes one way only."""
+    assert not {"evaluate", "run"} & jaxpg_imports("jaxpg.video")
+    assert "video" in jaxpg_imports("jaxpg.run.policy_episodes")
 
 
 # -- Sampling ----------------------------------------------------------------------------------

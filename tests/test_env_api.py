@@ -24,8 +24,9 @@ import numpy as np
 import pytest
 
 import jaxpg.envs as envs
-from jaxpg import evaluate, video
+from jaxpg import video
 from jaxpg.envs.base import check_action
+from jaxpg.run import evaluate_cli, replay
 
 ROOT = Path(__file__).parent.parent
 
@@ -174,11 +175,11 @@ def test_every_task_reports_invalid_action_from_reset():
 def test_evaluate_gymnasium_without_gymnasium(monkeypatch, tmp_path, capsys):
     """``python -m jaxpg.evaluate RUN --gymnasium`` without Gymnasium: one line, exit 2."""
     monkeypatch.setitem(sys.modules, "gymnasium", None)  # `import gymnasium` raises ImportError
-    assert evaluate.main([str(tmp_path), "--gymnasium"]) == 2
+    assert evaluate_cli.main([str(tmp_path), "--gymnasium"]) == 2
     err = capsys.readouterr().err
     assert err == "error: --gymnasium needs Gymnasium: pip install 'gymnasium[mujoco]'\n"
     with pytest.raises(ImportError, match=r"pip install 'gymnasium\[mujoco\]'"):
-        evaluate.gymnasium_env("cartpole", {})
+        replay.gymnasium_reference_env("cartpole", {})
 
 
 def test_evaluate_gymnasium_without_gymnasium_in_a_subprocess(tmp_path):
@@ -207,11 +208,11 @@ def test_evaluate_video_checks_gl_only_for_mujoco_tasks(hopper, monkeypatch):
     def fake_run(task: str, env: envs.Env):
         return type("Run", (), {"task": task, "make_env": lambda self: env})()
 
-    assert "apt-get install libosmesa6" in evaluate._video_problem(fake_run("hopper", hopper[1]), gymnasium=False)
-    assert "apt-get install libosmesa6" in evaluate._video_problem(fake_run("hopper", hopper[1]), gymnasium=True)
+    assert "apt-get install libosmesa6" in evaluate_cli._video_problem(fake_run("hopper", hopper[1]), gymnasium=False)
+    assert "apt-get install libosmesa6" in evaluate_cli._video_problem(fake_run("hopper", hopper[1]), gymnasium=True)
     cartpole = envs.make("cartpole")
-    assert evaluate._video_problem(fake_run("cartpole", cartpole), gymnasium=False) is None
-    assert evaluate._video_problem(fake_run("cartpole", cartpole), gymnasium=True) is None
+    assert evaluate_cli._video_problem(fake_run("cartpole", cartpole), gymnasium=False) is None
+    assert evaluate_cli._video_problem(fake_run("cartpole", cartpole), gymnasium=True) is None
 
 
 def test_warp_without_warp_lang(monkeypatch):

@@ -556,14 +556,14 @@ def test_episode_totals_match_the_full_rollout_and_stop_early(rollout_case, chec
 
 
 def test_evaluate_rollout_matches_a_python_loop_of_the_mean_policy(pendulum_case):
-    """``jaxpg.evaluate.rollout`` (mean-policy episodes with their physics states, through
+    """``jaxpg.run.policy_episodes.play_episodes`` (mean-policy episodes with their physics states, through
     ``jaxpg.rollout``) against single envs stepped one at a time with the policy's mode."""
-    from jaxpg import evaluate
     from jaxpg.algos import npg
+    from jaxpg.run import policy_episodes
 
     env = pendulum_case["env"]
     ts = npg.init(jax.random.key(0), env, npg.Config(num_envs=4, horizon=16, value_batch_size=64, eval_envs=0))
-    eps = evaluate.rollout(env, ts.policy, ts.params, ts.obs_stats, seed=3, num_episodes=2, horizon=8)
+    eps = policy_episodes.play_episodes(env, ts.policy, ts.params, ts.obs_stats, seed=3, num_episodes=2, horizon=8)
 
     reset_key, _ = jax.random.split(jax.random.PRNGKey(3))
     step = jax.jit(env.step)
@@ -610,8 +610,8 @@ def test_training_smoke_run_from_the_command_line(task, tmp_path):
     evaluation): the run succeeds and logs both iterations with the samples they drew, the 8
     episodes that ended in each, finite returns and task scores, no non-finite step and no
     rejected update. The task is also the Gymnasium id jaxpg registers, with Gymnasium's limit."""
-    from jaxpg import cli
     from jaxpg.envs import gymnasium_api
+    from jaxpg.run import main
 
     gym_id = gymnasium_api.gymnasium_id(task)
     assert gym_id == f"jaxpg/{GYM_IDS[task]}"
@@ -621,7 +621,7 @@ def test_training_smoke_run_from_the_command_line(task, tmp_path):
     run_dir = tmp_path / "run"
     argv = ["--env", task, "--impl", "jax", "--num-envs", "4", "--horizon", "16", "--max-episode-steps", "8"]
     argv += ["--eval-envs", "0"]
-    assert cli.main([*argv, "--iterations", "2", "--no-progress", "--run-dir", str(run_dir)]) == 0
+    assert main.main([*argv, "--iterations", "2", "--no-progress", "--run-dir", str(run_dir)]) == 0
     records = [json.loads(line) for line in (run_dir / "metrics.jsonl").read_text().splitlines()]
     records = [r for r in records if "return_stochastic" in r]
     assert [r["env_steps"] for r in records] == [64, 128], records

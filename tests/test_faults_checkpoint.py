@@ -21,8 +21,10 @@ import pytest
 from test_checkpoint import make_state
 
 import jaxpg
-from jaxpg import algos, checkpoint, cli, runlog, session
-from jaxpg.checkpoint import Checkpointer, CheckpointError
+from jaxpg import algos
+from jaxpg.run import checkpoint_format, command_line, config_io, layout, main, metrics_log, planning, session
+from jaxpg.run.checkpoint_errors import CheckpointError
+from jaxpg.run.checkpointer import Checkpointer
 
 
 def listing(path: Path) -> dict:
@@ -44,16 +46,21 @@ def pristine(tmp_path_factory):
     """A run directory with checkpoints 2 (score 2) and 4 (score 4) and the state they were made of."""
     module = algos.get("npg")
     config = module.Config(num_envs=4, horizon=8, policy_hidden=(8,), value_hidden=(8,), value_batch_size=8)
-    run = runlog.RunConfig(
-        task="cartpole", algo="npg", config=runlog.config_to_dict(config), seeds=[0], iterations=4, checkpoint_every=2
+    run = config_io.RunConfig(
+        task="cartpole",
+        algo="npg",
+        config=config_io.config_to_dict(config),
+        seeds=[0],
+        iterations=4,
+        checkpoint_every=2,
     )
     run_dir = tmp_path_factory.mktemp("runs") / "run"
     run_dir.mkdir()
     run.save(run_dir)
     rows = [{"iteration": i, "seed": 0, "env_steps": 32.0 * i, "wall_time_s": float(i)} for i in range(1, 5)]
-    (run_dir / runlog.METRICS_FILE).write_text("".join(json.dumps(r) + "\n" for r in rows))
+    (run_dir / layout.METRICS_FILE).write_text("".join(json.dumps(r) + "\n" for r in rows))
     ts = module.init(jax.random.PRNGKey(0), run.make_env(), config)
-    ckpt = Checkpointer(run_dir / runlog.CHECKPOINT_DIR, keep=None, create=True)
+    ckpt = Checkpointer(run_dir / layout.CHECKPOINT_DIR, keep=None, create=True)
     for step in (2, 4):
         ckpt.save(step, shifted(ts, step), score=float(step), info={"task": run.task, "algo": run.algo, "seeds": [0]})
     ckpt.close()
@@ -113,7 +120,7 @@ def test_flipped_bytes_in_the_policy_item_are_caught_by_load_policy(pristine, ru
 def test_flipped_bytes_in_the_state_item_make_resume_fall_back(pristine, run_dir, capfd):
     flip_bytes(run_dir / "checkpoints" / "4", "state")
     before = listing(run_dir)
-    plan = cli.plan(["--resume", str(run_dir), "--iterations", "6"], cli.Experiment())
+    plan = planning.plan(["--resume", str(run_dir), "--iterations", "6"], command_line.Experiment())
     checksum_warning(capfd.readouterr().err, "state")
     assert plan.start == 2
     assert_tree_equal(plan.state, shifted(pristine[1], 2))
@@ -126,7 +133,7 @@ def test_no_intact_checkpoint_is_one_error_line(run_dir, capfd):
     before = listing(run_dir)
     with pytest.raises(CheckpointError, match=r"^no checkpoint in \S+ reads back completely \(checkpoint 4 and 1 "):
         jaxpg.load_policy(run_dir)
-    assert cli.main(["--resume", str(run_dir)]) == 2
+    assert main.main(["--resume", str(run_dir)]) == 2
     err = capfd.readouterr().err.splitlines()
     assert len(err) == 1 and err[0].startswith("error: no checkpoint in "), err
     assert listing(run_dir) == before
@@ -134,7 +141,7 @@ def test_no_intact_checkpoint_is_one_error_line(run_dir, capfd):
 
 def test_a_missing_manifest_of_a_new_checkpoint_is_damage(pristine, run_dir, capfd):
     """A save killed after Orbax's commit but before the manifest: meta promises one."""
-    (run_dir / "checkpoints" / "4" / checkpoint.MANIFEST).unlink()
+    (run_dir / "checkpoints" / "4" / checkpoint_format.MANIFEST).unlink()
     policy = jaxpg.load_policy(run_dir)
     err = capfd.readouterr().err.splitlines()
     assert err == [
@@ -146,10 +153,10 @@ def test_a_missing_manifest_of_a_new_checkpoint_is_damage(pristine, run_dir, cap
 
 def make_old(step_dir: Path) -> None:
     """``step_dir`` as an older jaxpg wrote it: no manifest, and no promise of one in ``meta``."""
-    (step_dir / checkpoint.MANIFEST).unlink()
+    (step_dir / checkpoint_format.MANIFEST).unlink()
     meta_path = step_dir / "meta" / "metadata"
     meta = json.loads(meta_path.read_text())
-    del meta[checkpoint.CHECKSUMS_KEY]
+    del meta[checkpoint_format.CHECKSUMS_KEY]
     meta_path.write_text(json.dumps(meta))
 
 
@@ -183,7 +190,7 @@ def test_keep_checkpoints_zero_is_refused_on_the_command_line(run_dir, capsys):
     before = listing(run_dir)
     fresh = ["--keep-checkpoints", "0", "--run-dir", str(run_dir / "new")]
     for argv in (fresh, ["--resume", str(run_dir), "--keep-checkpoints", "0"]):
-        assert cli.main(argv) == 2
+        assert main.main(argv) == 2
         err = capsys.readouterr().err.splitlines()
         assert err == ["error: argument --keep-checkpoints: must be >= 1 (the latest checkpoint is always kept), got 0"]
     assert listing(run_dir) == before
@@ -194,12 +201,12 @@ def test_checkpoint_score_compares_like_with_like():
     block = {"return_stochastic": np.array([5.0, 50.0]), "return_mean_policy": np.array([nan, nan])}
     # The run evaluates its mean policy: a block without an evaluation has no score (never its
     # stochastic return, which is on another scale), one with an evaluation its mean-policy return.
-    assert runlog.checkpoint_score(block, evaluated=True) == -np.inf
-    assert runlog.checkpoint_score({**block, "return_mean_policy": np.array([nan, 7.0])}, evaluated=True) == 7.0
+    assert metrics_log.checkpoint_score(block, evaluated=True) == -np.inf
+    assert metrics_log.checkpoint_score({**block, "return_mean_policy": np.array([nan, 7.0])}, evaluated=True) == 7.0
     # A run without evaluations ranks every checkpoint by the stochastic return of its last iteration.
-    assert runlog.checkpoint_score(block, evaluated=False) == 50.0
+    assert metrics_log.checkpoint_score(block, evaluated=False) == 50.0
     several = {"return_stochastic": np.array([[1.0, 3.0]]), "return_mean_policy": np.array([[2.0, 6.0]])}
-    assert runlog.checkpoint_score(several, evaluated=True) == 4.0  # mean over seeds
+    assert metrics_log.checkpoint_score(several, evaluated=True) == 4.0  # mean over seeds
 
 
 def test_end_of_run_report_never_recommends_a_damaged_best(pristine, run_dir, capsys):
@@ -208,7 +215,7 @@ def test_end_of_run_report_never_recommends_a_damaged_best(pristine, run_dir, ca
     ckpt = Checkpointer(run_dir / "checkpoints", keep=None)
     ckpt.save(6, shifted(pristine[1], 6), score=1.0, info={"task": "cartpole", "algo": "npg", "seeds": [0]})
     ckpt.close()
-    run = runlog.RunConfig.load(run_dir)
+    run = config_io.RunConfig.load(run_dir)
     plan = types.SimpleNamespace(run=run, run_dir=run_dir, profile=False)
     callbacks = types.SimpleNamespace(block_times=[(2, 1.0)], eval_seconds=0.0, evaluations=0, samples=32)
     session._report_end(plan, callbacks)

@@ -23,7 +23,10 @@ import numpy as np
 import pytest
 
 import jaxpg
-from jaxpg import algos, cli, compile_cache, envs, evaluate, runlog
+from jaxpg import algos, envs
+from jaxpg.algos import core
+from jaxpg.run import command_line, compile_cache, config_io, evaluate_cli, layout, main, planning
+from jaxpg.run.flags import UsageError
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -61,7 +64,7 @@ BAD_FLAGS = [
 @pytest.mark.parametrize(("flags", "message"), BAD_FLAGS, ids=[" ".join(f) for f, _ in BAD_FLAGS])
 def test_bad_flags_are_one_line_and_write_nothing(flags, message, tmp_path, capsys):
     run_dir = tmp_path / "new"
-    status = cli.main(["--env", "inverted_pendulum", "--iterations", "2", "--run-dir", str(run_dir), *flags])
+    status = main.main(["--env", "inverted_pendulum", "--iterations", "2", "--run-dir", str(run_dir), *flags])
     one_error(capsys, message)
     assert status == 2
     assert not run_dir.exists()
@@ -81,8 +84,8 @@ def test_sizes_that_cannot_fit_in_memory_are_refused_when_planning(flags, messag
     """``plan`` (not ``main``: were the check missing, main would try to train them) refuses them
     in one line saying what is needed, what there is and what to lower."""
     argv = ["--env", "inverted_pendulum", "--run-dir", str(tmp_path / "new"), *flags]
-    with pytest.raises(cli.UsageError) as e:
-        cli.plan(argv, cli.Experiment())
+    with pytest.raises(UsageError) as e:
+        planning.plan(argv, command_line.Experiment())
     line = str(e.value)
     assert "\n" not in line and message in line, line
     assert re.search(
@@ -96,7 +99,7 @@ def test_memory_lower_bound_counts_parameters_and_the_rollout_by_hand():
     (4*8 + 8) + (8*1 + 1) + 1 = 50 numbers; value 4-8-1: (4*8 + 8) + (8 + 1) = 49; float32."""
     env = envs.make("inverted_pendulum")
     config = algos.get("npg").Config(num_envs=16, horizon=10, policy_hidden=(8,), value_hidden=(8,), eval_envs=0)
-    bound = config.memory_lower_bound(env)
+    bound = core.memory_lower_bound(config, env)
     assert bound["parameters"] == 4 * (50 + 49)
     # Each of the 16 x 10 samples holds its observation, action, reward, done, log-prob and value.
     assert bound["rollout"] == 4 * 16 * 10 * (4 + 1 + 4)
@@ -106,13 +109,13 @@ def test_memory_lower_bound_counts_parameters_and_the_rollout_by_hand():
 
 def test_long_run_directory_names_are_one_line(tmp_path, capsys):
     long = tmp_path / ("a" * 300)
-    assert cli.main(["--iterations", "2", "--run-dir", str(long)]) == 2
+    assert main.main(["--iterations", "2", "--run-dir", str(long)]) == 2
     one_error(capsys, "--run-dir: a name in")
-    assert cli.main(["--resume", str(long)]) == 2
+    assert main.main(["--resume", str(long)]) == 2
     one_error(capsys, "--resume: a name in")
-    assert evaluate.main([str(long), "--episodes", "1"]) == 2
+    assert evaluate_cli.main([str(long), "--episodes", "1"]) == 2
     one_error(capsys, "a name in")
-    with pytest.raises(runlog.RunDirError, match="longer than the"):
+    with pytest.raises(layout.RunDirError, match="longer than the"):
         jaxpg.load_policy(long)
     assert list(tmp_path.iterdir()) == []
 
@@ -124,7 +127,9 @@ def test_long_run_directory_names_are_one_line(tmp_path, capsys):
 def run_dir(tmp_path) -> Path:
     """A run directory as a run's start writes it (config.json, no checkpoint yet)."""
     config = algos.get("npg").Config(num_envs=4, horizon=8, policy_hidden=(8,), value_hidden=(8,), value_batch_size=8)
-    run = runlog.RunConfig(task="cartpole", algo="npg", config=runlog.config_to_dict(config), seeds=[0], iterations=4)
+    run = config_io.RunConfig(
+        task="cartpole", algo="npg", config=config_io.config_to_dict(config), seeds=[0], iterations=4
+    )
     path = tmp_path / "run"
     path.mkdir()
     run.save(path)
@@ -132,9 +137,9 @@ def run_dir(tmp_path) -> Path:
 
 
 def edit_config(run_dir: Path, edit) -> None:
-    data = json.loads((run_dir / runlog.CONFIG_FILE).read_text())
+    data = json.loads((run_dir / layout.CONFIG_FILE).read_text())
     edit(data)
-    (run_dir / runlog.CONFIG_FILE).write_text(json.dumps(data))
+    (run_dir / layout.CONFIG_FILE).write_text(json.dumps(data))
 
 
 BAD_CONFIGS = {
@@ -158,10 +163,10 @@ def test_bad_config_json_is_one_line_in_resume_evaluate_and_load_policy(case, ru
     edit, message = BAD_CONFIGS[case]
     edit_config(run_dir, edit)
     before = digest(run_dir)
-    assert cli.main(["--resume", str(run_dir)]) == 2
+    assert main.main(["--resume", str(run_dir)]) == 2
     one_error(capsys, message)
     if case not in ("num_envs huge", "kl_delta Infinity"):  # evaluation reads neither field
-        assert evaluate.main([str(run_dir), "--episodes", "1"]) == 2
+        assert evaluate_cli.main([str(run_dir), "--episodes", "1"]) == 2
         one_error(capsys, message)
         with pytest.raises(ValueError, match="^[^\n]*$"):
             jaxpg.load_policy(run_dir)
@@ -180,7 +185,7 @@ def test_unwritable_video_path_is_refused_before_evaluating(run_dir, tmp_path, c
         ("/proc/jaxpg-out.mp4", "cannot write"),
         (str(tmp_path / "file" / "out.mp4"), "not a directory"),
     ):
-        assert evaluate.main([str(run_dir), "--video", path]) == 2
+        assert evaluate_cli.main([str(run_dir), "--video", path]) == 2
         line = one_error(capsys, f"--video {path}: ")
         assert reason in line, line
     assert (tmp_path / "file").read_text() == "x"
@@ -200,9 +205,10 @@ def test_unusable_compilation_cache_is_one_warning_line(tmp_path, capsys):
 PLATFORM_SCRIPT = textwrap.dedent(
     """
     import sys
-    from jaxpg import cli, evaluate
-    print(cli.main(["--iterations", "1", "--run-dir", sys.argv[1] + "/new"]))
-    print(evaluate.main([sys.argv[1] + "/run", "--episodes", "1"]))
+    from jaxpg.run import evaluate_cli
+    from jaxpg.run import command_line, main, planning
+    print(main.main(["--iterations", "1", "--run-dir", sys.argv[1] + "/new"]))
+    print(evaluate_cli.main([sys.argv[1] + "/run", "--episodes", "1"]))
     """
 )
 
@@ -234,7 +240,8 @@ STUCK_SCRIPT = textwrap.dedent(
     """
     import sys
     import jax
-    from jaxpg import cli, session
+    from jaxpg.run import command_line, main, planning
+    from jaxpg.run import session
 
     def stuck(*args, **kwargs):
         # float32 x stops growing at 2**24 and stays >= 0: a compiled call that never returns.
@@ -244,7 +251,7 @@ STUCK_SCRIPT = textwrap.dedent(
         jax.block_until_ready(compiled())
 
     session.initial_state = stuck
-    sys.exit(cli.main(["--env", "inverted_pendulum", "--iterations", "2", "--run-dir", sys.argv[1]]))
+    sys.exit(main.main(["--env", "inverted_pendulum", "--iterations", "2", "--run-dir", sys.argv[1]]))
     """
 )
 

@@ -18,10 +18,10 @@ import pytest
 from jax.flatten_util import ravel_pytree
 
 import jaxpg.envs as envs
-from jaxpg import profiling
 from jaxpg import train as train_lib
 from jaxpg import value as value_lib
 from jaxpg.algos import core, natural_gradient, npg, trpo
+from jaxpg.run import profiling
 
 SMALL = dict(num_envs=8, horizon=32, eval_envs=2, eval_horizon=32, value_batch_size=64, cg_damping=1e-2)
 
@@ -257,11 +257,11 @@ def test_diverging_run_stops_with_clear_error(small_state):
 
 
 def test_profile_phases_compute_the_fused_update(small_state):
-    """The profiled iteration is NPG's iteration: its separately jitted phases, timed in the order
-    they run, leave the state that the fused ``npg.update`` leaves when that takes the full step
-    (no backtracking) and keeps it (the profiled phases neither back off nor reject). What is
-    compared: the PRNG key and iteration count exactly (integer arithmetic), the env state after
-    sampling, and the policy's and value function's changes.
+    """The profiled iteration is NPG's iteration, written once (``npg.iteration``): its separately
+    jitted phases, timed in the order they run, leave the state and metrics that the fused
+    ``npg.update`` leaves, KL back-off and guard included. What is compared: the PRNG key and
+    iteration count exactly (integer arithmetic), the env state after sampling, and the policy's
+    and value function's changes.
 
     Tolerances: the phases are separate XLA programs and the update one fused program, so float32
     sums may be reassociated (the physics of the rollout, the gradient's batch mean, CG's dot
@@ -270,20 +270,33 @@ def test_profile_phases_compute_the_fused_update(small_state):
     of its norm. So: env state to 1e-5 relative (atol 1e-6 for values near 0), each parameter
     change to 1e-3 of its norm."""
     ts, timings = profiling.profile_phases("npg", small_state)
-    assert list(timings) == ["sampling", "advantages", "gradient", "cg", "value_fit"]
+    assert tuple(timings) == npg.PHASES
     assert all(isinstance(t, float) and np.isfinite(t) for t in timings.values()), timings
     fused, metrics = jax.jit(npg.update)(small_state)
     assert float(metrics["step_fraction"]) == 1.0 and float(metrics["update_rejected"]) == 0.0, metrics
     np.testing.assert_array_equal(ts.key, fused.key)
     assert int(ts.iteration) == int(fused.iteration) == int(small_state.iteration) + 1
     jax.tree.map(lambda a, b: np.testing.assert_allclose(a, b, rtol=1e-5, atol=1e-6), ts.env_state, fused.env_state)
-    assert not ts.config.normalize_observations  # the profiled phases leave obs statistics alone
     for name in ("params", "value_params"):
         before = ravel_pytree(getattr(small_state, name))[0]
         profiled = ravel_pytree(getattr(ts, name))[0] - before
         updated = ravel_pytree(getattr(fused, name))[0] - before
         assert float(jnp.linalg.norm(updated)) > 0, name
         np.testing.assert_allclose(profiled, updated, rtol=0, atol=1e-3 * float(jnp.linalg.norm(updated)))
+
+
+def test_npg_update_is_its_iteration_run_inline(small_state):
+    """``update`` is ``iteration`` with every phase inline: one program, the same bits."""
+    recorded = []
+
+    def record(name, fn, *args):
+        recorded.append(name)
+        return fn(*args)
+
+    via_phases, phase_metrics = jax.jit(lambda ts: npg.iteration(ts, record))(small_state)
+    fused, metrics = jax.jit(npg.update)(small_state)
+    assert tuple(recorded) == npg.PHASES
+    jax.tree.map(np.testing.assert_array_equal, (via_phases.params, phase_metrics), (fused.params, metrics))
 
 
 # Metrics of an iteration that discriminate between seeds 1 and 2 (they differ by 10-90 % between
@@ -440,3 +453,10 @@ def test_fisher_samples_draws_a_subset_for_the_solve(pendulum):
     assert natural_gradient.fisher_subsample(full, batch)[0] is batch.obs
     with pytest.raises(ValueError, match="fisher_samples"):
         npg.Config(**{**SMALL, "fisher_samples": -1}).validate(pendulum)
+
+
+def test_trpo_profiles_its_own_phases(pendulum):
+    ts = trpo.init(jax.random.PRNGKey(3), pendulum, trpo.Config(**SMALL))
+    profiled, timings = profiling.profile_phases("trpo", ts)
+    assert tuple(timings) == trpo.PHASES
+    assert int(profiled.iteration) == int(ts.iteration) + 1

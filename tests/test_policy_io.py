@@ -12,8 +12,10 @@ import numpy as np
 import pytest
 
 import jaxpg
-from jaxpg import algos, cli, evaluate, policy_io, runlog
-from jaxpg.checkpoint import Checkpointer, CheckpointError
+from jaxpg import algos
+from jaxpg.run import command_line, config_io, evaluate_cli, layout, main, planning, policy_io
+from jaxpg.run.checkpoint_errors import CheckpointError
+from jaxpg.run.checkpointer import Checkpointer
 
 
 def listing(path: Path) -> dict:
@@ -29,17 +31,22 @@ def shifted(ts, step: int):
 def pristine(tmp_path_factory):
     module = algos.get("npg")
     config = module.Config(num_envs=4, horizon=8, policy_hidden=(8,), value_hidden=(8,), value_batch_size=8)
-    run = runlog.RunConfig(
-        task="cartpole", algo="npg", config=runlog.config_to_dict(config), seeds=[0], iterations=4, checkpoint_every=2
+    run = config_io.RunConfig(
+        task="cartpole",
+        algo="npg",
+        config=config_io.config_to_dict(config),
+        seeds=[0],
+        iterations=4,
+        checkpoint_every=2,
     )
     run_dir = tmp_path_factory.mktemp("runs") / "run"
     run_dir.mkdir()
     run.save(run_dir)
     # A resume needs the metrics of the iterations its checkpoint holds.
     rows = [{"iteration": i, "seed": 0, "env_steps": 32.0 * i, "wall_time_s": float(i)} for i in range(1, 5)]
-    (run_dir / runlog.METRICS_FILE).write_text("".join(json.dumps(r) + "\n" for r in rows))
+    (run_dir / layout.METRICS_FILE).write_text("".join(json.dumps(r) + "\n" for r in rows))
     ts = module.init(jax.random.PRNGKey(0), run.make_env(), config)
-    ckpt = Checkpointer(run_dir / runlog.CHECKPOINT_DIR, keep=None, create=True)
+    ckpt = Checkpointer(run_dir / layout.CHECKPOINT_DIR, keep=None, create=True)
     for step in (2, 4):
         ckpt.save(step, shifted(ts, step), score=float(step), info={"task": run.task, "algo": run.algo, "seeds": [0]})
     ckpt.close()
@@ -82,7 +89,7 @@ def test_load_policy_falls_back_to_the_newest_readable_checkpoint(pristine, run_
 def test_resume_falls_back_to_the_newest_readable_checkpoint(pristine, run_dir, capfd):
     (run_dir / "checkpoints" / "4" / "meta" / "metadata").write_text("{")
     before = listing(run_dir)
-    plan = cli.plan(["--resume", str(run_dir), "--iterations", "6"], cli.Experiment())
+    plan = planning.plan(["--resume", str(run_dir), "--iterations", "6"], command_line.Experiment())
     err = capfd.readouterr().err.splitlines()
     assert len(err) == 1 and re.fullmatch(
         r"warning: checkpoint 4 is damaged \(its meta item is unreadable: JSONDecodeError: .*\); using checkpoint 2",
@@ -102,7 +109,7 @@ def test_no_readable_checkpoint_is_one_error_line(run_dir, capfd):
     with pytest.raises(CheckpointError, match=message):
         jaxpg.load_policy(run_dir)
     assert capfd.readouterr().err == ""
-    assert cli.main(["--resume", str(run_dir)]) == 2
+    assert main.main(["--resume", str(run_dir)]) == 2
     err = capfd.readouterr().err.splitlines()
     assert len(err) == 1 and re.match("error: " + message, err[0]), err
     assert listing(run_dir) == before
@@ -121,10 +128,10 @@ def test_policy_rejects_observations_with_nan_or_inf(run_dir):
 
 def test_a_file_is_not_a_run_directory(run_dir, capsys):
     path = run_dir / "config.json"
-    with pytest.raises(runlog.RunDirError, match=r"^'\S+config.json' is a file, not a run directory"):
+    with pytest.raises(layout.RunDirError, match=r"^'\S+config.json' is a file, not a run directory"):
         jaxpg.load_policy(path)
-    with pytest.raises(runlog.RunDirError, match="is a file, not a run directory"):
+    with pytest.raises(layout.RunDirError, match="is a file, not a run directory"):
         policy_io.restore_train_state(path)
-    assert evaluate.main([str(path), "--episodes", "1"]) == 2
+    assert evaluate_cli.main([str(path), "--episodes", "1"]) == 2
     err = capsys.readouterr().err.splitlines()
     assert len(err) == 1 and err[0].startswith("error: ") and "is a file, not a run directory" in err[0]

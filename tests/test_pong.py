@@ -21,11 +21,12 @@ import pytest
 from script_loader import load_script
 
 import jaxpg
-from jaxpg import cli, envs, runlog
+from jaxpg import envs
 from jaxpg import train as train_lib
 from jaxpg.algos import a2c, reinforce_points
 from jaxpg.envs import AutoReset, EpisodeStats
 from jaxpg.envs.pong import FrameDifference, Pong, PongData
+from jaxpg.run import config_io, layout, main, metrics_log, planning
 
 ROOT = Path(__file__).resolve().parents[1]
 SMALL = 16  # frame size for the physics tests: the physics does not depend on it
@@ -397,18 +398,18 @@ def pong_run(experiment, tmp_path_factory):
     """``experiments/pong.py`` for 2 iterations with a video at the end: the run directory."""
     run_dir = tmp_path_factory.mktemp("pong") / "run"
     argv = [*TINY, "--iterations", "2", "--video-every", "2", "--run-dir", str(run_dir)]
-    assert cli.main(argv, experiment) == 0
+    assert main.main(argv, experiment) == 0
     return run_dir
 
 
 def test_experiment_defaults(experiment, tmp_path):
     """A2C by default with ``a2c.PRESETS["pong"]`` on 80x80 frames; ``reinforce_points`` with its own
     defaults (Karpathy's: 256 steps per update, Adam 1e-3, the 6400-200 network)."""
-    plan = cli.plan(["--run-dir", str(tmp_path / "a")], experiment)
+    plan = planning.plan(["--run-dir", str(tmp_path / "a")], experiment)
     assert plan.run.task == "pong" and plan.run.algo == "a2c"
     assert plan.config == a2c.Config(**a2c.PRESETS["pong"], num_envs=16)
     assert plan.env.observation_size == 80 * 80
-    plan = cli.plan(["--algo", "reinforce_points", "--size", "40", "--run-dir", str(tmp_path / "r")], experiment)
+    plan = planning.plan(["--algo", "reinforce_points", "--size", "40", "--run-dir", str(tmp_path / "r")], experiment)
     assert plan.config == reinforce_points.Config()
     assert plan.config.horizon == 256 and plan.config.policy_hidden == (200,)
     assert plan.run.env_kwargs["size"] == 40 and plan.env.observation_size == 40 * 40
@@ -417,15 +418,15 @@ def test_experiment_defaults(experiment, tmp_path):
 def test_experiment_run_directory(pong_run):
     """The run directory is the command line's: config (with the task's settings), one metrics record
     per iteration, curves, checkpoints, and the video of ``--video-every``."""
-    run = runlog.RunConfig.load(pong_run)
+    run = config_io.RunConfig.load(pong_run)
     assert (run.task, run.algo, run.iterations) == ("pong", "a2c", 2)
     assert run.env_kwargs["size"] == SMALL and run.env_kwargs["max_episode_steps"] == 300
-    records = runlog.read_metrics(pong_run / runlog.METRICS_FILE)
+    records = metrics_log.read_metrics(pong_run / layout.METRICS_FILE)
     assert [r["iteration"] for r in records] == [1, 2]
     assert [r["env_steps"] for r in records] == [16, 32]  # 2 games x t_max 8
-    assert (pong_run / runlog.CURVES_FILE).stat().st_size > 0
-    assert any((pong_run / runlog.CHECKPOINT_DIR).iterdir())
-    frames = imageio.mimread(pong_run / runlog.VIDEO_DIR / "iter_000002.mp4", memtest=False)
+    assert (pong_run / layout.CURVES_FILE).stat().st_size > 0
+    assert any((pong_run / layout.CHECKPOINT_DIR).iterdir())
+    frames = imageio.mimread(pong_run / layout.VIDEO_DIR / "iter_000002.mp4", memtest=False)
     assert len(frames) > 1 and frames[0].shape[:2] == (240, 240)
 
 
@@ -452,11 +453,11 @@ def test_experiment_resume_continues_exactly(experiment, pong_run, tmp_path):
     """``--resume`` of the 2-iteration run to 4 iterations logs what a 4-iteration run logs."""
     resumed = tmp_path / "resumed"
     shutil.copytree(pong_run, resumed)
-    assert cli.main(["--resume", str(resumed), "--iterations", "4", "--video-every", "0"], experiment) == 0
+    assert main.main(["--resume", str(resumed), "--iterations", "4", "--video-every", "0"], experiment) == 0
     straight = tmp_path / "straight"
-    assert cli.main([*TINY, "--iterations", "4", "--run-dir", str(straight)], experiment) == 0
+    assert main.main([*TINY, "--iterations", "4", "--run-dir", str(straight)], experiment) == 0
     keys = ("iteration", "env_steps", "loss", "entropy", "mean_reward")
-    read = lambda d: [[r[k] for k in keys] for r in runlog.read_metrics(d / runlog.METRICS_FILE)]  # noqa: E731
+    read = lambda d: [[r[k] for k in keys] for r in metrics_log.read_metrics(d / layout.METRICS_FILE)]  # noqa: E731
     assert read(resumed) == read(straight) and len(read(straight)) == 4
 
 
@@ -479,7 +480,7 @@ def test_experiment_bad_input(experiment, tmp_path, capsys, argv, message):
     argv = [str(existing) if a == "EXISTING" else a for a in argv]
     if "--run-dir" not in argv and "--resume" not in argv:
         argv += ["--run-dir", str(tmp_path / "new")]
-    assert cli.main(argv, experiment) == 2
+    assert main.main(argv, experiment) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("error: ") and message in err[0], err
     assert (existing / "metrics.jsonl").read_text() == "keep\n"
@@ -521,9 +522,9 @@ def test_benchmark_compares_env_counts(tmp_path):
     for row in rows:
         run_dir = Path(row["run_dir"])
         assert run_dir.parent == root
-        run = runlog.RunConfig.load(run_dir)
+        run = config_io.RunConfig.load(run_dir)
         assert (run.task, run.algo, run.config["num_envs"], run.config["lr"]) == ("pong", "a2c", row["num_envs"], 1e-3)
-        records = runlog.read_metrics(run_dir / runlog.METRICS_FILE)
+        records = metrics_log.read_metrics(run_dir / layout.METRICS_FILE)
         assert records[-1]["iteration"] == 256 and records[-1]["env_steps"] == 256 * 8 * row["num_envs"]
         curve = row["curve"]
         assert curve and curve[-1]["iteration"] == 256 and row["games"] > 0, f"no game ended with {row['num_envs']}"

@@ -38,7 +38,8 @@ from pathlib import Path
 import pytest
 from script_loader import load_script
 
-from jaxpg import cli
+from jaxpg.run import command_line, planning
+from jaxpg.run.plan import Plan
 
 ROOT = Path(__file__).resolve().parents[1]
 MAIN_JOB = "python experiments/pendulum.py --run-dir runs/pendulum"
@@ -91,7 +92,7 @@ def is_ale_evaluation(command: str) -> bool:
 
 
 def is_planned(command: str) -> bool:
-    """A training command checked with ``cli.plan`` (everything but the main job)."""
+    """A training command checked with ``planning.plan`` (everything but the main job)."""
     words = shlex.split(command)
     return command != MAIN_JOB and (words[1].startswith("experiments/") or words[1:3] == ["-m", "jaxpg.cli"])
 
@@ -180,23 +181,23 @@ README_CLAIMS: dict[str, list[tuple[str, dict]]] = {
 }
 
 
-def load_experiment(script: str) -> cli.Experiment:
+def load_experiment(script: str) -> command_line.Experiment:
     """The ``EXPERIMENT`` of ``experiments/<name>.py``."""
     return load_script(script).EXPERIMENT
 
 
-def plan_command(command: str, run_dir: Path) -> cli.Plan:
-    """``cli.plan`` of a README training command, as its script or ``-m jaxpg.cli`` would plan it,
+def plan_command(command: str, run_dir: Path) -> Plan:
+    """``planning.plan`` of a README training command, as its script or ``-m jaxpg.cli`` would plan it,
     with its ``--run-dir`` moved to ``run_dir``."""
     words = shlex.split(command)
     argv = words[3:] if words[1] == "-m" else words[2:]
-    experiment = cli.Experiment() if words[1] == "-m" else load_experiment(words[1])
+    experiment = command_line.Experiment() if words[1] == "-m" else load_experiment(words[1])
     if "--run-dir" in argv:
         argv[argv.index("--run-dir") + 1] = str(run_dir)
-    return cli.plan(argv, experiment)
+    return planning.plan(argv, experiment)
 
 
-def planned_values(planned: cli.Plan) -> dict:
+def planned_values(planned: Plan) -> dict:
     """Everything a flag or the README can name, by its flag's name (``num_envs`` for
     ``--num-envs``): the run's settings, the algorithm's config, the task's keyword arguments, the
     ``minutes`` of ``--minutes``, the env's ``observation_size`` and the ``M env steps`` trained."""
@@ -313,6 +314,8 @@ def test_api_in_ten_lines_runs(tmp_path, monkeypatch):
     pendulum takes a minute a program), and a tiny trained run in ``runs/pendulum`` for
     ``jaxpg.load_policy``, whose policy maps a NumPy observation to a NumPy action."""
     import numpy as np
+
+    from jaxpg import cli
 
     text = (ROOT / "README.md").read_text()
     section = text[text.index("## The API in ten lines") :]

@@ -24,8 +24,9 @@ import numpy as np
 import pytest
 import test_cli
 
-from jaxpg import cli, envs, runlog, session
+from jaxpg import envs
 from jaxpg.algos import npg, ppo
+from jaxpg.run import command_line, layout, main, metrics_log, planning, replacing, run_lock, session
 
 ROOT = Path(__file__).resolve().parent.parent
 TINY = test_cli.TINY  # the same tiny run as tests/test_cli.py: the two share its compiled programs
@@ -41,7 +42,7 @@ def digest(path: Path) -> dict[str, str]:
 def existing(tmp_path_factory) -> Path:
     """A finished run: 4 iterations, checkpoints at 2 and 4."""
     run_dir = tmp_path_factory.mktemp("runs") / "existing"
-    assert cli.main([*TINY, "--iterations", "4", "--run-dir", str(run_dir)]) == 0
+    assert main.main([*TINY, "--iterations", "4", "--run-dir", str(run_dir)]) == 0
     return run_dir
 
 
@@ -81,7 +82,7 @@ BAD_VALUES = [
 @pytest.mark.parametrize(("flags", "message"), BAD_VALUES, ids=[" ".join(f) for f, _ in BAD_VALUES])
 def test_bad_values_are_one_line_and_the_existing_run_is_untouched(flags, message, existing, capsys):
     before = digest(existing)
-    status = cli.main([*TINY, "--iterations", "4", "--run-dir", str(existing), "--overwrite", *flags])
+    status = main.main([*TINY, "--iterations", "4", "--run-dir", str(existing), "--overwrite", *flags])
     err = capsys.readouterr().err
     assert status == 2, err
     assert err.count("\n") == 1 and err.startswith("error: ") and message in err, err
@@ -135,17 +136,17 @@ def test_interrupt_finishes_the_call_writes_a_checkpoint_and_resume_continues(si
     proc = subprocess.Popen(
         command("--iterations", "100000", "--run-dir", str(run_dir)), stderr=subprocess.PIPE, text=True
     )
-    wait_for(run_dir / runlog.METRICS_FILE)
-    while not runlog.read_metrics(run_dir):
+    wait_for(run_dir / layout.METRICS_FILE)
+    while not metrics_log.read_metrics(run_dir):
         time.sleep(0.2)
     proc.send_signal(signum)
     _, err = proc.communicate(timeout=900)
     lines = [line for line in err.splitlines() if line.strip() and not line.startswith("WARNING")]
     assert proc.returncode == status, err[-2000:]
     assert len(lines) == 1 and f"{signal.Signals(signum).name}: stopped after iteration" in lines[0], lines
-    stopped = max(r["iteration"] for r in runlog.read_metrics(run_dir))
-    assert (run_dir / runlog.CHECKPOINT_DIR / str(stopped)).is_dir()
-    assert not (run_dir / runlog.LOCK_FILE).exists()
+    stopped = max(r["iteration"] for r in metrics_log.read_metrics(run_dir))
+    assert (run_dir / layout.CHECKPOINT_DIR / str(stopped)).is_dir()
+    assert not (run_dir / layout.LOCK_FILE).exists()
     resumed = subprocess.run(
         [sys.executable, "-m", "jaxpg.cli", "--resume", str(run_dir), "--iterations", str(stopped + 2)],
         capture_output=True,
@@ -162,7 +163,7 @@ def test_interrupt_before_the_first_iteration_leaves_nothing(tmp_path):
     run_dir = tmp_path / "run"
     argv = command("--iterations", "4", "--run-dir", str(run_dir))
     proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    wait_for(run_dir / runlog.CONFIG_FILE)  # the directory exists, the first block is compiling
+    wait_for(run_dir / layout.CONFIG_FILE)  # the directory exists, the first block is compiling
     proc.send_signal(signal.SIGINT)
     out, err = proc.communicate(timeout=900)
     lines = [line for line in err.splitlines() if line.strip() and not line.startswith("WARNING")]
@@ -179,12 +180,12 @@ def test_overwritten_run_comes_back_when_the_new_run_writes_no_checkpoint(existi
     copy = tmp_path / "copy"
     subprocess.run(["cp", "-r", str(existing), str(copy)], check=True)
     before = digest(copy)
-    plan = cli.plan([*TINY, "--iterations", "4", "--run-dir", str(copy), "--overwrite"], cli.Experiment())
-    lock = runlog.RunLock(copy)
-    session.prepare_run_dir(plan, lock)
+    plan = planning.plan([*TINY, "--iterations", "4", "--run-dir", str(copy), "--overwrite"], command_line.Experiment())
+    lock = run_lock.RunLock(copy)
+    replacing.prepare_run_dir(plan, lock)
     assert plan.replaced is not None and plan.replaced.exists() and digest(copy) != before
-    assert lock.held and (copy / runlog.LOCK_FILE).exists()  # the new directory is locked
-    note = session.finish_run_dir(plan, checkpointed=False)
+    assert lock.held and (copy / layout.LOCK_FILE).exists()  # the new directory is locked
+    note = replacing.finish_run_dir(plan, checkpointed=False)
     lock.release()
     assert "is back" in note and digest(copy) == before and not plan.replaced.exists()
     assert names(tmp_path) == ["copy"]
@@ -197,33 +198,33 @@ def test_a_second_writer_is_refused_and_a_stale_lock_is_taken_over(existing, cap
     try:
         import platform
 
-        (copy / runlog.LOCK_FILE).write_text(json.dumps({"pid": sleeper.pid, "host": platform.node(), "started": "x"}))
+        (copy / layout.LOCK_FILE).write_text(json.dumps({"pid": sleeper.pid, "host": platform.node(), "started": "x"}))
         before = digest(copy)
         for argv in (["--resume", str(copy), "--iterations", "6"], [*TINY, "--run-dir", str(copy), "--overwrite"]):
-            assert cli.main(argv) == 2
+            assert main.main(argv) == 2
             err = capsys.readouterr().err
             assert err.count("\n") == 1 and f"in use by process {sleeper.pid}" in err, err
-            assert runlog.LOCK_FILE in err, err  # the file to delete if that process is in fact gone
+            assert layout.LOCK_FILE in err, err  # the file to delete if that process is in fact gone
             assert digest(copy) == before
     finally:
         sleeper.kill()
         sleeper.wait()
-    assert cli.main(["--resume", str(copy), "--iterations", "6"]) == 0  # the lock's process is gone
-    assert not (copy / runlog.LOCK_FILE).exists()
-    assert max(r["iteration"] for r in runlog.read_metrics(copy)) == 6
+    assert main.main(["--resume", str(copy), "--iterations", "6"]) == 0  # the lock's process is gone
+    assert not (copy / layout.LOCK_FILE).exists()
+    assert max(r["iteration"] for r in metrics_log.read_metrics(copy)) == 6
 
 
 @pytest.mark.parametrize("damage", ["deleted", "shortened"])
 def test_resume_refuses_metrics_that_do_not_reach_the_checkpoint(damage, existing, capsys, tmp_path):
     copy = tmp_path / "copy"
     subprocess.run(["cp", "-r", str(existing), str(copy)], check=True)
-    metrics = copy / runlog.METRICS_FILE
+    metrics = copy / layout.METRICS_FILE
     if damage == "deleted":
         metrics.unlink()
     else:
         metrics.write_text("".join(metrics.read_text().splitlines(keepends=True)[:1]))
     before = digest(copy)
-    assert cli.main(["--resume", str(copy)]) == 2
+    assert main.main(["--resume", str(copy)]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "metrics.jsonl" in err and "checkpoint is at iteration 4" in err, err
     assert digest(copy) == before
@@ -232,7 +233,7 @@ def test_resume_refuses_metrics_that_do_not_reach_the_checkpoint(damage, existin
 def test_unwritable_run_directory_is_one_line(tmp_path, capsys):
     blocker = tmp_path / "file"
     blocker.write_text("not a directory")
-    status = cli.main([*TINY, "--iterations", "2", "--run-dir", str(blocker / "run")])
+    status = main.main([*TINY, "--iterations", "2", "--run-dir", str(blocker / "run")])
     err = capsys.readouterr().err
     assert status == 2 and err.count("\n") == 1 and err.startswith("error: "), err
     assert blocker.read_text() == "not a directory" and os.path.isfile(blocker)
@@ -244,15 +245,15 @@ def test_interrupt_between_writing_the_run_directory_and_the_training_loop(tmp_p
     one line, and the new run directory removed. (Under load the window lasts seconds.)"""
 
     def interrupted(plan_, ts, wall_offset, interrupts):
-        assert (plan_.run_dir / runlog.CONFIG_FILE).exists()
+        assert (plan_.run_dir / layout.CONFIG_FILE).exists()
         raise KeyboardInterrupt
 
     monkeypatch.setattr(session, "_train", interrupted)
     run_dir = tmp_path / "run"
     try:
-        status = cli.main([*TINY, "--iterations", "4", "--run-dir", str(run_dir)])
+        status = main.main([*TINY, "--iterations", "4", "--run-dir", str(run_dir)])
     except KeyboardInterrupt:
-        pytest.fail("the interrupt escaped cli.main (the run directory is left behind)")
+        pytest.fail("the interrupt escaped main.main (the run directory is left behind)")
     assert status == 130
     lines = [line for line in capsys.readouterr().err.splitlines() if line.strip()]
     assert len(lines) == 1 and "SIGINT: stopped at once" in lines[0] and "was removed" in lines[0], lines
@@ -318,7 +319,7 @@ def test_overwrite_refuses_what_is_not_only_a_jaxpg_run(make, existing, tmp_path
     holds nothing a run does not write; anything else is one ``error:`` line and nothing moves."""
     path = make(tmp_path, existing)
     before, around = digest(path.resolve()), {p: names(p) for p in {path.parent, path.resolve().parent}}
-    status = cli.main([*TINY, "--iterations", "2", "--run-dir", str(path), "--overwrite"])
+    status = main.main([*TINY, "--iterations", "2", "--run-dir", str(path), "--overwrite"])
     one_error_line(capsys.readouterr().err, "refusing to --overwrite")
     assert status == 2
     assert digest(path.resolve()) == before and {p: names(p) for p in around} == around
@@ -331,10 +332,10 @@ def test_overwrite_through_a_symbolic_link_keeps_the_link(existing, tmp_path, ca
     link = tmp_path / "runs" / "link"
     link.parent.mkdir()
     link.symlink_to(target)
-    assert cli.main([*TINY, "--iterations", "2", "--run-dir", str(link), "--overwrite"]) == 0, capsys.readouterr()
+    assert main.main([*TINY, "--iterations", "2", "--run-dir", str(link), "--overwrite"]) == 0, capsys.readouterr()
     assert link.is_symlink() and link.resolve() == target.resolve()
-    assert [r["iteration"] for r in runlog.read_metrics(target)] == [1, 2]
-    assert json.loads((target / runlog.CONFIG_FILE).read_text())["iterations"] == 2
+    assert [r["iteration"] for r in metrics_log.read_metrics(target)] == [1, 2]
+    assert json.loads((target / layout.CONFIG_FILE).read_text())["iterations"] == 2
     assert names(link.parent) == ["link"] and names(target.parent) == ["real"]
 
 
@@ -344,7 +345,7 @@ def test_zero_iterations_is_refused_and_writes_nothing(existing, tmp_path, capsy
     copy = copy_run(existing, tmp_path / "copy")
     before = digest(copy)
     for argv in (["--run-dir", str(tmp_path / "new")], ["--run-dir", str(copy), "--overwrite"]):
-        assert cli.main([*TINY, "--iterations", "0", *argv]) == 2
+        assert main.main([*TINY, "--iterations", "0", *argv]) == 2
         one_error_line(capsys.readouterr().err, "--iterations")
     assert names(tmp_path) == ["copy"] and digest(copy) == before
 
@@ -354,18 +355,20 @@ def test_a_writer_that_finds_the_directory_taken_writes_nothing(tmp_path, capsys
     the directory finds it locked by the first, exits with status 2 naming that process, and
     changes no byte of the first one's files (the lock comes before any write)."""
     run_dir = tmp_path / "race"
-    second = cli.plan([*TINY, "--iterations", "2", "--seed", "7", "--run-dir", str(run_dir)], cli.Experiment())
+    second = planning.plan(
+        [*TINY, "--iterations", "2", "--seed", "7", "--run-dir", str(run_dir)], command_line.Experiment()
+    )
     first = subprocess.Popen(command("--iterations", "100000", "--run-dir", str(run_dir)), stderr=subprocess.DEVNULL)
     try:
-        wait_for(run_dir / runlog.CONFIG_FILE)  # written once the first holds the lock
+        wait_for(run_dir / layout.CONFIG_FILE)  # written once the first holds the lock
         first.send_signal(signal.SIGSTOP)  # its files hold still while the second tries
-        assert json.loads((run_dir / runlog.LOCK_FILE).read_text())["pid"] == first.pid
+        assert json.loads((run_dir / layout.LOCK_FILE).read_text())["pid"] == first.pid
         before = digest(run_dir)
         status = session.execute(second)
         one_error_line(capsys.readouterr().err, f"in use by process {first.pid}")
         assert status == 2
         assert digest(run_dir) == before and names(tmp_path) == ["race"]
-        assert json.loads((run_dir / runlog.CONFIG_FILE).read_text())["seeds"] == [0]
+        assert json.loads((run_dir / layout.CONFIG_FILE).read_text())["seeds"] == [0]
     finally:
         first.kill()
         first.wait()
@@ -380,12 +383,12 @@ def test_overwrite_killed_before_its_first_checkpoint_is_undone_by_the_next_comm
     argv = command("--iterations", "100000", "--checkpoint-every", "0", "--run-dir", str(copy), "--overwrite")
     proc = subprocess.Popen(argv, stderr=subprocess.DEVNULL)
     deadline = time.monotonic() + 900
-    while not (list(tmp_path.glob("copy.replaced-*")) and (copy / runlog.CONFIG_FILE).exists()):
+    while not (list(tmp_path.glob("copy.replaced-*")) and (copy / layout.CONFIG_FILE).exists()):
         assert time.monotonic() < deadline and proc.poll() is None, "the old run was never moved aside"
         time.sleep(0.1)
     proc.kill()
     proc.wait()
-    assert cli.main(["--resume", str(copy), "--iterations", "4"]) == 0
+    assert main.main(["--resume", str(copy), "--iterations", "4"]) == 0
     captured = capsys.readouterr()
     notes = [line for line in captured.err.splitlines() if line.strip()]
     assert len(notes) == 1 and notes[0].startswith("note: ") and f"copy.replaced-{proc.pid}" in notes[0], notes
@@ -399,7 +402,7 @@ def test_a_run_moved_aside_beside_a_resumable_run_is_pointed_to(existing, tmp_pa
     run_dir = copy_run(existing, tmp_path / "run")
     aside = copy_run(existing, tmp_path / f"run.replaced-{dead_pid()}")
     before = digest(tmp_path)
-    assert cli.main(["--resume", str(run_dir), "--iterations", "4"]) == 0
+    assert main.main(["--resume", str(run_dir), "--iterations", "4"]) == 0
     notes = [line for line in capsys.readouterr().err.splitlines() if line.strip()]
     assert len(notes) == 1 and notes[0].startswith("note: ") and str(aside) in notes[0], notes
     assert digest(tmp_path) == before
@@ -407,7 +410,7 @@ def test_a_run_moved_aside_beside_a_resumable_run_is_pointed_to(existing, tmp_pa
 
 def test_resume_with_nothing_to_do_writes_nothing(existing, capsys):
     before = digest(existing)
-    assert cli.main(["--resume", str(existing), "--iterations", "2"]) == 0
+    assert main.main(["--resume", str(existing), "--iterations", "2"]) == 0
     assert "nothing to do" in capsys.readouterr().out
     assert digest(existing) == before
 
@@ -416,11 +419,11 @@ def test_resume_refuses_a_damaged_line_inside_the_metrics(existing, tmp_path, ca
     """A line that is not JSON in the middle of metrics.jsonl (not a torn last line, which a
     killed process leaves and a resume drops) is named, and the file is left as it is."""
     copy = copy_run(existing, tmp_path / "copy")
-    lines = (copy / runlog.METRICS_FILE).read_text().splitlines(keepends=True)
+    lines = (copy / layout.METRICS_FILE).read_text().splitlines(keepends=True)
     lines[1] = lines[1][: len(lines[1]) // 2] + "\n"
-    (copy / runlog.METRICS_FILE).write_text("".join(lines))
+    (copy / layout.METRICS_FILE).write_text("".join(lines))
     before = digest(copy)
-    assert cli.main(["--resume", str(copy), "--iterations", "6"]) == 2
+    assert main.main(["--resume", str(copy), "--iterations", "6"]) == 2
     one_error_line(capsys.readouterr().err, "metrics.jsonl", "line 2")
     assert digest(copy) == before
 
@@ -428,7 +431,7 @@ def test_resume_refuses_a_damaged_line_inside_the_metrics(existing, tmp_path, ca
 def test_resume_of_a_file_says_it_is_not_a_run_directory(tmp_path, capsys):
     path = tmp_path / "README.md"
     path.write_text("# hello\n")
-    assert cli.main(["--resume", str(path)]) == 2
+    assert main.main(["--resume", str(path)]) == 2
     line = one_error_line(capsys.readouterr().err, "not a run directory")
     assert "does not exist" not in line
 
@@ -437,15 +440,15 @@ def test_a_run_without_a_checkpoint_points_to_overwrite(existing, tmp_path, caps
     """A run directory left without a checkpoint (its process was killed before the first one):
     a new run into it and ``--resume`` both say that ``--overwrite`` starts it again, which works."""
     copy = copy_run(existing, tmp_path / "copy")
-    shutil.rmtree(copy / runlog.CHECKPOINT_DIR)
+    shutil.rmtree(copy / layout.CHECKPOINT_DIR)
     before = digest(copy)
-    assert cli.main([*TINY, "--iterations", "2", "--run-dir", str(copy)]) == 2
+    assert main.main([*TINY, "--iterations", "2", "--run-dir", str(copy)]) == 2
     assert "--resume" not in one_error_line(capsys.readouterr().err, "no checkpoint", "--overwrite")
-    assert cli.main(["--resume", str(copy)]) == 2
+    assert main.main(["--resume", str(copy)]) == 2
     one_error_line(capsys.readouterr().err, "no checkpoint", "--overwrite")
     assert digest(copy) == before
-    assert cli.main([*TINY, "--iterations", "2", "--run-dir", str(copy), "--overwrite"]) == 0
-    assert [r["iteration"] for r in runlog.read_metrics(copy)] == [1, 2]
+    assert main.main([*TINY, "--iterations", "2", "--run-dir", str(copy), "--overwrite"]) == 0
+    assert [r["iteration"] for r in metrics_log.read_metrics(copy)] == [1, 2]
 
 
 def disk_full_on_save(monkeypatch) -> None:
@@ -466,11 +469,11 @@ def test_disk_full_before_the_first_checkpoint_says_what_is_on_disk(existing, tm
     copy = copy_run(existing, tmp_path / "copy")
     before = digest(copy)
     disk_full_on_save(monkeypatch)
-    assert cli.main([*TINY, "--iterations", "2", "--run-dir", str(copy), "--overwrite"]) == 2
+    assert main.main([*TINY, "--iterations", "2", "--run-dir", str(copy), "--overwrite"]) == 2
     line = one_error_line(capsys.readouterr().err, "disk is full", f"back in {copy}")
     assert "--resume" not in line
     assert digest(copy) == before and names(tmp_path) == ["copy"]
-    assert cli.main([*TINY, "--iterations", "2", "--run-dir", str(tmp_path / "new")]) == 2
+    assert main.main([*TINY, "--iterations", "2", "--run-dir", str(tmp_path / "new")]) == 2
     assert "--resume" not in one_error_line(capsys.readouterr().err, "disk is full", "was removed")
     assert names(tmp_path) == ["copy"]
 
@@ -480,9 +483,9 @@ def test_printed_commands_are_shell_quoted(existing, tmp_path, capsys):
     import shlex
 
     run_dir = tmp_path / "my runs" / "it's"
-    assert cli.main([*TINY, "--iterations", "8", "--minutes", "1e-9", "--run-dir", str(run_dir)]) == 0
+    assert main.main([*TINY, "--iterations", "8", "--minutes", "1e-9", "--run-dir", str(run_dir)]) == 0
     out = capsys.readouterr().out
     resume = re.search(r"continue with: (python -m jaxpg\.cli --resume .*)\)$", out, flags=re.M)
     assert resume and shlex.split(resume.group(1))[-1] == str(run_dir), out
-    assert cli.main([*TINY, "--iterations", "4", "--run-dir", str(run_dir)]) == 2
+    assert main.main([*TINY, "--iterations", "4", "--run-dir", str(run_dir)]) == 2
     assert f"--resume {shlex.quote(str(run_dir))}" in capsys.readouterr().err

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 import test_cli
 
-from jaxpg import cli, policy_io, runlog
+from jaxpg.run import main, metrics_log, policy_io
 
 COMMON = [
     "--env", "inverted_pendulum", "--num-envs", "8", "--horizon", "32", "--eval-envs", "2", "--eval-horizon", "32",
@@ -53,11 +53,11 @@ def assert_same_state(got, want) -> None:
 def test_resume_is_bit_exact_with_every_kind_of_state(name: str, tmp_path: Path) -> None:
     flags = [*COMMON, *CONFIGURATIONS[name]]
     straight, split = tmp_path / "straight", tmp_path / "split"
-    assert cli.main([*flags, "--iterations", "4", "--run-dir", str(straight)]) == 0
-    assert cli.main([*flags, "--iterations", "2", "--run-dir", str(split)]) == 0
-    assert cli.main(["--resume", str(split), "--iterations", "4"]) == 0
+    assert main.main([*flags, "--iterations", "4", "--run-dir", str(straight)]) == 0
+    assert main.main([*flags, "--iterations", "2", "--run-dir", str(split)]) == 0
+    assert main.main(["--resume", str(split), "--iterations", "4"]) == 0
 
-    test_cli.same_run(runlog.read_metrics(split), runlog.read_metrics(straight), stopped_at={2})
+    test_cli.same_run(metrics_log.read_metrics(split), metrics_log.read_metrics(straight), stopped_at={2})
     for step in (2, 4):
         want, _ = policy_io.restore_train_state(straight, step)
         got, _ = policy_io.restore_train_state(split, step)

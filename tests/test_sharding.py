@@ -2,8 +2,8 @@
 
 The device count is fixed when JAX starts, so the multi-device checks run in subprocesses with
 ``XLA_FLAGS=--xla_force_host_platform_device_count=4`` (or 2). NPG on ``cartpole``, once on one
-device and once with the state on a 4-device mesh (``jaxpg.distributed.shard_state``) and ``update``
-traced on it (``jaxpg.distributed.on_mesh``): sampling and evaluation then run under
+device and once with the state on a 4-device mesh (``jaxpg.algos.core.shard_state``) and ``update``
+traced on it (``jaxpg.mesh.on_mesh``): sampling and evaluation then run under
 ``jax.shard_map``, each device stepping its own envs, and the learning side under jit's
 partitioner. Both must give the same metrics up to float reduction order.
 
@@ -63,12 +63,13 @@ CARTPOLE_SCRIPT = textwrap.dedent(
     import jax
     import numpy as np
     import jaxpg.envs as envs
-    from jaxpg import distributed, train
+    from jaxpg import mesh as mesh_lib
+    from jaxpg import train
     from jaxpg.algos import npg
-    from jaxpg.distributed import shard_state
+    from jaxpg.algos.core import shard_state
 
     assert len(jax.devices()) == 4, jax.devices()
-    mesh = distributed.env_mesh()
+    mesh = mesh_lib.env_mesh()
     env = envs.make("cartpole")
     cases = {
         # eval_envs 6 over 4 devices: padded to 8, the 2 extra episodes left out of the means
@@ -89,7 +90,7 @@ CARTPOLE_SCRIPT = textwrap.dedent(
         single_state, single = single_block(init())
         # another seed's run, the scale of what a mix-up would change (the seeds case holds it already)
         other = single if seeds else single_block(init(1))[1]
-        sharded_step = distributed.on_mesh(step, mesh)
+        sharded_step = mesh_lib.on_mesh(step, mesh)
         block = jax.jit(lambda ts: train.scan_updates(sharded_step, ts, 3))
         state = shard_state(init(), vmap_seeds=seeds, mesh=mesh)
         assert len(state.env_state.obs.sharding.device_set) == 4
@@ -107,7 +108,7 @@ CARTPOLE_SCRIPT = textwrap.dedent(
     # a batch that does not split over the devices is refused with one line
     bad = npg.init(jax.random.PRNGKey(0), env, npg.Config(num_envs=6, horizon=8, value_batch_size=8, eval_envs=0))
     try:
-        jax.jit(distributed.on_mesh(npg.update, mesh))(bad)
+        jax.jit(mesh_lib.on_mesh(npg.update, mesh))(bad)
         out["indivisible"] = "no error"
     except ValueError as e:
         out["indivisible"] = str(e)
@@ -122,9 +123,9 @@ WARP_SCRIPT = textwrap.dedent(
     import numpy as np
     import warp
     import jaxpg.envs as envs
-    from jaxpg import distributed
+    from jaxpg import mesh as mesh_lib
     from jaxpg.algos import core, npg
-    from jaxpg.distributed import shard_state
+    from jaxpg.algos.core import shard_state
 
     warp.config.quiet = True
     assert len(jax.devices()) == 2, jax.devices()
@@ -132,16 +133,16 @@ WARP_SCRIPT = textwrap.dedent(
     env = envs.make("inverted_pendulum", impl="warp", max_batch=4, max_episode_steps=6)
     config = npg.Config(num_envs=4, horizon=8, eval_envs=2, eval_horizon=8, value_batch_size=8)
     ts = npg.init(jax.random.PRNGKey(0), env, config)
-    mesh = distributed.env_mesh()
+    mesh = mesh_lib.env_mesh()
 
     def run(ts):
         ts, traj, _ = core.phase_sample(ts)
         return ts.env_state.obs, traj.obs, traj.rewards, traj.dones, core.evaluate(ts, ts.key)
 
     single = jax.jit(run)(ts)
-    sharded = jax.jit(distributed.on_mesh(run, mesh))(shard_state(ts, vmap_seeds=False, mesh=mesh))
+    sharded = jax.jit(mesh_lib.on_mesh(run, mesh))(shard_state(ts, vmap_seeds=False, mesh=mesh))
     assert len(sharded[0].sharding.device_set) == 2
-    assert "shard_map" in str(jax.make_jaxpr(distributed.on_mesh(run, mesh))(ts))
+    assert "shard_map" in str(jax.make_jaxpr(mesh_lib.on_mesh(run, mesh))(ts))
     diff = {
         "state_obs": float(np.max(np.abs(np.asarray(single[0]) - np.asarray(sharded[0])))),
         "obs": float(np.max(np.abs(np.asarray(single[1]) - np.asarray(sharded[1])))),

@@ -13,9 +13,9 @@ import pytest
 from script_loader import load_script
 
 import jaxpg.envs as envs
-from jaxpg import cli
 from jaxpg import train as train_lib
 from jaxpg.algos import npg
+from jaxpg.run import planning
 
 ROOT = Path(__file__).resolve().parent.parent
 # cg_damping 1.0 bounds the condition number of the Fisher solve, 1 + lambda_max(F) / damping, by ~8
@@ -163,7 +163,7 @@ def _hopper_experiment():
 @pytest.mark.parametrize("num_envs", [64, 256, 1024, 4096, 65536])
 def test_hopper_command_line_defaults_hold_from_64_to_65536_envs(num_envs, tmp_path):
     experiment = _hopper_experiment()
-    plan = cli.plan(["--num-envs", str(num_envs), "--run-dir", str(tmp_path / "run")], experiment)
+    plan = planning.plan(["--num-envs", str(num_envs), "--run-dir", str(tmp_path / "run")], experiment)
     config = plan.config
     assert (plan.run.algo, config.num_envs, plan.run.iterations) == ("npg", num_envs, 120)
     # The value fit takes the same number of minibatch steps at every batch size, on minibatches

@@ -8,7 +8,8 @@ One iteration:
   4. natural direction ``x = F^-1 g`` by conjugate gradient on Fisher-vector products
      (``natural_gradient.fisher_operator``) and the normalised step ``sqrt(delta / g'x) * x`` with
      ``delta = kl_delta`` (so that ``0.5 * step' F step = delta / 2``): both are
-     ``scale_by_natural_gradient``, an optax transformation that research code can chain;
+     ``natural_step``, which ``scale_by_natural_gradient`` wraps as an optax transformation that
+     research code can chain;
   5. ``theta += step``, halved while its measured mean KL exceeds ``kl_bound`` (twice the
      intended ``delta / 2``; ``step_within_kl``);
   6. fit the value function to its targets by minibatch Adam (``core.phase_value_fit``);
@@ -16,7 +17,9 @@ One iteration:
 
 What NPG adds to the core and to the natural-gradient pieces it shares with TRPO is the
 normalised step of 4 and the back-off of 5.
-``make_update(advantage_fn)`` is ``update`` with another advantage estimator in step 2, and
+The iteration is written once, ``iteration(ts, run_phase)``, as the named ``PHASES`` that
+``jaxpg.run.profiling`` times. ``make_update(advantage_fn)`` is ``update`` with another advantage
+estimator in step 2, and
 ``update_with_kl_delta(ts, kl_delta)`` is ``update`` with a (possibly traced) ``kl_delta``, so that
 one program can ``vmap`` over it.
 """
@@ -76,11 +79,11 @@ def normalized_step(grad: jax.Array, direction: jax.Array, delta: jax.Array | fl
 
 
 class NaturalGradientState(NamedTuple):
-    """What the last ``scale_by_natural_gradient`` update solved (nothing carries over from one
-    update to the next).
+    """What one natural step solved (``natural_step``; the state of ``scale_by_natural_gradient``,
+    in which nothing carries over from one update to the next).
 
     Attributes:
-      direction: ``[num_params]`` the natural direction ``x = F^-1 g``, flat; the updates are
+      direction: ``[num_params]`` the natural direction ``x = F^-1 g``, flat; the step is
         ``step_size * direction`` in the parameters' shape. For a caller that takes fractions of
         the step: NPG's KL back-off (``step_within_kl``) steps ``fraction * step_size`` along it.
       step_size: ``[]`` the normalised step length ``sqrt(kl_delta / g'x)``.
@@ -92,22 +95,41 @@ class NaturalGradientState(NamedTuple):
     cg_residual: jax.Array
 
 
+def natural_step(
+    grads: Any,
+    fisher_vector_product: Callable[[Any], Any],
+    kl_delta: jax.Array | float,
+    cg_iters: int,
+    unroll: int = 1,
+) -> NaturalGradientState:
+    """NPG's step for the gradient ``grads`` (a pytree like the parameters): the natural direction
+    ``x = F^-1 g`` (``cg_iters`` iterations of ``linalg.conjugate_gradient`` on the flattened
+    vector, ``unroll`` of them per iteration of the compiled loop) and the normalised step length
+    ``s = sqrt(kl_delta / g'x)`` (``normalized_step``), so that the quadratic model
+    ``0.5 (s x)' F (s x)`` of the step's mean KL is ``kl_delta / 2`` (Kakade 2001; the step of
+    LyceumAI and mjrl). ``fisher_vector_product(v) -> (F + damping I) v`` maps pytrees like
+    ``grads`` (``natural_gradient.fisher_operator``)."""
+    flat_grad, _ = ravel_pytree(grads)
+    cg = linalg.conjugate_gradient(
+        natural_gradient.flat_operator(fisher_vector_product, grads), flat_grad, cg_iters, unroll=unroll
+    )
+    return NaturalGradientState(cg.x, normalized_step(flat_grad, cg.x, kl_delta), cg.residual_norm)
+
+
 def scale_by_natural_gradient(
     kl_delta: jax.Array | float, cg_iters: int, unroll: int = 1
 ) -> optax.GradientTransformationExtraArgs:
-    """NPG's step as an optax transformation: a gradient ``g`` in, ``s x`` out, where
-    ``x = F^-1 g`` is the natural direction (``cg_iters`` iterations of
-    ``linalg.conjugate_gradient``) and ``s = sqrt(kl_delta / g'x)`` the normalised step length
-    (``normalized_step``), so that the quadratic model ``0.5 (s x)' F (s x)`` of the step's mean
-    KL is ``kl_delta / 2`` (Kakade 2001; the step of LyceumAI and mjrl).
+    """``natural_step`` as an optax transformation, for research code that chains it: a gradient
+    ``g`` in, ``s x`` out (``NaturalGradientState``'s ``step_size * direction``, shaped like the
+    parameters). NPG's own ``update`` calls ``natural_step`` directly, since its KL back-off takes
+    fractions of the step.
 
     ``update(grads, state, params=None, *, fisher_vector_product)``: ``grads`` and the returned
     updates are pytrees shaped like the parameters; ``fisher_vector_product(v) -> (F + damping I) v``
     maps such pytrees at the current parameters (``linalg.make_fisher_vector_product``, which
     takes the damping, or ``natural_gradient.fisher_operator``). It is an extra argument of
     ``update`` (``optax.GradientTransformationExtraArgs``) because ``F`` moves with the parameters
-    and the batch; ``optax.chain`` hands it through. The solve runs on the flattened vector
-    (``ravel_pytree``), as ``npg.update`` always did.
+    and the batch; ``optax.chain`` hands it through.
 
     The updates point along ``+g``'s natural direction: for the gradient of an objective to
     maximise (NPG's surrogate) apply them as they are, for a loss chain ``optax.scale(-1.0)``
@@ -128,12 +150,9 @@ def scale_by_natural_gradient(
         **extra_args: Any,
     ) -> tuple[Any, NaturalGradientState]:
         del state, params, extra_args
-        flat_grad, unravel = ravel_pytree(grads)
-        cg = linalg.conjugate_gradient(
-            natural_gradient.flat_operator(fisher_vector_product, grads), flat_grad, cg_iters, unroll=unroll
-        )
-        step = normalized_step(flat_grad, cg.x, kl_delta)
-        return unravel(step * cg.x), NaturalGradientState(cg.x, step, cg.residual_norm)
+        solve = natural_step(grads, fisher_vector_product, kl_delta, cg_iters, unroll)
+        _, unravel = ravel_pytree(grads)
+        return unravel(solve.step_size * solve.direction), solve
 
     return optax.GradientTransformationExtraArgs(init, update)
 
@@ -172,9 +191,19 @@ def step_within_kl(
     return unravel(flat_params + fraction * step * direction), jnp.where(jnp.any(fits), kls[first], 0.0), fraction
 
 
+PHASES = ("sampling", "advantages", "gradient", "natural_step", "kl_backoff", "value_fit", "finish")
+"""The phases of ``iteration``, in order (``core.run_inline``; ``jaxpg.run.profiling`` times them)."""
+
+
 def update(ts: TrainState) -> tuple[TrainState, dict[str, jax.Array]]:
     """One NPG iteration (module docstring); pure, jittable, vmappable over seeds."""
-    return update_using(ts, core.gae_advantages)
+    return iteration(ts)
+
+
+def iteration(ts: TrainState, run_phase: core.PhaseRunner = core.run_inline) -> tuple[TrainState, dict[str, jax.Array]]:
+    """One NPG iteration with GAE, each of its ``PHASES`` run by ``run_phase``: ``update`` runs
+    them inline, a profiler times them one by one."""
+    return update_using(ts, core.gae_advantages, run_phase=run_phase)
 
 
 def update_with_kl_delta(ts: TrainState, kl_delta: jax.Array | float) -> tuple[TrainState, dict[str, jax.Array]]:
@@ -189,30 +218,52 @@ def update_with_kl_delta(ts: TrainState, kl_delta: jax.Array | float) -> tuple[T
     return update_using(ts, core.gae_advantages, kl_delta)
 
 
+def phase_natural_step(
+    ts: TrainState, batch: core.Batch, grads: Any, kl_delta: jax.Array | float
+) -> NaturalGradientState:
+    """``natural_step`` with the Fisher matrix of ``fisher_subsample``'s states at ``ts.params``."""
+    fvp = natural_gradient.fisher_operator(ts, *natural_gradient.fisher_subsample(ts, batch))
+    return natural_step(grads, fvp, kl_delta, ts.config.cg_iters, ts.config.loop_unroll)
+
+
+def phase_kl_backoff(
+    ts: TrainState, batch: core.Batch, solve: NaturalGradientState, bound: jax.Array | float
+) -> tuple[Any, jax.Array, jax.Array, jax.Array]:
+    """``step_within_kl`` along ``solve``'s step, and the entropy of the policy it left:
+    ``(new_params, kl, fraction, entropy)``."""
+    new_params, kl, fraction = step_within_kl(ts, batch, solve.direction, solve.step_size, bound)
+    return new_params, kl, fraction, core.mean_entropy(ts, ts.params, batch)
+
+
+def phase_finish(
+    old: TrainState, ts: TrainState, traj: Any, kl: jax.Array, fraction: jax.Array, metrics: dict[str, jax.Array]
+) -> tuple[TrainState, dict[str, jax.Array]]:
+    """``core.finish_iteration`` of an NPG step that took ``fraction`` of the natural step."""
+    loss = metrics["value_loss"] + kl
+    return core.finish_iteration(old, ts, traj, loss=loss, kl=kl, metrics=metrics, step_accepted=fraction > 0)
+
+
 def update_using(
-    ts: TrainState, advantage_fn: core.AdvantageFn, kl_delta: jax.Array | float | None = None
+    ts: TrainState,
+    advantage_fn: core.AdvantageFn,
+    kl_delta: jax.Array | float | None = None,
+    run_phase: core.PhaseRunner = core.run_inline,
 ) -> tuple[TrainState, dict[str, jax.Array]]:
     """One NPG iteration whose advantages and value targets come from ``advantage_fn``
     (``update`` is ``update_using(ts, core.gae_advantages)``; ``make_update`` binds another
     estimator), stepping with ``kl_delta`` when given (``update_with_kl_delta``), else with
-    ``config.kl_delta``."""
+    ``config.kl_delta``; each of ``PHASES`` run by ``run_phase``."""
     old = ts
-    ts, traj, key = core.phase_sample(ts)
+    ts, traj, key = run_phase("sampling", core.phase_sample, ts)
     value_key, _ = jax.random.split(key)
-    batch = core.phase_advantages(ts, traj, advantage_fn)
-    grads = natural_gradient.policy_gradient(ts, batch)
-    natural_step = scale_by_natural_gradient(
-        ts.config.kl_delta if kl_delta is None else kl_delta, ts.config.cg_iters, ts.config.loop_unroll
-    )
-    fvp = natural_gradient.fisher_operator(ts, *natural_gradient.fisher_subsample(ts, batch))
-    # The updates are the full step; the KL back-off takes fractions of it, from the state's
-    # direction and step size (as before the transform, so that the results are the same bits).
-    _, solve = natural_step.update(grads, natural_step.init(ts.params), ts.params, fisher_vector_product=fvp)
-    new_params, kl, fraction = step_within_kl(
-        ts, batch, solve.direction, solve.step_size, kl_bound(ts.config, kl_delta)
-    )
-    entropy = core.mean_entropy(ts, ts.params, batch)
-    ts, value_loss = core.phase_value_fit(ts.replace(params=new_params), batch, value_key)
+    advantages = functools.partial(core.phase_advantages, advantage_fn=advantage_fn)
+    batch = run_phase("advantages", advantages, ts, traj)
+    grads = run_phase("gradient", natural_gradient.policy_gradient, ts, batch)
+    delta = ts.config.kl_delta if kl_delta is None else kl_delta
+    solve = run_phase("natural_step", phase_natural_step, ts, batch, grads, delta)
+    bound = kl_bound(ts.config, kl_delta)
+    new_params, kl, fraction, entropy = run_phase("kl_backoff", phase_kl_backoff, ts, batch, solve, bound)
+    ts, value_loss = run_phase("value_fit", core.phase_value_fit, ts.replace(params=new_params), batch, value_key)
     metrics = {
         "entropy": entropy,
         "step_length": fraction * solve.step_size,
@@ -221,9 +272,7 @@ def update_using(
         "grad_norm": jnp.linalg.norm(ravel_pytree(grads)[0]),
         "value_loss": value_loss,
     }
-    return core.finish_iteration(
-        old, ts, traj, loss=value_loss + kl, kl=kl, metrics=metrics, step_accepted=fraction > 0
-    )
+    return run_phase("finish", phase_finish, old, ts, traj, kl, fraction, metrics)
 
 
 @functools.cache

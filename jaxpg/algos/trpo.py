@@ -85,19 +85,43 @@ def line_search(
     }
 
 
+PHASES = ("sampling", "advantages", "gradient", "natural_direction", "line_search", "value_fit", "finish")
+"""The phases of ``iteration``, in order (``core.run_inline``; ``jaxpg.run.profiling`` times them)."""
+
+
 def update(ts: TrainState) -> tuple[TrainState, dict[str, jax.Array]]:
     """One TRPO iteration: sample, GAE, the natural direction, the line search along it, the value
     fit, the guard; pure, jittable, vmappable over seeds."""
+    return iteration(ts)
+
+
+def phase_line_search(
+    ts: TrainState, batch: core.Batch, grad: jax.Array, direction: jax.Array
+) -> tuple[Any, dict[str, jax.Array], jax.Array]:
+    """``line_search`` along ``direction`` and the entropy of the policy it started from:
+    ``(new_params, search metrics with "kl", entropy)``."""
+    new_params, search = line_search(ts, batch, grad, direction)
+    return new_params, search, core.mean_entropy(ts, ts.params, batch)
+
+
+def phase_finish(
+    old: TrainState, ts: TrainState, traj: Any, kl: jax.Array, metrics: dict[str, jax.Array]
+) -> tuple[TrainState, dict[str, jax.Array]]:
+    """``core.finish_iteration`` of a TRPO step."""
+    return core.finish_iteration(old, ts, traj, loss=metrics["value_loss"] + kl, kl=kl, metrics=metrics)
+
+
+def iteration(ts: TrainState, run_phase: core.PhaseRunner = core.run_inline) -> tuple[TrainState, dict[str, jax.Array]]:
+    """One TRPO iteration, each of its ``PHASES`` run by ``run_phase`` (``update``: inline)."""
     old = ts
-    ts, traj, key = core.phase_sample(ts)
+    ts, traj, key = run_phase("sampling", core.phase_sample, ts)
     value_key, _ = jax.random.split(key)
-    batch = core.phase_advantages(ts, traj)
-    grad = natural_gradient.phase_gradient(ts, batch)
-    cg = natural_gradient.phase_natural_gradient(ts, batch, grad)
-    new_params, search = line_search(ts, batch, grad, cg.x)
+    batch = run_phase("advantages", core.phase_advantages, ts, traj)
+    grad = run_phase("gradient", natural_gradient.phase_gradient, ts, batch)
+    cg = run_phase("natural_direction", natural_gradient.phase_natural_gradient, ts, batch, grad)
+    new_params, search, entropy = run_phase("line_search", phase_line_search, ts, batch, grad, cg.x)
     kl = search.pop("kl")
-    entropy = core.mean_entropy(ts, ts.params, batch)
-    ts, value_loss = core.phase_value_fit(ts.replace(params=new_params), batch, value_key)
+    ts, value_loss = run_phase("value_fit", core.phase_value_fit, ts.replace(params=new_params), batch, value_key)
     metrics = {
         **search,
         "entropy": entropy,
@@ -105,4 +129,4 @@ def update(ts: TrainState) -> tuple[TrainState, dict[str, jax.Array]]:
         "grad_norm": jnp.linalg.norm(grad),
         "value_loss": value_loss,
     }
-    return core.finish_iteration(old, ts, traj, loss=value_loss + kl, kl=kl, metrics=metrics)
+    return run_phase("finish", phase_finish, old, ts, traj, kl, metrics)

@@ -27,7 +27,8 @@ algorithm writes ``from jaxpg.algos import core`` and ``core.phase_sample(ts)``.
 from jaxpg.algos.core.advantages import AdvantageFn, gae_advantages, phase_advantages, value_predictions
 from jaxpg.algos.core.batch import Batch, flatten_batch, mean_entropy, mean_kl, weighted_mean
 from jaxpg.algos.core.config import POLICY_NAMES, BaseConfig, GAEConfig, ValueFitConfig
-from jaxpg.algos.core.iteration import accept_if_finite, finish_iteration
+from jaxpg.algos.core.iteration import PhaseRunner, accept_if_finite, finish_iteration, run_inline
+from jaxpg.algos.core.placement import shard_state
 from jaxpg.algos.core.sampling import (
     REPLICATED,
     apply_sample_budget,
@@ -45,12 +46,14 @@ from jaxpg.algos.core.state import (
     clip_gradients,
     init_state,
     make_networks,
+    memory_lower_bound,
     sampler_env,
 )
 from jaxpg.algos.core.value_fit import absorb_value_targets, phase_value_fit, value_optimizer
 
 __all__ = [
     "POLICY_NAMES",
+    "PhaseRunner",
     "REPLICATED",
     "AdvantageFn",
     "BaseConfig",
@@ -73,12 +76,15 @@ __all__ = [
     "make_networks",
     "mean_entropy",
     "mean_kl",
+    "memory_lower_bound",
     "phase_advantages",
     "phase_sample",
     "phase_value_fit",
+    "run_inline",
     "sample",
     "sampler_env",
     "sampling_metrics",
+    "shard_state",
     "split_over_envs",
     "value_optimizer",
     "value_predictions",

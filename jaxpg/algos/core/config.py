@@ -10,7 +10,7 @@ Two class attributes describe a ``Config`` to the command line and to saved runs
 ``UNUSED_FIELDS`` names the fields the algorithm ignores (no flag; ``validate`` refuses a value
 other than the default), and ``OLD_FIELD_NAMES`` maps the names that configs saved by earlier
 versions used to the current ones (``None``: a field that was never used and is gone), so that
-old run directories still load (``jaxpg.runlog.config_from_dict``).
+old run directories still load (``jaxpg.run.config_io.config_from_dict``).
 """
 
 from __future__ import annotations
@@ -82,36 +82,6 @@ class BaseConfig:
     @property
     def samples_per_iteration(self) -> int:
         return self.num_envs * self.horizon
-
-    def memory_lower_bound(self, env: Env) -> dict[str, int]:
-        """Bytes that training one seed with this config on ``env`` holds at once, at the least.
-
-        ``parameters``: the policy and value networks (the shapes their ``init`` gives, traced
-        abstractly: nothing is allocated); ``rollout``: the ``num_envs * horizon`` samples of an
-        iteration, each its observation, action, reward, done flag, log-probability and value
-        (float32); ``env_states``: one observation per training and evaluation env; ``total``:
-        their sum. Optimizer states, activations, gradients and the simulator's state come on top,
-        so a config whose bound exceeds the memory there is cannot run.
-        """
-        import jax
-        import numpy as np
-
-        from jaxpg.algos.core.state import make_networks
-
-        policy, value_fn = make_networks(env, self)
-        obs_size = env.observation_size
-        key = jax.ShapeDtypeStruct((2,), np.uint32)
-        shapes = jax.eval_shape(lambda k: (policy.init(k, obs_size), value_fn.init(k, obs_size)), key)
-        parameters = sum(math.prod(x.shape) * np.dtype(x.dtype).itemsize for x in jax.tree.leaves(shapes))
-        action_numbers = 1 if env.discrete else env.action_size
-        rollout = 4 * self.num_envs * self.horizon * (obs_size + action_numbers + 4)
-        env_states = 4 * (self.num_envs + self.eval_envs) * obs_size
-        return {
-            "parameters": parameters,
-            "rollout": rollout,
-            "env_states": env_states,
-            "total": parameters + rollout + env_states,
-        }
 
     def validate(self, env: Env) -> None:
         """Raise ``ValueError`` with one clear line for impossible settings (every field checked;

@@ -1,8 +1,18 @@
-"""The end of every iteration: the guard that rolls back a non-finite update or one that left the
-trust region, the observation statistics, the iteration count and the metrics."""
+"""How an iteration is made of named phases, and the end of every iteration: the guard that rolls
+back a non-finite update or one that left the trust region, the observation statistics, the
+iteration count and the metrics.
+
+An algorithm writes its iteration once, as ``iteration(ts, run_phase=run_inline)``, calling each
+phase through ``run_phase(name, fn, *args)`` and listing the names in its ``PHASES``; its
+``update(ts)`` is ``iteration(ts)``. Inside jit the phases run inline (``run_inline``); the
+profiler (``jaxpg.run.profiling``) hands a ``run_phase`` that jits and times each phase, and the
+benchmarks one that stops after a given phase. ``fn``'s array inputs are all in ``args``, so that
+``fn`` may be jitted on its own.
+"""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 import jax
@@ -11,6 +21,15 @@ import jax.numpy as jnp
 from jaxpg.algos.core.sampling import sampling_metrics
 from jaxpg.algos.core.state import TrainState
 from jaxpg.rollout import Trajectory
+
+PhaseRunner = Callable[..., Any]
+"""``run_phase(name, fn, *args) -> fn(*args)``: how an iteration runs its phase ``name``."""
+
+
+def run_inline(name: str, fn: Callable[..., Any], *args: Any) -> Any:
+    """The ``PhaseRunner`` of ``update``: ``fn(*args)``, traced into the one fused iteration."""
+    del name
+    return fn(*args)
 
 
 def all_finite(tree: Any) -> jax.Array:

@@ -2,7 +2,7 @@
 evaluating the mean policy (``evaluate``), and the metrics every algorithm reports about its
 samples.
 
-Several devices: traced under a mesh with an ``"envs"`` axis (``jaxpg.distributed.on_mesh``),
+Several devices: traced under a mesh with an ``"envs"`` axis (``jaxpg.mesh.on_mesh``),
 ``sample`` and ``evaluate`` split the env batch with ``jax.shard_map``, every device stepping its
 own envs (MuJoCo Warp's step is a custom call that jit's partitioner cannot split). The learning
 side of ``update`` stays as written, under jit's partitioner: its reductions over the batch are
@@ -19,15 +19,15 @@ import jax.numpy as jnp
 import numpy as np
 from jax.sharding import PartitionSpec
 
-from jaxpg import distributed
+from jaxpg import mesh
 from jaxpg import rollout as rollout_lib
 from jaxpg.algos.core.batch import weighted_mean
 from jaxpg.algos.core.state import RunningStats, TrainState, sampler_env
 from jaxpg.envs import Env, State
 from jaxpg.rollout import Trajectory
 
-TIME_ENVS = PartitionSpec(None, distributed.ENV_AXIS)  # a [T, B, ...] trajectory split over its envs
-ENVS = PartitionSpec(distributed.ENV_AXIS)
+TIME_ENVS = PartitionSpec(None, mesh.ENV_AXIS)  # a [T, B, ...] trajectory split over its envs
+ENVS = PartitionSpec(mesh.ENV_AXIS)
 REPLICATED = PartitionSpec()
 
 
@@ -87,7 +87,7 @@ def env_batch_mask(env: Env, env_state: State, leading: int = 0) -> Any:
 def split_over_envs(fn: Any, num_envs: int, in_specs: Any, out_specs: Any, *args: Any) -> Any:
     """``fn(*args, rows=None)`` on one device, or under ``jax.shard_map`` over the mesh in context.
 
-    With a mesh whose ``"envs"`` axis has ``k > 1`` devices (``jaxpg.distributed``), every device
+    With a mesh whose ``"envs"`` axis has ``k > 1`` devices (``jaxpg.mesh``), every device
     runs ``fn`` on its ``num_envs / k`` envs, ``rows=(offset, num_envs)`` telling it which, with
     the arguments split as ``in_specs`` say (``PartitionSpec``s over ``"envs"``; ``P()``:
     replicated, e.g. the policy parameters). The env step may be an XLA custom call (MuJoCo Warp)
@@ -96,14 +96,14 @@ def split_over_envs(fn: Any, num_envs: int, in_specs: Any, out_specs: Any, *args
     ``env_batch_mask``) leave as ``P()`` though each device has its own: scratch that only that
     device's next step reads.
     """
-    shards = distributed.context_env_shards()
+    shards = mesh.context_env_shards()
     if shards == 1:
         return fn(*args, rows=None)
-    distributed.check_divisible(num_envs, shards)
+    mesh.check_divisible(num_envs, shards)
     local = num_envs // shards
 
     def per_device(*local_args: Any) -> Any:
-        offset = jax.lax.axis_index(distributed.ENV_AXIS) * local
+        offset = jax.lax.axis_index(mesh.ENV_AXIS) * local
         return fn(*local_args, rows=(offset, num_envs))
 
     return jax.shard_map(per_device, in_specs=in_specs, out_specs=out_specs, check_vma=False)(*args)
@@ -114,7 +114,7 @@ def sample(ts: TrainState, key: jax.Array) -> tuple[State, Trajectory]:
 
     Observations in the returned trajectory are raw; normalise them with ``ts.obs_stats`` (the
     statistics the batch was sampled with) before feeding networks. Under a mesh with an
-    ``"envs"`` axis (``jaxpg.distributed.on_mesh``) each device samples its own envs
+    ``"envs"`` axis (``jaxpg.mesh.on_mesh``) each device samples its own envs
     (``split_over_envs``) with the same actions, resets and returns as the unsplit batch.
     """
     config = ts.config
@@ -125,7 +125,7 @@ def sample(ts: TrainState, key: jax.Array) -> tuple[State, Trajectory]:
             act = make_act(ts.policy, stats, rows=rows)
             return rollout_lib.rollout(env, act, params, env_state, key, config.horizon)
 
-        state_specs = jax.tree.map(distributed.batch_spec, env_batch_mask(env, ts.env_state))
+        state_specs = jax.tree.map(mesh.batch_spec, env_batch_mask(env, ts.env_state))
         in_specs = (REPLICATED, REPLICATED, state_specs, REPLICATED)
         args = (ts.params, ts.obs_stats, ts.env_state, key)
         return split_over_envs(continuing, config.num_envs, in_specs, (state_specs, TIME_ENVS), *args)
@@ -175,7 +175,7 @@ def evaluate(ts: TrainState, key: jax.Array, deterministic: bool = True) -> dict
     """
     config = ts.config
     horizon = config.eval_horizon or ts.env.max_episode_steps
-    count, shards = config.eval_envs, distributed.context_env_shards()
+    count, shards = config.eval_envs, mesh.context_env_shards()
     padded = -(-count // shards) * shards
     reset_key, steps_key = jax.random.split(key)
     reset_keys = jax.random.split(reset_key, count)[np.arange(padded) % count]

@@ -7,10 +7,12 @@ else and can be ``jit``-ed, ``vmap``-ed over seeds and ``lax.scan``-ned over ite
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 import optax
 from flax import struct
 
@@ -124,6 +126,32 @@ def make_networks(env: Env, config: BaseConfig) -> tuple[Any, ValueFunction]:
         conv=conv,
     )
     return policy, value_fn
+
+
+def memory_lower_bound(config: BaseConfig, env: Env) -> dict[str, int]:
+    """Bytes that training one seed with ``config`` on ``env`` holds at once, at the least.
+
+    ``parameters``: the policy and value networks (the shapes their ``init`` gives, traced
+    abstractly: nothing is allocated); ``rollout``: the ``num_envs * horizon`` samples of an
+    iteration, each its observation, action, reward, done flag, log-probability and value
+    (float32); ``env_states``: one observation per training and evaluation env; ``total``:
+    their sum. Optimizer states, activations, gradients and the simulator's state come on top,
+    so a config whose bound exceeds the memory there is cannot run.
+    """
+    policy, value_fn = make_networks(env, config)
+    obs_size = env.observation_size
+    key = jax.ShapeDtypeStruct((2,), np.uint32)
+    shapes = jax.eval_shape(lambda k: (policy.init(k, obs_size), value_fn.init(k, obs_size)), key)
+    parameters = sum(math.prod(x.shape) * np.dtype(x.dtype).itemsize for x in jax.tree.leaves(shapes))
+    action_numbers = 1 if env.discrete else env.action_size
+    rollout = 4 * config.num_envs * config.horizon * (obs_size + action_numbers + 4)
+    env_states = 4 * (config.num_envs + config.eval_envs) * obs_size
+    return {
+        "parameters": parameters,
+        "rollout": rollout,
+        "env_states": env_states,
+        "total": parameters + rollout + env_states,
+    }
 
 
 def sampler_env(env: Env, config: BaseConfig) -> Env:

@@ -1,6 +1,6 @@
 """Learning curves of a run directory: ``curves.png``.
 
-    python -m jaxpg.plotting RUN_DIR [RUN_DIR ...] [--out curves.png]
+    python -m jaxpg.run.plotting RUN_DIR [RUN_DIR ...] [--out curves.png]
 
 Top panel: episode return of the stochastic (sampling) policy and of the mean (deterministic)
 policy over iterations. With several seeds, the line is the mean over seeds and the band spans
@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from jaxpg import runlog
+from jaxpg.run import config_io, console, layout, metrics_log
 
 CURVES = (("return_stochastic", "stochastic policy", "-"), ("return_mean_policy", "mean policy", "--"))
 TASK_SCORE_CURVES = (("task_score", "stochastic policy", "-"), ("task_score_mean_policy", "mean policy", "--"))
@@ -59,7 +59,7 @@ def _draw(
         if not rows.any():
             continue
         x, v = iterations[rows], values[rows]
-        with np.errstate(all="ignore"), runlog._quiet_nan_warnings():
+        with np.errstate(all="ignore"), console._quiet_nan_warnings():
             mean = np.nanmean(v, axis=1)
             lo, hi = np.nanmin(v, axis=1), np.nanmax(v, axis=1)
         text = f"{label}{name}" + (f" (mean of {v.shape[1]} seeds, min-max band)" if v.shape[1] > 1 else "")
@@ -119,7 +119,7 @@ def plot_runs(
     return path
 
 
-def run_title(run: runlog.RunConfig) -> str:
+def run_title(run: config_io.RunConfig) -> str:
     seeds = f"seed {run.seeds[0]}" if len(run.seeds) == 1 else f"seeds {' '.join(map(str, run.seeds))}"
     preset = f", preset {run.preset}" if run.preset else ""
     return f"{run.algo.upper()} on {run.task}{preset}, {seeds}"
@@ -130,22 +130,22 @@ def plot_run(
 ) -> Path:
     """``curves.png`` of one run directory (from its ``metrics.jsonl``)."""
     run_dir = Path(run_dir)
-    run = runlog.RunConfig.load(run_dir)
-    records = runlog.read_metrics(run_dir / runlog.METRICS_FILE)
-    out = run_dir / runlog.CURVES_FILE if path is None else Path(path)
+    run = config_io.RunConfig.load(run_dir)
+    records = metrics_log.read_metrics(run_dir / layout.METRICS_FILE)
+    out = run_dir / layout.CURVES_FILE if path is None else Path(path)
     return plot_runs([(run_dir.name, records)], out, title=run_title(run), task_score_name=task_score_name)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m jaxpg.plotting", description=__doc__.split("\n\n")[0])
+    parser = argparse.ArgumentParser(prog="python -m jaxpg.run.plotting", description=__doc__.split("\n\n")[0])
     parser.add_argument("run_dirs", nargs="+", help="run directories (several: drawn on the same axes)")
     parser.add_argument("--out", help="output image (default: RUN_DIR/curves.png for one run, curves.png otherwise)")
     args = parser.parse_args(argv)
     try:
         runs = []
         for d in args.run_dirs:
-            runlog.RunConfig.load(d)
-            runs.append((Path(d).name, runlog.read_metrics(Path(d) / runlog.METRICS_FILE)))
+            config_io.RunConfig.load(d)
+            runs.append((Path(d).name, metrics_log.read_metrics(Path(d) / layout.METRICS_FILE)))
     except ValueError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2

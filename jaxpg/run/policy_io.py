@@ -15,11 +15,10 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxpg import checkpoint as ckpt_lib
-from jaxpg import runlog
+from jaxpg.run import checkpoint_format, checkpointer, config_io, layout
 
 
-def abstract_train_state(run: runlog.RunConfig, env: Any = None) -> Any:
+def abstract_train_state(run: config_io.RunConfig, env: Any = None) -> Any:
     """The ``jax.eval_shape`` of the run's initial ``TrainState`` (seed-stacked for several
     seeds): the restore target, built by the algorithm's ``init`` with the saved config."""
     from jaxpg import train
@@ -32,20 +31,20 @@ def abstract_train_state(run: runlog.RunConfig, env: Any = None) -> Any:
     return jax.eval_shape(lambda: module.init(jax.random.PRNGKey(run.seeds[0]), env, config))
 
 
-def checkpoint_expectations(run: runlog.RunConfig) -> dict[str, Any]:
+def checkpoint_expectations(run: config_io.RunConfig) -> dict[str, Any]:
     """The ``meta`` values a checkpoint of ``run`` must have."""
     return {"task": run.task, "algo": run.algo}
 
 
-def load_run_config(run_dir: str | os.PathLike) -> runlog.RunConfig:
+def load_run_config(run_dir: str | os.PathLike) -> config_io.RunConfig:
     """The ``RunConfig`` of ``run_dir``; ``RunDirError`` (one line) for a path that is a file,
     missing, too long to exist or not a run directory, or a ``config.json`` with a value of the
     wrong type."""
-    runlog.check_path(run_dir, "run directory")
+    layout.check_path(run_dir, "run directory")
     path = Path(run_dir)
     if path.exists() and not path.is_dir():
-        raise runlog.RunDirError(f"{str(run_dir)!r} is a file, not a run directory (give the directory a run wrote)")
-    return runlog.RunConfig.load(run_dir)
+        raise layout.RunDirError(f"{str(run_dir)!r} is a file, not a run directory (give the directory a run wrote)")
+    return config_io.RunConfig.load(run_dir)
 
 
 def restore_train_state(run_dir: str | os.PathLike, step: int | str | None = None) -> tuple[Any, int]:
@@ -54,7 +53,7 @@ def restore_train_state(run_dir: str | os.PathLike, step: int | str | None = Non
     checkpoints with a warning line."""
     run = load_run_config(run_dir)
     target = abstract_train_state(run)
-    checkpoints = ckpt_lib.Checkpointer(Path(run_dir) / runlog.CHECKPOINT_DIR, keep=None)
+    checkpoints = checkpointer.Checkpointer(Path(run_dir) / layout.CHECKPOINT_DIR, keep=None)
     step = checkpoints.resolve_step(step)
     return checkpoints.restore(target, step, expect=checkpoint_expectations(run)), step
 
@@ -86,7 +85,7 @@ class LoadedPolicy:
 
     def __init__(
         self,
-        run: runlog.RunConfig,
+        run: config_io.RunConfig,
         policy: Any,
         params: Any,
         obs_stats: Any,
@@ -154,7 +153,7 @@ def load_policy(
       run_dir: a run directory written by ``jaxpg.cli`` (``experiments/*.py``).
       step: checkpoint step; ``None``/``"latest"`` (default) or ``"best"`` (highest score: the
         mean-policy return of the checkpoint's iteration, or the stochastic return in a run without
-        evaluations, ``runlog.checkpoint_score``) or an iteration number.
+        evaluations, ``metrics_log.checkpoint_score``) or an iteration number.
       seed: which of the run's training seeds (default: the first).
       deterministic: act with the mode of the policy (the "mean policy"); ``False`` samples.
       clip: clip continuous actions to the env's bounds, as the training env does.
@@ -176,8 +175,8 @@ def load_policy(
     if seed not in run.seeds:
         raise ValueError(f"seed {seed} is not one of the run's seeds {run.seeds}")
     seed_index = run.seeds.index(seed)
-    target = ckpt_lib.policy_part(abstract_train_state(run, env))
-    checkpoints = ckpt_lib.Checkpointer(Path(run_dir) / runlog.CHECKPOINT_DIR, keep=None)
+    target = checkpoint_format.policy_part(abstract_train_state(run, env))
+    checkpoints = checkpointer.Checkpointer(Path(run_dir) / layout.CHECKPOINT_DIR, keep=None)
     step = checkpoints.resolve_step(step)
     part = checkpoints.restore_policy(target, step, expect=checkpoint_expectations(run))
     if run.vmap_seeds:

@@ -1,0 +1,364 @@
+"""The host's work between compiled training calls, as small callables handed to
+``jaxpg.train.train(callbacks=[...])`` (as Brax hands its loop ``progress_fn``).
+
+Each callable is ``callback(train_state, metrics, first_iteration)`` and does one job; they run in
+the order ``host_callbacks`` lists them, after every block of iterations:
+
+  ``guard_interrupts``  an interrupt that asked to stop at once stops here, before anything of the
+                        block is written; from the first block on, interrupts checkpoint first;
+  ``BlockClock.start_block``  the block's duration, wall times and training rate (evaluation,
+                        which ran between the block's calls, left out);
+  ``write_metrics``     ``metrics.jsonl`` and TensorBoard;
+  ``show_progress``     the progress bar;
+  ``Summaries``         the summary line every ``log_every`` iterations, with its ETA, and the
+                        warnings about rolled-back updates and physics overflows;
+  ``Checkpoints``       a checkpoint every ``checkpoint_every`` iterations and at the end, then
+                        ``curves.png``;
+  ``Videos``            a video of the mean policy every ``video_every`` iterations and at the end;
+  ``TimeLimit``         past ``--minutes``: checkpoint, then ``TimeUp``;
+  ``StopOnRequest``     after SIGINT / SIGTERM: checkpoint, then ``Stop``;
+  ``BlockClock.end_host_work``  the host's own work is left out of the next block's rate.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from jaxpg import mesh as mesh_lib
+from jaxpg.run import console, layout, metrics_log
+from jaxpg.run.interrupts import Stop, StopAtOnce, TimeUp
+from jaxpg.run.output import is_primary, seed_slice
+from jaxpg.run.plan import Plan
+
+Callback = Callable[[Any, dict[str, np.ndarray], int], None]
+"""``callback(train_state, metrics, first_iteration)``, as ``jaxpg.train.train`` calls it."""
+
+
+def block_length(metrics: dict[str, np.ndarray]) -> int:
+    """How many iterations a block of ``metrics`` holds."""
+    return len(next(iter(metrics.values())))
+
+
+def guard_interrupts(interrupts: Any) -> Callback:
+    """The first callback: a stop at once that was swallowed (raised inside a garbage-collection
+    callback, which Python ignores) takes effect here; once a call has finished, interrupts
+    checkpoint before they stop (``Interrupts.graceful``)."""
+
+    def guard(ts: Any, metrics: dict[str, np.ndarray], first: int) -> None:
+        if interrupts.at_once:
+            raise StopAtOnce
+        interrupts.graceful = True
+
+    return guard
+
+
+class BlockClock:
+    """The times of a run's blocks: what the metrics, the progress bar, the summaries, the ETA,
+    the time limit and the end-of-run report read.
+
+    Attributes:
+      block_times: ``(iterations, training seconds)`` of every block so far.
+      eval_seconds, evaluations: the evaluations of the mean policy, which ran between calls.
+      samples: env steps of one iteration, all seeds.
+      last_iteration: the last iteration of the latest block.
+      wall_times, steps_per_s, train_s: of the latest block.
+    """
+
+    def __init__(self, plan_: Plan, wall_offset: float):
+        self.plan = plan_
+        self.wall_offset = wall_offset
+        self.t_start = self.t_last = time.perf_counter()
+        self.samples = plan_.config.samples_per_iteration * len(plan_.run.seeds)
+        self.block_times: list[tuple[int, float]] = []
+        self.eval_seconds = 0.0
+        self.evaluations = 0
+        self.last_iteration = plan_.start
+        self.clock_start: float | None = None  # end of the first block: the time limit counts from here
+        self.wall_times: list[float] = []
+        self.steps_per_s = 0.0
+        self.train_s = 0.0
+
+    def start_block(self, ts: Any, metrics: dict[str, np.ndarray], first: int) -> None:
+        """Time the block that just ended."""
+        now = time.perf_counter()
+        duration = now - self.t_last
+        n = block_length(metrics)
+        self.wall_times = [self.wall_offset + (self.t_last + duration * (i + 1) / n - self.t_start) for i in range(n)]
+        self.t_last = now
+        # Evaluation ran between this block's training calls: keep it out of the training rate.
+        eval_s = float(np.max(np.sum(metrics["eval_seconds"], axis=0))) if "eval_seconds" in metrics else 0.0
+        self.eval_seconds += eval_s
+        self.evaluations += int(np.max(np.sum(metrics.get("evaluated", np.zeros(1)), axis=0)))
+        self.train_s = max(duration - eval_s, 1e-9)
+        self.block_times.append((n, self.train_s))
+        self.steps_per_s = self.samples * n / self.train_s
+        self.last_iteration = first + n
+
+    def end_host_work(self, ts: Any, metrics: dict[str, np.ndarray], first: int) -> None:
+        """The last callback: host work (checkpoints, plots, videos) is left out of the next
+        block's throughput."""
+        self.t_last = time.perf_counter()
+
+    def out_of_time(self, now: float) -> bool:
+        """``plan.time_limit_s`` has passed since the end of the first block (which compiles, so
+        that the limit counts training alone); never before a second block has run."""
+        if self.plan.time_limit_s is None:
+            return False
+        if self.clock_start is None:
+            self.clock_start = now
+            return False
+        return now - self.clock_start >= self.plan.time_limit_s
+
+    def eta(self, last: int) -> float | None:
+        """Seconds left at the training rate measured after the first block (which compiles), plus
+        the evaluations still due at their measured cost, or the time limit's remainder when that
+        comes first (``--minutes``); ``None`` until a block after the first."""
+        timed = self.block_times[1:]
+        iterations = sum(n for n, _ in timed)
+        if not iterations:
+            return None
+        config = self.plan.config
+        left = self.plan.run.iterations - last
+        per_eval = self.eval_seconds / self.evaluations if self.evaluations else 0.0
+        every = int(config.eval_every) if getattr(config, "eval_envs", 0) else 0
+        evals_left = (left // every if every else 0) + (1 if every else 0)
+        eta = left * sum(t for _, t in timed) / iterations + evals_left * per_eval
+        if self.plan.time_limit_s is not None and self.clock_start is not None:
+            eta = min(eta, max(0.0, self.plan.time_limit_s - (time.perf_counter() - self.clock_start)))
+        return eta
+
+
+def write_metrics(writer: metrics_log.MetricsWriter, clock: BlockClock, seeds: list[int]) -> Callback:
+    """Write each block's records (``metrics.jsonl``, TensorBoard), with the clock's wall times."""
+
+    def write(ts: Any, metrics: dict[str, np.ndarray], first: int) -> None:
+        writer.write(metrics_log.block_records(metrics, first, seeds, clock.wall_times))
+
+    return write
+
+
+def show_progress(progress: console.Progress, clock: BlockClock) -> Callback:
+    """Advance the progress bar by each block, at the block's training rate."""
+
+    def show(ts: Any, metrics: dict[str, np.ndarray], first: int) -> None:
+        progress.update(block_length(metrics), metrics, clock.steps_per_s)
+
+    return show
+
+
+class Summaries:
+    """The summary line every ``log_every`` iterations (and at the end), over the blocks since the
+    last one, and one-line warnings: updates rolled back, TRPO steps refused, physics overflows."""
+
+    def __init__(self, plan_: Plan, clock: BlockClock, progress: console.Progress):
+        self.plan, self.clock, self.progress = plan_, clock, progress
+        self.pending: list[dict[str, np.ndarray]] = []
+        self.pending_steps = 0
+        self.pending_time = 0.0
+        self.first_block = True
+        self.overflow_noted = False
+
+    def __call__(self, ts: Any, metrics: dict[str, np.ndarray], first: int) -> None:
+        run = self.plan.run
+        n = block_length(metrics)
+        last = first + n
+        self.pending.append(metrics)
+        self.pending_steps += self.clock.samples * n
+        self.pending_time += self.clock.train_s
+        self._note_overflow(metrics, first)
+        if last % run.log_every == 0 or last >= run.iterations:
+            merged = {k: np.concatenate([m[k] for m in self.pending]) for k in self.pending[0]}
+            rate = self.pending_steps / max(self.pending_time, 1e-9)
+            note = " (incl. compile)" if self.first_block else ""
+            line = console.summary_line(merged, last, run.iterations, rate, note, self.clock.eta(last))
+            self.progress.write(line)
+            self._note_rejections(merged, last - block_length(merged))
+            self.pending, self.pending_steps, self.pending_time = [], 0, 0.0
+            self.first_block = False
+
+    def _note_rejections(self, metrics: dict[str, np.ndarray], first: int) -> None:
+        """One line per block in which updates were rolled back (trust region or non-finite) or
+        TRPO's line search accepted no step, so that a policy that stops moving says why."""
+        n = block_length(metrics)
+        rejected = np.asarray(metrics.get("update_rejected", np.zeros(n))).reshape(n, -1).max(axis=1)
+        if "line_search_accepted" in metrics:
+            no_step = np.asarray(metrics["line_search_accepted"]).reshape(n, -1).min(axis=1) == 0
+            if no_step.any():
+                self.progress.write(
+                    f"warning: TRPO's line search accepted no step in {int(no_step.sum())} of iterations "
+                    f"{first + 1}-{first + n} (the policy did not move; is max_kl {self.plan.config.max_kl} too large "
+                    "or too small?)"
+                )
+        if rejected.any():
+            limit = getattr(self.plan.config, "max_update_kl", 0)
+            self.progress.write(
+                f"warning: {int((rejected > 0).sum())} of iterations {first + 1}-{first + n} were rolled back "
+                f"(mean KL above max_update_kl {limit}, or non-finite values); lower the step size or learning rate"
+            )
+
+    def _note_overflow(self, metrics: dict[str, np.ndarray], first: int) -> None:
+        """One line, the first time the physics reports an overflow (MuJoCo Warp's solver at its
+        iteration limit, or a full contact buffer); afterwards only the metric counts them."""
+        if self.overflow_noted or "physics_overflow" not in metrics:
+            return
+        counts = np.asarray(metrics["physics_overflow"]).reshape(len(metrics["physics_overflow"]), -1).sum(axis=1)
+        hits = np.flatnonzero(counts > 0)
+        if hits.size:
+            self.overflow_noted = True
+            row = int(hits[0])
+            self.progress.write(
+                f"note: the physics hit a solver or buffer limit in {counts[row]:.0f} of "
+                f"{self.clock.samples:,} env steps of iteration {first + row + 1} (MuJoCo Warp overflow flags; "
+                "counted per iteration in metrics.jsonl as physics_overflow, not reported again)"
+            )
+
+
+@dataclasses.dataclass
+class Checkpoints:
+    """A checkpoint every ``checkpoint_every`` iterations and at the end (every process: the save
+    gathers the state; process 0 writes), then ``curves.png``; ``save_now`` for the time limit and
+    interrupts. ``last_saved``: the iteration of the latest checkpoint."""
+
+    plan: Plan
+    checkpoints: Any
+    progress: Any
+    last_saved: int = 0
+    primary: bool = dataclasses.field(default_factory=is_primary)
+
+    def __call__(self, ts: Any, metrics: dict[str, np.ndarray], first: int) -> None:
+        run, last = self.plan.run, first + block_length(metrics)
+        if (run.checkpoint_every and last % run.checkpoint_every == 0) or last >= run.iterations:
+            self.save_now(ts, last, metrics)
+
+    def save_now(self, ts: Any, step: int, metrics: dict[str, np.ndarray]) -> None:
+        """Checkpoint ``ts`` as ``step`` (scored by ``metrics``), then redraw the curves."""
+        run = self.plan.run
+        last_metrics = {
+            k: float(np.nanmean(v[-1])) if not np.all(np.isnan(v[-1])) else None for k, v in metrics.items()
+        }
+        self.checkpoints.save(
+            step,
+            ts,
+            score=metrics_log.checkpoint_score(metrics, evaluated=getattr(self.plan.config, "eval_envs", 0) > 0),
+            metrics=last_metrics,
+            info={"task": run.task, "algo": run.algo, "seeds": run.seeds},
+        )
+        self.last_saved = step
+        if self.primary:
+            self.plot()
+
+    def save_if_behind(self, ts: Any, metrics: dict[str, np.ndarray], first: int) -> None:
+        """Checkpoint the block's last iteration unless that is the latest checkpoint already."""
+        last = first + block_length(metrics)
+        if self.last_saved != last:
+            self.save_now(ts, last, metrics)
+
+    def plot(self) -> None:
+        """Redraw ``curves.png``; a failure is a warning line (a plot must never stop training)."""
+        try:
+            from jaxpg.run import plotting
+
+            plotting.plot_run(self.plan.run_dir, task_score_name=self.plan.env.task_score_name)
+        except Exception as e:  # noqa: BLE001 - a plot must never stop training
+            self.progress.write(f"warning: curves.png not updated ({type(e).__name__}: {e})")
+
+
+class Videos:
+    """A video of the mean policy (the first seed's) every ``video_every`` iterations and at the
+    end, by process 0; the first failure disables videos with one warning line."""
+
+    def __init__(self, plan_: Plan, progress: Any):
+        self.plan, self.progress = plan_, progress
+        self.enabled = plan_.run.video_every > 0 and is_primary()
+
+    def __call__(self, ts: Any, metrics: dict[str, np.ndarray], first: int) -> None:
+        run, last = self.plan.run, first + block_length(metrics)
+        if self.enabled and (last % run.video_every == 0 or last >= run.iterations):
+            self.record(ts, last)
+
+    def record(self, ts: Any, step: int) -> None:
+        from jaxpg.run import policy_episodes
+
+        run = self.plan.run
+        path = self.plan.run_dir / layout.VIDEO_DIR / f"iter_{step:06d}.mp4"
+        try:
+            # Host copies: the video is recorded by process 0 alone, off the training mesh.
+            params = seed_slice(mesh_lib.host_copy(ts.params), 0, run.vmap_seeds)
+            stats = seed_slice(mesh_lib.host_copy(ts.obs_stats), 0, run.vmap_seeds)
+            out, ret, length = policy_episodes.record_policy(self.plan.env, ts.policy, params, stats, path, seed=step)
+            self.progress.write(f"video {out} (mean policy, seed {run.seeds[0]}: return {ret:.1f}, {length} steps)")
+        except Exception as e:  # noqa: BLE001 - videos are optional: warn once, go on training
+            self.enabled = False
+            self.progress.write(f"warning: videos disabled: {type(e).__name__}: {e}")
+
+
+def time_limit(clock: BlockClock, checkpoints: Checkpoints) -> Callback:
+    """Past the plan's time limit (counted from the end of the first block), before the run's
+    end: checkpoint, then ``TimeUp``."""
+
+    def check(ts: Any, metrics: dict[str, np.ndarray], first: int) -> None:
+        if clock.out_of_time(time.perf_counter()) and first + block_length(metrics) < clock.plan.run.iterations:
+            checkpoints.save_if_behind(ts, metrics, first)
+            raise TimeUp
+
+    return check
+
+
+def stop_on_request(interrupts: Any, checkpoints: Checkpoints) -> Callback:
+    """After SIGINT / SIGTERM (``interrupts.requested``): checkpoint, then ``Stop``."""
+
+    def check(ts: Any, metrics: dict[str, np.ndarray], first: int) -> None:
+        if interrupts.requested is not None:
+            checkpoints.save_if_behind(ts, metrics, first)
+            raise Stop(interrupts.requested)
+
+    return check
+
+
+@dataclasses.dataclass
+class HostCallbacks:
+    """A run's callbacks (``callables``, in order) and the two that the session reads after
+    training stops: the clock (iterations done, timings) and the checkpoints (the latest saved)."""
+
+    callables: list[Callback]
+    clock: BlockClock
+    checkpoints: Checkpoints
+
+    @property
+    def last_iteration(self) -> int:
+        return self.clock.last_iteration
+
+    @property
+    def last_saved(self) -> int:
+        return self.checkpoints.last_saved
+
+
+def host_callbacks(
+    plan_: Plan,
+    checkpoints: Any,
+    writer: metrics_log.MetricsWriter,
+    progress: console.Progress,
+    wall_offset: float,
+    interrupts: Any,
+) -> HostCallbacks:
+    """The callbacks of a run, in the order they must run (module docstring)."""
+    clock = BlockClock(plan_, wall_offset)
+    saving = Checkpoints(plan_, checkpoints, progress, last_saved=plan_.start)
+    callables: list[Callback] = [
+        guard_interrupts(interrupts),
+        clock.start_block,
+        write_metrics(writer, clock, plan_.run.seeds),
+        show_progress(progress, clock),
+        Summaries(plan_, clock, progress),
+        saving,
+        Videos(plan_, progress),
+        time_limit(clock, saving),
+        stop_on_request(interrupts, saving),
+        clock.end_host_work,
+    ]
+    return HostCallbacks(callables, clock, saving)

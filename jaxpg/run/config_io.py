@@ -1,0 +1,258 @@
+"""``config.json``: the ``RunConfig`` of a run (task, algorithm, full ``Config``, seeds) and the
+type coercion that reads a ``Config`` back from JSON or from flags."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import os
+import types
+import typing
+from pathlib import Path
+from typing import Any
+
+from jaxpg.run.layout import (
+    CONFIG_FILE,
+    FORMAT_VERSION,
+    MAX_SEED,
+    RunDirError,
+    _jsonable,
+    check_path,
+    write_json_atomic,
+)
+
+
+@dataclasses.dataclass
+class RunConfig:
+    """The contents of ``config.json``: what is needed to rebuild the env, the algorithm's
+    ``Config`` and the initial ``TrainState`` of a run, and how the run is scheduled.
+
+    Attributes:
+      task: ``jaxpg.envs`` name; env_kwargs: keyword arguments of ``jaxpg.envs.make``.
+      algo: ``jaxpg.algos`` name; config: every field of the algorithm's ``Config``.
+      seeds: the training seeds; several are trained together in one vmapped program.
+      iterations: total iterations of the run.
+      log_every, checkpoint_every, video_every: host-side schedule (0: off / only at the end).
+      keep_checkpoints: how many of the latest checkpoints to keep (plus the best one).
+      preset: the preset (``jaxpg.algos.presets``) the config started from, if any.
+      shard: the env batch is sharded over all local devices.
+      info: provenance (command line, versions, device, creation time); not needed to rerun.
+    """
+
+    task: str
+    algo: str
+    config: dict[str, Any]
+    seeds: list[int]
+    iterations: int
+    env_kwargs: dict[str, Any] = dataclasses.field(default_factory=dict)
+    log_every: int = 10
+    checkpoint_every: int = 50
+    keep_checkpoints: int = 3
+    video_every: int = 0
+    preset: str | None = None
+    shard: bool = False
+    info: dict[str, Any] = dataclasses.field(default_factory=dict)
+
+    @property
+    def vmap_seeds(self) -> bool:
+        """Several seeds: the TrainState has a leading ``[num_seeds]`` axis."""
+        return len(self.seeds) > 1
+
+    @property
+    def block_size(self) -> int:
+        """Iterations per compiled call: divides every host-side period, so that logging,
+        checkpoints, videos and evaluations all fall on block boundaries."""
+        size = self.log_every
+        eval_every = int(self.config.get("eval_every", 0)) if self.config.get("eval_envs", 0) else 0
+        for every in (self.checkpoint_every, self.video_every, eval_every):
+            if every > 0:
+                size = math.gcd(size, every)
+        return max(size, 1)
+
+    def algo_module(self) -> types.ModuleType:
+        from jaxpg import algos
+
+        return algos.get(self.algo)
+
+    def algo_config(self) -> Any:
+        """The algorithm's ``Config`` with the saved field values."""
+        return config_from_dict(self.algo_module().Config, self.config)
+
+    def make_env(self) -> Any:
+        """The run's env (``jaxpg.envs.make_shared``: one object per task and arguments)."""
+        from jaxpg import envs
+
+        return envs.make_shared(self.task, **self.env_kwargs)
+
+    def to_json(self) -> dict[str, Any]:
+        return {"format": FORMAT_VERSION, **dataclasses.asdict(self)}
+
+    def save(self, run_dir: str | os.PathLike) -> None:
+        """Write ``config.json`` atomically."""
+        write_json_atomic(Path(run_dir) / CONFIG_FILE, self.to_json())
+
+    @classmethod
+    def load(cls, run_dir: str | os.PathLike) -> RunConfig:
+        """Read ``run_dir/config.json``; ``RunDirError`` (one line) for a missing or foreign
+        directory, a path too long to exist, or a field of the wrong type (``coerce``; seeds must
+        be distinct and in ``[0, MAX_SEED]``)."""
+        check_path(run_dir, "run directory")
+        run_dir = Path(run_dir)
+        if not run_dir.is_dir():
+            if run_dir.exists():
+                raise RunDirError(f"{str(run_dir)!r} is not a run directory (it is a file)")
+            raise RunDirError(f"run directory {str(run_dir)!r} does not exist")
+        path = run_dir / CONFIG_FILE
+        if not path.is_file():
+            raise RunDirError(f"{str(run_dir)!r} is not a jaxpg run directory (it has no {CONFIG_FILE})")
+        try:
+            data = json.loads(path.read_text())
+        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
+            raise RunDirError(f"cannot read {path}: {e}") from None
+        # What identifies a jaxpg run's config; the other fields are checked one by one below, so
+        # that a wrong value in a run's own config is named (``seeds must be ...``).
+        identity = {"format": int, "task": str, "algo": str, "config": dict}
+        if not isinstance(data, dict) or any(not isinstance(data.get(k), t) for k, t in identity.items()):
+            raise RunDirError(f"{path} is not a jaxpg run configuration")
+        if data["format"] > FORMAT_VERSION:
+            raise RunDirError(f"{path} was written by a newer jaxpg (format {data['format']})")
+        types_ = field_types(cls)
+        values = {}
+        for name, value in data.items():
+            if name not in types_:
+                continue
+            try:
+                values[name] = coerce(types_[name], value)
+            except ValueError as e:
+                raise RunDirError(f"{path}: {name} {e}") from None
+        missing = [f.name for f in dataclasses.fields(cls) if f.name not in values and _no_default(f)]
+        if missing:
+            raise RunDirError(f"{path} lacks {', '.join(missing)}")
+        seeds = values["seeds"]
+        if not seeds or len(set(seeds)) != len(seeds):
+            raise RunDirError(f"{path}: seeds must be distinct integers, at least one, got {seeds}")
+        bad = [s for s in seeds if not 0 <= s <= MAX_SEED]
+        if bad:
+            raise RunDirError(f"{path}: seeds must be integers in [0, {MAX_SEED}], got {bad[0]}")
+        return cls(**values)
+
+
+def _no_default(field: dataclasses.Field) -> bool:
+    return field.default is dataclasses.MISSING and field.default_factory is dataclasses.MISSING
+
+
+def _resolve_hints(cls: type) -> dict[str, Any]:
+    return typing.get_type_hints(cls)
+
+
+def field_types(cls: type) -> dict[str, Any]:
+    """``{field name: resolved type}`` of a config dataclass."""
+    hints = _resolve_hints(cls)
+    return {f.name: hints.get(f.name, Any) for f in dataclasses.fields(cls)}
+
+
+def strip_optional(tp: Any) -> tuple[Any, bool]:
+    """``(T, True)`` for ``T | None``, else ``(tp, False)``."""
+    if typing.get_origin(tp) in (typing.Union, types.UnionType):
+        args = [a for a in typing.get_args(tp) if a is not type(None)]
+        if len(args) == 1:
+            return args[0], True
+    return tp, False
+
+
+def _describe(tp: Any) -> str:
+    """What a value of the field type ``tp`` is, in words (for messages)."""
+    tp, optional = strip_optional(tp)
+    origin = typing.get_origin(tp) or tp
+    if origin in (tuple, list):
+        args = [a for a in typing.get_args(tp) if a is not Ellipsis]
+        plural = {int: "integers", float: "numbers", str: "strings"}.get(args[0] if args else None)
+        text = f"a list of {plural}" if plural else "a list"
+    else:
+        names = {int: "an integer", float: "a number", str: "a string", bool: "true or false", dict: "an object"}
+        text = names.get(origin, getattr(tp, "__name__", str(tp)))
+    return text + (" or null" if optional else "")
+
+
+def coerce(tp: Any, value: Any) -> Any:
+    """``value`` (e.g. from JSON, where tuples are lists) as the field type ``tp``; ``ValueError``
+    (``"must be an integer, got 'abc'"``) when it is not of that type: an integer for ``int``
+    (a float only when whole), a number for ``float``, ``true``/``false`` for ``bool``, a list for
+    tuples and lists, an object for ``dict``, one of the values of a ``Literal``."""
+    base, optional = strip_optional(tp)
+    if value is None:
+        if optional or base is Any:
+            return None
+        raise ValueError(f"must be {_describe(tp)}, got null")
+    origin = typing.get_origin(base) or base
+    wrong = ValueError(f"must be {_describe(tp)}, got {value!r}")
+    if origin in (tuple, list):
+        if not isinstance(value, (list, tuple)):
+            raise wrong
+        args = [a for a in typing.get_args(base) if a is not Ellipsis]
+        try:
+            items = [coerce(args[0], v) for v in value] if args else list(value)
+        except ValueError:
+            raise wrong from None
+        return tuple(items) if origin is tuple else items
+    if origin is typing.Literal:
+        if value not in typing.get_args(base):
+            raise ValueError(f"must be one of {', '.join(map(repr, typing.get_args(base)))}, got {value!r}")
+        return value
+    if base is bool:
+        if isinstance(value, bool) or (isinstance(value, int) and value in (0, 1)):
+            return bool(value)
+        raise wrong
+    if base is int:
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise wrong
+        if isinstance(value, float) and not (math.isfinite(value) and value.is_integer()):
+            raise wrong
+        return int(value)
+    if base is float:
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise wrong
+        return float(value)
+    if base is str or origin is dict:
+        if not isinstance(value, origin):
+            raise wrong
+        return value
+    return value
+
+
+def config_to_dict(config: Any) -> dict[str, Any]:
+    """Every field of a config dataclass, JSON-ready (tuples become lists)."""
+    return {f.name: _jsonable(getattr(config, f.name)) for f in dataclasses.fields(config)}
+
+
+def current_field_names(cls: type, values: dict[str, Any]) -> dict[str, Any]:
+    """``values`` with the field names of an older version of config class ``cls`` replaced by the
+    current ones, as ``cls.OLD_FIELD_NAMES`` maps them (``None``: a field that is gone, dropped);
+    a current name already in ``values`` wins over its old name."""
+    renamed = dict(values)
+    for old, new in getattr(cls, "OLD_FIELD_NAMES", {}).items():
+        if old in renamed:
+            value = renamed.pop(old)
+            if new is not None:
+                renamed.setdefault(new, value)
+    return renamed
+
+
+def config_from_dict(cls: type, values: dict[str, Any]) -> Any:
+    """``cls(**values)`` with JSON values coerced to the field types, old field names mapped to
+    the current ones (``current_field_names``); ``RunDirError`` names a field the config class
+    does not have (a run written by another version of the algorithm) or a value of the wrong type
+    (``coerce``). Values are checked by ``Config.validate`` after."""
+    values = current_field_names(cls, values)
+    types_ = field_types(cls)
+    unknown = sorted(set(values) - set(types_))
+    if unknown:
+        raise RunDirError(f"saved config has fields {cls.__module__}.Config does not know: {', '.join(unknown)}")
+    coerced = {}
+    for name, value in values.items():
+        try:
+            coerced[name] = coerce(types_[name], value)
+        except ValueError as e:
+            raise RunDirError(f"saved config field {name} {e}") from None
+    return cls(**coerced)

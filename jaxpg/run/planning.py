@@ -1,0 +1,259 @@
+"""From flags to a ``Plan``: every check that can fail is made here, before anything is compiled
+or written (a fresh run or a resumed one)."""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import datetime
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from jaxpg import algos
+from jaxpg.run import config_io, directory, layout, metrics_log, replacing, run_lock
+from jaxpg.run.command_line import (
+    CONFIG_PREFIX,
+    ENV_PREFIX,
+    Experiment,
+    algo_module,
+    build_parser,
+    flag_name,
+    pre_parse,
+)
+from jaxpg.run.config_io import RunConfig
+from jaxpg.run.flags import UsageError
+from jaxpg.run.memory import check_memory
+from jaxpg.run.plan import Plan
+
+
+def _check_task(task: str, experiment: Experiment) -> None:
+    from jaxpg import envs
+
+    allowed = experiment.tasks or tuple(envs.names())
+    if task not in envs.names() or task not in allowed:
+        raise UsageError(f"unknown task {task!r}; known tasks: {', '.join(allowed)}")
+
+
+def _make_env(task: str, env_kwargs: dict[str, Any]) -> Any:
+    from jaxpg import envs
+
+    try:
+        return envs.make_shared(task, **env_kwargs)
+    except TypeError as e:
+        given = ", ".join(flag_name(k) for k in env_kwargs if k != "batch")
+        raise UsageError(f"task {task!r} does not accept {given or 'these settings'} ({e})") from None
+
+
+def _explicit_config(args: argparse.Namespace) -> dict[str, Any]:
+    return {k[len(CONFIG_PREFIX) :]: v for k, v in vars(args).items() if k.startswith(CONFIG_PREFIX) and v is not None}
+
+
+def _explicit_env(args: argparse.Namespace) -> dict[str, Any]:
+    return {k[len(ENV_PREFIX) :]: v for k, v in vars(args).items() if k.startswith(ENV_PREFIX) and v is not None}
+
+
+def _default_run_dir(task: str, algo: str) -> Path:
+    stamp = datetime.datetime.now().strftime("%Y%m%d-%H%M%S")
+    return Path("runs") / f"{task}-{algo}-{stamp}"
+
+
+def _check_fresh_run_dir(run_dir: Path, overwrite: bool) -> None:
+    """A new run may go into ``run_dir`` if it is missing or empty; with ``--overwrite``, also if it
+    is a jaxpg run that no live process writes (``directory.check_replaceable``)."""
+    if not run_dir.exists():
+        return
+    if not run_dir.is_dir():
+        raise UsageError(f"run directory {str(run_dir)!r} exists and is not a directory")
+    if not any(run_dir.iterdir()):
+        return
+    if not overwrite:
+        raise UsageError(replacing.exists_message(run_dir))
+    directory.check_replaceable(run_dir)
+    run_lock.check_unlocked(run_dir)
+
+
+def _device_count() -> int:
+    import jax
+
+    return jax.device_count()
+
+
+def _check_sharding(config: Any, explicit: bool | None) -> bool:
+    """Whether the env batch is split over ``jax.devices()`` (all devices of all processes):
+    by default when there are several; ``UsageError`` if ``--num-envs`` does not divide."""
+    import jax
+
+    count, processes = jax.device_count(), jax.process_count()
+    shard = (count > 1) if explicit is None else explicit
+    if processes > 1 and not shard:
+        raise UsageError(f"--no-shard cannot train with {processes} processes: the env batch is split over them")
+    where = f"{count} devices ({processes} processes)" if processes > 1 else f"{count} devices"
+    if shard and config.num_envs % count:
+        raise UsageError(
+            f"--num-envs {config.num_envs} is not divisible by the {where} the env batch is sharded over "
+            "(use a multiple, or --no-shard)"
+        )
+    return shard and count > 1
+
+
+def plan_fresh(args: argparse.Namespace, experiment: Experiment, module: Any, algo: str) -> Plan:
+    task = args.task or experiment.task
+    _check_task(task, experiment)
+    config_cls = module.Config
+    values = experiment.config_defaults(algo, config_cls)
+    if args.preset is not None:
+        try:
+            values.update(algos.preset(algo, args.preset, task))
+        except ValueError as e:
+            known = ", ".join(algos.preset_names(algo, task)) or "none"
+            raise UsageError(f"{e}; presets of {algo} for {task}: {known}") from None
+    values.update(_explicit_config(args))
+    types = config_io.field_types(config_cls)
+    config = config_cls(**{k: config_io.coerce(types[k], v) for k, v in values.items()})
+    env_kwargs = {**experiment.env_kwargs, **_explicit_env(args)}
+    for key in ("fidelity", "impl", "max_episode_steps"):
+        if getattr(args, key) is not None:
+            env_kwargs[key] = getattr(args, key)
+    if args.max_episode_steps is not None and args.max_episode_steps < 1:
+        raise UsageError(f"--max-episode-steps must be >= 1, got {args.max_episode_steps}")
+    num_seeds = len(args.seeds) if args.seeds else 1
+    shard = _check_sharding(config, args.shard)
+    # With the batch split, each device steps (and the physics sizes its buffers for) its own share.
+    shares = _device_count() if shard else 1
+    per_device = max(-(-config.num_envs // shares), -(-config.eval_envs // shares))
+    env_kwargs["batch"] = per_device * num_seeds
+    env = _make_env(task, env_kwargs)
+    config.validate(env)
+    check_memory(config, env, num_seeds, shares)
+    seeds = list(args.seeds) if args.seeds else [experiment.seed if args.seed is None else args.seed]
+    if len(set(seeds)) != len(seeds):
+        raise UsageError(f"--seeds must be distinct, got {' '.join(map(str, seeds))}")
+    if len(seeds) > 1 and not getattr(env.unwrapped, "vmap_seeds", True):
+        raise UsageError(f"task {task!r} steps its games on the host: train one seed per command (--seed)")
+    log_every = experiment.log_every if args.log_every is None else args.log_every
+    if log_every < 1:
+        raise UsageError(f"--log-every must be >= 1, got {log_every}")
+    iterations = experiment.iterations if args.iterations is None else args.iterations
+    if iterations < 1:
+        # It would leave a run directory without a checkpoint: nothing to resume or evaluate.
+        raise UsageError(f"--iterations must be >= 1 for a new run, got {iterations}")
+    run = RunConfig(
+        task=task,
+        algo=algo,
+        config=config_io.config_to_dict(config),
+        seeds=seeds,
+        iterations=iterations,
+        env_kwargs=env_kwargs,
+        log_every=log_every,
+        checkpoint_every=experiment.checkpoint_every if args.checkpoint_every is None else args.checkpoint_every,
+        keep_checkpoints=3 if args.keep_checkpoints is None else args.keep_checkpoints,
+        video_every=experiment.video_every if args.video_every is None else args.video_every,
+        preset=args.preset,
+    )
+    run.shard = shard
+    run_dir = Path(args.run_dir) if args.run_dir else _default_run_dir(task, algo)
+    layout.check_path(run_dir, "--run-dir")
+    _check_fresh_run_dir(run_dir, bool(args.overwrite))
+    return Plan(run=run, run_dir=run_dir, module=module, env=env, config=config, overwrite=bool(args.overwrite))
+
+
+def plan_resume(args: argparse.Namespace, run: RunConfig, run_dir: Path) -> Plan:
+    from jaxpg.run import checkpointer, policy_io
+
+    fixed = [flag_name(k) for k in (*_explicit_config(args), *_explicit_env(args))]
+    for key in ("seed", "seeds", "preset", "fidelity", "impl", "max_episode_steps", "run_dir", "overwrite"):
+        if getattr(args, key) is not None:
+            fixed.append(flag_name(key))
+    if args.task is not None and args.task != run.task:
+        fixed.append("--task")
+    if args.algo is not None and args.algo != run.algo:
+        fixed.append("--algo")
+    if fixed:
+        raise UsageError(
+            f"--resume continues {str(run_dir)!r} with its saved settings; drop {' '.join(fixed)} "
+            "(only --iterations, --minutes, --checkpoint-every, --keep-checkpoints, --log-every, --video-every "
+            "may change)"
+        )
+    module = algo_module(run.algo)
+    config = run.algo_config()
+    run.config = config_io.config_to_dict(config)  # saved again under the current field names
+    env = _make_env(run.task, run.env_kwargs)
+    config.validate(env)
+    for key in ("iterations", "checkpoint_every", "keep_checkpoints", "log_every", "video_every"):
+        if getattr(args, key) is not None:
+            setattr(run, key, getattr(args, key))
+    if run.log_every < 1:
+        raise UsageError(f"--log-every must be >= 1, got {run.log_every}")
+    run.shard = _check_sharding(config, args.shard if args.shard is not None else (run.shard or None))
+    check_memory(config, env, len(run.seeds), _device_count() if run.shard else 1)
+    run_lock.check_unlocked(run_dir)
+    no_checkpoint = UsageError(
+        f"cannot resume {str(run_dir)!r}: it has no checkpoints (it stopped before its first one, so there is "
+        "nothing to resume); start it again with --overwrite"
+    )
+    if not (run_dir / layout.CHECKPOINT_DIR).is_dir():
+        raise no_checkpoint
+    checkpoints = checkpointer.Checkpointer(run_dir / layout.CHECKPOINT_DIR, keep=None)
+    step = checkpoints.latest_step()
+    if step is None:
+        raise no_checkpoint
+    metrics_path = run_dir / layout.METRICS_FILE
+    damaged = metrics_log.damaged_metrics_line(metrics_path) if metrics_path.is_file() else None
+    if damaged is not None:
+        raise UsageError(
+            f"cannot resume {str(run_dir)!r}: line {damaged} of its metrics.jsonl is not a JSON record "
+            "(a resume would drop it); repair or delete that line, then resume"
+        )
+    logged = max((int(r.get("iteration", 0)) for r in metrics_log.read_metrics(metrics_path)), default=0)
+    if logged < step:
+        state = "is missing" if not metrics_path.exists() else f"ends at iteration {logged}"
+        raise UsageError(
+            f"cannot resume {str(run_dir)!r}: its metrics.jsonl {state} but its checkpoint is at iteration "
+            f"{step}; restore metrics.jsonl or start a new run"
+        )
+    target = policy_io.abstract_train_state(run, env)
+    state = checkpoints.restore(target, step, expect=policy_io.checkpoint_expectations(run))
+    checkpoints.close()
+    return Plan(run=run, run_dir=run_dir, module=module, env=env, config=config, start=step, state=state)
+
+
+def _field_default(field: dataclasses.Field) -> Any:
+    if field.default is not dataclasses.MISSING:
+        return field.default
+    if field.default_factory is not dataclasses.MISSING:
+        return field.default_factory()
+    return None
+
+
+def plan(argv: Sequence[str], experiment: Experiment) -> Plan:
+    """Parse and check everything; raises ``UsageError``/``ValueError`` with one line."""
+    pre = pre_parse(argv)
+    resume_run = None
+    if pre.resume is not None:
+        layout.check_path(pre.resume, "--resume")
+        resume_run = RunConfig.load(pre.resume)
+        algo = resume_run.algo
+    else:
+        algo = pre.algo or experiment.algo
+    module = algo_module(algo)
+    config_cls = module.Config
+    defaults = {f.name: _field_default(f) for f in dataclasses.fields(config_cls)}
+    defaults.update(experiment.config_defaults(algo, config_cls))
+    if resume_run is None and pre.preset in algos.preset_names(algo):
+        defaults.update(algos.preset(algo, pre.preset))  # plan_fresh checks it against the task
+    if resume_run is not None:
+        defaults.update(config_io.current_field_names(config_cls, resume_run.config))
+    parser = build_parser(experiment, algo, config_cls, defaults)
+    args = parser.parse_args(argv)
+    if args.resume is not None:
+        result = plan_resume(args, resume_run, Path(args.resume))
+    else:
+        result = plan_fresh(args, experiment, module, algo)
+    if args.minutes is not None and not args.minutes > 0:
+        raise UsageError(f"--minutes must be > 0, got {args.minutes:g}")
+    result.time_limit_s = None if args.minutes is None else 60.0 * args.minutes
+    result.profile = bool(args.profile)
+    result.progress = args.progress
+    result.command = list(argv)
+    return result

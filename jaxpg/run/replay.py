@@ -1,0 +1,109 @@
+"""A trained policy replayed in the reference implementations: Gymnasium's CPU env of the task
+(``Hopper-v5`` ...) and, for Pong, the real Atari game (ALE's ``ALE/Pong-v5``)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+GYMNASIUM_INSTALL = "pip install 'gymnasium[mujoco]'"
+
+
+GYMNASIUM_IDS = {
+    "hopper": "Hopper-v5",
+    "inverted_pendulum": "InvertedPendulum-v5",
+    "inverted_double_pendulum": "InvertedDoublePendulum-v5",
+    "half_cheetah": "HalfCheetah-v5",
+    "swimmer": "Swimmer-v5",
+    "walker2d": "Walker2d-v5",
+    "humanoid": "Humanoid-v5",
+    "reacher": "Reacher-v5",
+    "ant": "Ant-v5",
+    "pusher": "Pusher-v5",
+    "cartpole": "CartPole-v1",
+}
+
+
+def gymnasium_installed() -> bool:
+    """Gymnasium can be imported (``GYMNASIUM_INSTALL`` says how to install it otherwise)."""
+    try:
+        import gymnasium  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+def gymnasium_reference_env(task: str, env_kwargs: dict[str, Any], render: bool = False) -> Any:
+    """The Gymnasium env matching a jaxpg task (same time limit). Raises ``ImportError`` with the
+    install command when Gymnasium is missing."""
+    try:
+        import gymnasium as gym
+    except ImportError:
+        raise ImportError(f"Gymnasium is not installed: {GYMNASIUM_INSTALL}") from None
+
+    if task not in GYMNASIUM_IDS:
+        raise ValueError(f"task {task!r} has no Gymnasium counterpart; known: {', '.join(GYMNASIUM_IDS)}")
+    kwargs: dict[str, Any] = {}
+    if "max_episode_steps" in env_kwargs:
+        kwargs["max_episode_steps"] = int(env_kwargs["max_episode_steps"])
+    if render and task != "cartpole":  # CartPole's renderer needs pygame; jaxpg draws it itself
+        kwargs.update(render_mode="rgb_array", width=480, height=480)
+    return gym.make(GYMNASIUM_IDS[task], **kwargs)
+
+
+def evaluate_gymnasium(
+    policy: Callable[[np.ndarray], np.ndarray],
+    task: str,
+    env_kwargs: dict[str, Any],
+    episodes: int,
+    seed: int = 0,
+    video: str | None = None,
+) -> tuple[np.ndarray, np.ndarray, list[np.ndarray]]:
+    """``(returns [N], lengths [N], frames of the first episode)`` of ``policy`` in Gymnasium."""
+    from jaxpg import video as video_lib
+
+    env = gymnasium_reference_env(task, env_kwargs, render=video is not None)
+    returns, lengths, frames = [], [], []
+    for i in range(episodes):
+        obs, _ = env.reset(seed=seed + i)
+        total, steps, done = 0.0, 0, False
+        while not done:
+            if video is not None and i == 0:
+                frames.append(env.render() if task != "cartpole" else video_lib.draw_cartpole(obs))
+            action = policy(obs)
+            if task == "cartpole":
+                action = int(action)
+            obs, reward, terminated, truncated, _ = env.step(action)
+            total += float(reward)
+            steps += 1
+            done = terminated or truncated
+        if video is not None and i == 0:
+            frames.append(env.render() if task != "cartpole" else video_lib.draw_cartpole(obs))
+        returns.append(total)
+        lengths.append(steps)
+    env.close()
+    return np.asarray(returns), np.asarray(lengths), frames
+
+
+def ale_action_set(task: str, env_kwargs: dict[str, Any]) -> str:
+    """The ``jaxpg.envs.atari.ACTION_SETS`` entry that maps a Pong run's actions to ALE's
+    (``ValueError``, one line, for a task that cannot play ``ALE/Pong-v5``)."""
+    if task == "atari_pong":
+        return str(env_kwargs.get("action_set", "updown"))
+    if task == "pong":  # jaxpg's own Pong: {up, down} or {stay, up, down} on 80x80 frame differences
+        if int(env_kwargs.get("size", 80)) != 80:
+            raise ValueError(f"--ale needs 80x80 frames; this pong run used size {env_kwargs['size']}")
+        return "stay" if env_kwargs.get("stay_action") else "updown"
+    raise ValueError(f"--ale plays Atari Pong: task {task!r} is not a Pong task (atari_pong or pong)")
+
+
+def evaluate_ale(
+    policy: Callable[[np.ndarray], np.ndarray], action_set: str, episodes: int, sticky: bool, seed: int = 0
+) -> tuple[np.ndarray, np.ndarray]:
+    """``(scores [N], lengths [N])`` of ``policy`` in Gymnasium's ``ALE/Pong-v5``
+    (``jaxpg.envs.atari.play_ale``)."""
+    from jaxpg.envs import atari
+
+    return atari.play_ale(policy, episodes, action_set, sticky=sticky, seed=seed)

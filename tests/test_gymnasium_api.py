@@ -21,11 +21,12 @@ from jaxpg import envs
 from jaxpg.envs import gymnasium_api
 
 NUM_ENVS = 4
+SAME_STEP, NEXT_STEP = gymnasium.vector.AutoresetMode.SAME_STEP, gymnasium.vector.AutoresetMode.NEXT_STEP
 
 
 @pytest.fixture(scope="module")
 def pendulum_vec():
-    return envs.gymnasium_vector_env("inverted_pendulum", NUM_ENVS, max_episode_steps=12)
+    return envs.gymnasium_vector_env("inverted_pendulum", NUM_ENVS, max_episode_steps=12, autoreset_mode=SAME_STEP)
 
 
 @pytest.fixture(scope="module")
@@ -114,7 +115,7 @@ def test_stable_baselines3_check_env_accepts_the_single_env():
 def test_single_env_truncates_at_the_time_limit_and_matches_the_registration():
     env = gymnasium.make("jaxpg/InvertedPendulum-v5", max_episode_steps=5)
     obs, info = env.reset(seed=0)
-    assert obs.dtype == np.float32 and obs.shape == (4,) and info == {}
+    assert obs.dtype == np.float64 and obs.shape == (4,) and info == {}
     for t in range(5):
         obs, reward, terminated, truncated, _ = env.step(np.zeros(1, np.float32))
         assert isinstance(reward, float) and not terminated
@@ -124,14 +125,14 @@ def test_single_env_truncates_at_the_time_limit_and_matches_the_registration():
 def test_vector_spaces(pendulum_vec, cartpole_vec):
     vec = pendulum_vec
     assert vec.num_envs == NUM_ENVS
-    assert vec.single_observation_space == gymnasium.spaces.Box(-np.inf, np.inf, (4,), np.float32)
+    assert vec.single_observation_space == gymnasium.spaces.Box(-np.inf, np.inf, (4,), np.float64)
     assert vec.single_action_space == gymnasium.spaces.Box(-3.0, 3.0, (1,), np.float32)
     assert vec.observation_space.shape == (NUM_ENVS, 4) and vec.action_space.shape == (NUM_ENVS, 1)
-    assert vec.metadata["autoreset_mode"] == gymnasium.vector.AutoresetMode.SAME_STEP
+    assert vec.metadata["autoreset_mode"] == SAME_STEP and cartpole_vec.metadata["autoreset_mode"] == NEXT_STEP
     assert cartpole_vec.single_action_space == gymnasium.spaces.Discrete(2)
     assert cartpole_vec.action_space == gymnasium.spaces.MultiDiscrete([2] * NUM_ENVS)
     obs, _ = vec.reset(seed=0)
-    assert obs.dtype == np.float32 and obs.shape == (NUM_ENVS, 4) and vec.observation_space.contains(obs)
+    assert obs.dtype == np.float64 and obs.shape == (NUM_ENVS, 4) and vec.observation_space.contains(obs)
 
 
 def test_vector_seeding_is_reproducible(pendulum_vec):
@@ -194,9 +195,9 @@ def test_vector_truncation_follows_time_limit_when_termination_coincides(pendulu
         data=state.data.replace(qpos=state.data.qpos.at[:, 1].set(0.5)),  # tipped past 0.2 rad: terminates
         info={**state.info, "step": state.info["step"].at[:2].set(11)},  # envs 0, 1 at the 12-step limit
     )
-    _, (_, _, terminated, truncated, _) = vec._step_fn(last, np.zeros((NUM_ENVS, 1), np.float32))
-    np.testing.assert_array_equal(terminated, True)
-    np.testing.assert_array_equal(truncated, [True, True, False, False])
+    _, out = vec._step_fn(last, np.zeros((NUM_ENVS, 1), np.float32))
+    np.testing.assert_array_equal(out["terminated"], True)
+    np.testing.assert_array_equal(out["truncated"], [True, True, False, False])
 
 
 def test_vector_discrete_actions_and_bad_actions_refused(cartpole_vec):
@@ -249,3 +250,240 @@ def test_render_draws_env_zero(pendulum_vec):
     vec.reset(seed=0)
     assert vec.render().shape == frame.shape
     assert pendulum_vec.render() is None  # no render_mode: nothing drawn
+
+
+# ----- Gymnasium users' code unchanged on jaxpg's ids: one test per point of the issue -----
+
+MJX_IDS = [i for i, (task, _) in gymnasium_api.GYMNASIUM_IDS.items() if task not in gymnasium_api.NO_FIDELITY]
+
+
+def balance_cartpole(obs: np.ndarray) -> int:
+    """A controller that keeps Gymnasium's CartPole up for thousands of steps."""
+    return int(obs[2] + 0.5 * obs[3] + 0.05 * obs[0] + 0.1 * obs[1] > 0)
+
+
+@pytest.fixture(scope="module")
+def pendulum():
+    """``gymnasium.make("jaxpg/InvertedPendulum-v5")``, compiled once for the tests below (and for
+    every single env of that id made in this process)."""
+    return gymnasium.make("jaxpg/InvertedPendulum-v5")
+
+
+def test_id_simulates_gymnasium_physics_and_fast_physics_is_its_own_id(pendulum):
+    """1. From Gymnasium's InvertedPendulum-v5 states with the same actions, jaxpg's id of it gives
+    the same observations within 1e-4 (float32 against float64), the same rewards and ``info``, and
+    ends all 8 episodes at the same steps (``fidelity="fast"`` ended 3 of 8 differently). The fast
+    physics is an id of its own for every MuJoCo task (``jaxpg/<Name>Fast-v<N>``)."""
+    theirs = gymnasium.make("InvertedPendulum-v5")
+    assert pendulum.unwrapped.env.unwrapped.fidelity == "gymnasium"
+    rng = np.random.default_rng(0)
+    worst = 0.0
+    for episode in range(8):
+        theirs.reset(seed=episode)
+        pendulum.reset(seed=episode)
+        pendulum.unwrapped.set_state(theirs.unwrapped.data.qpos, theirs.unwrapped.data.qvel)
+        for t in range(100):
+            action = rng.uniform(-1, 1, 1).astype(np.float32)
+            obs_t, reward_t, terminated_t, truncated_t, info_t = theirs.step(action)
+            obs, reward, terminated, truncated, info = pendulum.step(action)
+            worst = max(worst, float(np.max(np.abs(obs - obs_t))))
+            assert (reward, terminated, truncated, info) == (reward_t, terminated_t, truncated_t, info_t), (episode, t)
+            if terminated:
+                break
+    assert worst < 1e-4, worst
+    for gym_id in MJX_IDS:
+        assert gymnasium.spec(gym_id).kwargs["fidelity"] == "gymnasium"
+        fast = gymnasium.spec(gymnasium_api.fast_id(gym_id))
+        assert fast.kwargs == {**gymnasium.spec(gym_id).kwargs, "fidelity": "fast"}
+        assert fast.max_episode_steps == gymnasium.spec(gym_id).max_episode_steps
+    assert gymnasium_api.gymnasium_id("hopper", fidelity="fast") == "jaxpg/HopperFast-v5"
+
+
+def test_make_vec_async_works_with_no_arguments_after_jax_started():
+    """2. ``make_vec(id, 2, vectorization_mode="async")`` with Gymnasium's default (fork) context,
+    from a process where JAX is running: the workers' envs run in fresh interpreters, so reset and
+    step answer (a deadlock fails at the timeouts instead of hanging the run)."""
+    jax.numpy.zeros(1).block_until_ready()
+    vec = gymnasium.make_vec("jaxpg/CartPole-v1", 2, vectorization_mode="async")
+    try:
+        vec.reset_async(seed=0)
+        obs, _ = vec.reset_wait(timeout=180)
+        vec.step_async(np.array([0, 1]))
+        obs, reward, terminated, truncated, _ = vec.step_wait(timeout=60)
+    finally:
+        vec.close(terminate=True)
+    assert obs.shape == (2, 4) and obs.dtype == np.float32 and np.all(reward == 1.0)
+
+
+def test_make_vec_reaches_the_batched_env_for_every_id():
+    """3. Every id has a ``vector_entry_point``: ``make_vec``'s default mode builds
+    ``JaxpgVectorEnv`` (one jitted step for all envs) with the id's fidelity and time limit."""
+    for gym_id, (task, _) in gymnasium_api.GYMNASIUM_IDS.items():
+        assert gymnasium.spec(gym_id).vector_entry_point == "jaxpg.envs.gymnasium_api:make_vector", gym_id
+    vec = gymnasium.make_vec("jaxpg/CartPole-v1", NUM_ENVS)
+    assert isinstance(vec, gymnasium_api.JaxpgVectorEnv) and vec.num_envs == NUM_ENVS
+    assert vec.env.max_episode_steps == 500 and vec.metadata["autoreset_mode"] == NEXT_STEP
+
+
+@pytest.fixture(scope="module")
+def cartpole_batched():
+    """``gymnasium.make_vec("jaxpg/CartPole-v1", 2)``: jaxpg's batched env, next-step autoreset."""
+    return gymnasium.make_vec("jaxpg/CartPole-v1", 2)
+
+
+def test_next_step_autoreset_lets_gymnasium_vector_wrappers_compose(cartpole_batched):
+    """4. Next-step autoreset (Gymnasium's default): the step after an episode ends ignores its
+    action and returns the next episode's first observation with reward 0; Gymnasium's vector
+    ``NormalizeObservation``, ``TransformObservation`` and ``DtypeObservation`` accept the env."""
+    from gymnasium.wrappers import vector as vw
+
+    vec = cartpole_batched
+    wrapped = vw.DtypeObservation(
+        vw.TransformObservation(vw.NormalizeObservation(vec), lambda o: o * 2.0, vec.observation_space), np.float64
+    )
+    obs, _ = wrapped.reset(seed=0)
+    assert obs.dtype == np.float64
+    ended = np.zeros(2, bool)
+    restarted = 0
+    for _ in range(60):
+        obs, reward, terminated, truncated, _ = vec.step(np.array([1, 1]))  # both fall to the right
+        done = terminated | truncated
+        if ended.any():
+            np.testing.assert_array_equal(reward[ended], 0.0)
+            np.testing.assert_array_equal(done[ended], False)
+            assert np.max(np.abs(obs[ended])) <= 0.05  # a fresh start
+            restarted += int(ended.sum())
+        ended = done
+    assert restarted >= 2
+    wrapped.step(np.array([0, 1]))
+
+
+def test_same_step_autoreset_gives_final_obs_and_final_info(pendulum_vec):
+    """4. Same-step autoreset: ``final_obs`` and ``final_info`` (the ended episodes' last ``info``)
+    with their masks, as Gymnasium's sync vector env gives them."""
+    vec = pendulum_vec
+    vec.reset(seed=0)
+    push = np.array([[3.0], [-3.0], [0.0], [0.0]], np.float32)
+    for _ in range(12):
+        _, _, terminated, truncated, info = vec.step(push)
+        if (terminated | truncated).any():
+            break
+    done = terminated | truncated
+    np.testing.assert_array_equal(info["_final_info"], done)
+    np.testing.assert_array_equal(info["final_info"]["_reward_survive"], done)
+    np.testing.assert_array_equal(info["final_info"]["reward_survive"][done], 0.0)  # the falling step
+    assert info["_reward_survive"].tolist() == (~done).tolist()  # the fresh episodes' info has no reward
+
+
+def test_max_episode_steps_above_the_registered_limit_is_honoured():
+    """5. ``max_episode_steps`` above the registered limit: a balanced CartPole runs to 1000 steps as
+    Gymnasium's does (it was cut at 500); the MuJoCo ids' single env has no limit of its own."""
+    lengths = []
+    for gym_id in ("jaxpg/CartPole-v1", "CartPole-v1"):
+        env = gymnasium.make(gym_id, max_episode_steps=1000)
+        obs, _ = env.reset(seed=0)
+        for t in range(1, 1001):
+            obs, _, terminated, truncated, _ = env.step(balance_cartpole(obs))
+            if terminated or truncated:
+                break
+        lengths.append((t, terminated, truncated))
+    assert lengths == [(1000, False, True)] * 2
+    limit = gymnasium.make("jaxpg/Hopper-v5", max_episode_steps=5000).unwrapped.env.max_episode_steps
+    assert limit >= 5000
+
+
+def test_info_has_gymnasium_v5_keys_for_every_id():
+    """6. ``info`` after ``reset`` and ``step`` has the keys of Gymnasium's env of the id
+    (``x_position``, ``reward_forward`` ...), every one of which the task computes (traced, not
+    compiled)."""
+    with mujoco_warnings_silenced():
+        for gym_id, (task, _) in gymnasium_api.GYMNASIUM_IDS.items():
+            theirs = gymnasium.make(gym_id.split("/")[1])
+            _, reset_info = theirs.reset(seed=0)
+            *_, step_info = theirs.step(theirs.action_space.sample())
+            reset_keys, step_keys = gymnasium_api.INFO_KEYS[task]
+            assert (set(reset_keys), set(step_keys)) == (set(reset_info), set(step_info)), gym_id
+            if task in gymnasium_api.NO_FIDELITY:
+                continue
+            env = envs.make_shared(task, impl="jax")
+            state = jax.eval_shape(env.reset, jax.random.PRNGKey(0))
+            stepped = jax.eval_shape(env.step, state, jax.ShapeDtypeStruct(theirs.action_space.shape, np.float32))
+            gymnasium_api.info_arrays(task, state), gymnasium_api.info_arrays(task, stepped)  # no KeyError
+
+
+def test_pendulum_info_and_check_environments_match(pendulum):
+    """6, 8. Gymnasium's ``check_environments_match`` passes on the spaces, the info keys and the
+    flags (values differ: the two envs start from different random states)."""
+    from gymnasium.utils.env_match import check_environments_match
+
+    theirs = gymnasium.make("InvertedPendulum-v5")
+    assert pendulum.observation_space == theirs.observation_space
+    check_environments_match(
+        pendulum, theirs, num_steps=5, skip_obs=True, skip_rew=True, info_comparison="keys-equivalence"
+    )
+
+
+def test_envs_pickle_and_deep_copy_and_continue_the_same_episode(pendulum):
+    """7. ``pickle`` and ``copy.deepcopy`` of a made env (what async vector envs and SB3 do): the
+    copy continues the episode exactly as the original does."""
+    import copy
+    import pickle
+
+    for env, action in ((gymnasium.make("jaxpg/CartPole-v1"), 1), (pendulum, np.array([0.5], np.float32))):
+        env.reset(seed=3)
+        env.step(action)
+        copies = [pickle.loads(pickle.dumps(env)), copy.deepcopy(env)]
+        expected = env.step(action)
+        for other in copies:
+            got = other.step(action)
+            np.testing.assert_array_equal(got[0], expected[0])
+            assert got[1:] == expected[1:]
+
+
+def test_spaces_and_spec_match_gymnasium_for_every_id():
+    """8. Observation and action spaces, time limit and ``reward_threshold`` of every id are those
+    of Gymnasium's env (float64 MuJoCo observations, CartPole's bounded box)."""
+    with mujoco_warnings_silenced():
+        for gym_id in gymnasium_api.GYMNASIUM_IDS:
+            ours, theirs = gymnasium.make(gym_id), gymnasium.make(gym_id.split("/")[1])
+            assert ours.observation_space == theirs.observation_space, gym_id
+            assert ours.action_space == theirs.action_space, gym_id
+            assert ours.spec.reward_threshold == theirs.spec.reward_threshold, gym_id
+            assert ours.spec.max_episode_steps == theirs.spec.max_episode_steps, gym_id
+
+
+def test_old_gymnasium_gets_one_line_naming_the_version_needed():
+    """9. ``import jaxpg.envs.gymnasium_api`` under a Gymnasium older than 1.1 (faked here) fails
+    with one line naming the version needed."""
+    import subprocess
+    import sys
+
+    code = (
+        "import gymnasium, gymnasium.vector; gymnasium.__version__ = '1.0.0'; del gymnasium.vector.AutoresetMode\n"
+        "import jaxpg.envs.gymnasium_api"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    last = done.stderr.strip().splitlines()[-1]
+    assert done.returncode != 0
+    assert last == (
+        "ImportError: jaxpg's Gymnasium API needs gymnasium>=1.1, found 1.0.0: pip install -U 'gymnasium>=1.1'"
+    )
+    with pytest.raises(ImportError, match=r"needs gymnasium>=1\.1, found 0\.29\.1"):
+        gymnasium_api.check_gymnasium_version("0.29.1")
+    gymnasium_api.check_gymnasium_version(gymnasium.__version__)
+
+
+def test_closed_env_refuses_to_step_and_reset():
+    """10. After ``close()`` the single and the vector env raise instead of stepping on."""
+    env = gymnasium.make("jaxpg/CartPole-v1")
+    env.reset(seed=0)
+    env.close()
+    with pytest.raises(RuntimeError, match="closed"):
+        env.step(0)
+    with pytest.raises(RuntimeError, match="closed"):
+        env.reset()
+    vec = envs.gymnasium_vector_env("cartpole", NUM_ENVS)
+    vec.reset(seed=0)
+    vec.close()
+    with pytest.raises(RuntimeError, match="closed"):
+        vec.step(np.zeros(NUM_ENVS, int))

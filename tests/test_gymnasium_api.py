@@ -487,3 +487,99 @@ def test_closed_env_refuses_to_step_and_reset():
     vec.close()
     with pytest.raises(RuntimeError, match="closed"):
         vec.step(np.zeros(NUM_ENVS, int))
+
+
+# ----- a Gymnasium pipeline gives the same results on a jaxpg id as on Gymnasium's id -----
+
+
+class StartLike(gymnasium.Wrapper):
+    """Gymnasium's own env, started where jaxpg's env of ``jaxpg_id`` starts for the same seeds: a
+    twin jaxpg env is reset alongside and its start state copied in (autoresets included), so that
+    the two ids can be compared step by step through any pipeline."""
+
+    def __init__(self, env: gymnasium.Env, jaxpg_id: str):
+        super().__init__(env)
+        self.twin = gymnasium.make(jaxpg_id).unwrapped
+
+    def reset(self, *, seed=None, options=None):
+        _, info = self.env.reset(seed=seed, options=options)
+        self.twin.reset(seed=seed)
+        data, inner = self.twin._state.data, self.env.unwrapped
+        if hasattr(data, "qpos"):
+            inner.set_state(np.asarray(data.qpos, np.float64), np.asarray(data.qvel, np.float64))
+            return inner._get_obs(), info
+        inner.state = np.asarray(data.state, np.float64)
+        return np.array(inner.state, np.float32), info
+
+
+def run_pipeline(vec, actions: np.ndarray) -> dict[str, np.ndarray]:
+    """Observations, rewards, flags and ``RecordEpisodeStatistics``' episode returns and lengths
+    (NaN where no episode ended) of ``vec`` under ``actions [T, num_envs, ...]`` from seed 0."""
+    obs, _ = vec.reset(seed=0)
+    rows: dict[str, list] = {"obs": [obs], "reward": [], "terminated": [], "truncated": [], "r": [], "l": []}
+    for action in actions:
+        obs, reward, terminated, truncated, info = vec.step(action)
+        ended = info.get("_episode", np.zeros(vec.num_envs, bool))
+        episode = info.get("episode", {"r": np.zeros(vec.num_envs), "l": np.zeros(vec.num_envs)})
+        for key, value in (("obs", obs), ("reward", reward), ("terminated", terminated), ("truncated", truncated)):
+            rows[key].append(value)
+        rows["r"].append(np.where(ended, episode["r"], np.nan))
+        rows["l"].append(np.where(ended, episode["l"], np.nan))
+    return {k: np.asarray(v, np.float64) for k, v in rows.items()}
+
+
+def assert_same_results(ours: dict[str, np.ndarray], theirs: dict[str, np.ndarray], tolerance: float) -> None:
+    """Flags and episode lengths equal; observations, rewards and episode returns within
+    ``tolerance``; and at least two episodes ended in the comparison."""
+    for key in ("terminated", "truncated", "l"):
+        np.testing.assert_array_equal(ours[key], theirs[key], err_msg=key)
+    for key in ("obs", "reward", "r"):
+        np.testing.assert_allclose(ours[key], theirs[key], rtol=tolerance, atol=tolerance, err_msg=key)
+    assert np.sum(~np.isnan(ours["l"])) >= 2
+
+
+def test_pipeline_sync_single_env_wrappers_same_results_as_gymnasium(pendulum):
+    """Gymnasium's sync vector env of ``RecordEpisodeStatistics``, ``ClipAction``,
+    ``NormalizeObservation`` and ``NormalizeReward`` around single envs, a 25-step time limit and
+    out-of-range actions: ``jaxpg/InvertedPendulum-v5`` gives Gymnasium's results within 1e-3
+    (float32 MJX against float64 MuJoCo, amplified by the normalisation)."""
+    from gymnasium import wrappers as w
+
+    del pendulum  # compiled there: the sync env's single envs reuse it
+    pipeline = [w.RecordEpisodeStatistics, w.ClipAction, w.NormalizeObservation, w.NormalizeReward]
+    actions = np.random.default_rng(1).uniform(-4, 4, (80, 2, 1)).astype(np.float32)
+    ours = gymnasium.make_vec("jaxpg/InvertedPendulum-v5", 2, "sync", wrappers=pipeline, max_episode_steps=25)
+    start_like = lambda env: StartLike(env, "jaxpg/InvertedPendulum-v5")  # noqa: E731
+    theirs = gymnasium.make_vec(
+        "InvertedPendulum-v5", 2, "sync", wrappers=[start_like, *pipeline], max_episode_steps=25
+    )
+    assert_same_results(run_pipeline(ours, actions), run_pipeline(theirs, actions), 1e-3)
+
+
+def test_pipeline_batched_and_async_same_results_as_gymnasium(cartpole_batched):
+    """``make_vec("jaxpg/CartPole-v1", 2)`` (the batched env) under Gymnasium's vector
+    ``RecordEpisodeStatistics``, ``NormalizeObservation`` and ``NormalizeReward``, and the async
+    vector env of single envs under the single-env wrappers, both give the results of Gymnasium's
+    ``CartPole-v1`` in a sync vector env under the same wrappers, within 1e-4 (float32 against
+    float64 arithmetic), episodes, autoresets and statistics included."""
+    from gymnasium import wrappers as w
+    from gymnasium.wrappers import vector as vw
+
+    actions = np.random.default_rng(2).integers(0, 2, (120, 2))
+    start_like = lambda env: StartLike(env, "jaxpg/CartPole-v1")  # noqa: E731
+
+    def vector_pipeline(vec):
+        return vw.NormalizeReward(vw.NormalizeObservation(vw.RecordEpisodeStatistics(vec)))
+
+    ours = run_pipeline(vector_pipeline(cartpole_batched), actions)
+    theirs = run_pipeline(vector_pipeline(gymnasium.make_vec("CartPole-v1", 2, "sync", wrappers=[start_like])), actions)
+    assert_same_results(ours, theirs, 1e-4)
+
+    single = [w.RecordEpisodeStatistics, w.NormalizeObservation, w.NormalizeReward]
+    vec = gymnasium.make_vec("jaxpg/CartPole-v1", 2, "async", wrappers=single)
+    try:
+        ours = run_pipeline(vec, actions)
+    finally:
+        vec.close(terminate=True)
+    theirs = run_pipeline(gymnasium.make_vec("CartPole-v1", 2, "sync", wrappers=[start_like, *single]), actions)
+    assert_same_results(ours, theirs, 1e-4)

@@ -299,6 +299,19 @@ def test_id_simulates_gymnasium_physics_and_fast_physics_is_its_own_id(pendulum)
     assert gymnasium_api.gymnasium_id("hopper", fidelity="fast") == "jaxpg/HopperFast-v5"
 
 
+def test_jaxpg_helpers_take_either_id_with_its_fidelity():
+    """1. ``gymnasium_env`` and ``gymnasium_vector_env`` given an id use the id's physics and time
+    limit (a task name keeps the task's defaults: fast physics); nothing here compiles."""
+    for gym_id, fidelity in (("jaxpg/InvertedPendulum-v5", "gymnasium"), ("jaxpg/InvertedPendulumFast-v5", "fast")):
+        assert gymnasium_api.gymnasium_id(gym_id) == gym_id
+        assert envs.gymnasium_env(gym_id).unwrapped.env.unwrapped.fidelity == fidelity
+        vec = envs.gymnasium_vector_env(gym_id, 2)
+        assert (vec.env.unwrapped.fidelity, vec.env.max_episode_steps) == (fidelity, 1000)
+    assert envs.gymnasium_vector_env("inverted_pendulum", 2).env.unwrapped.fidelity == "fast"
+    with pytest.raises(ValueError, match="unknown fidelity 'exact'"):
+        gymnasium_api.gymnasium_id("hopper", fidelity="exact")
+
+
 def test_make_vec_async_works_with_no_arguments_after_jax_started():
     """2. ``make_vec(id, 2, vectorization_mode="async")`` with Gymnasium's default (fork) context,
     from a process where JAX is running: the workers' envs run in fresh interpreters, so reset and

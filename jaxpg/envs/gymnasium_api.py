@@ -472,12 +472,15 @@ def _register() -> None:
 
 def gymnasium_id(name: str, fidelity: str = "gymnasium") -> str:
     """The Gymnasium id of jaxpg task ``name`` (``"hopper"`` -> ``"jaxpg/Hopper-v5"``;
-    ``fidelity="fast"`` -> ``"jaxpg/HopperFast-v5"``)."""
+    ``fidelity="fast"`` -> ``"jaxpg/HopperFast-v5"``); a jaxpg id is returned as it is."""
     if fidelity not in ("gymnasium", "fast"):
         raise ValueError(f"unknown fidelity {fidelity!r}: expected 'gymnasium' or 'fast'")
     for gym_id, (task, _) in GYMNASIUM_IDS.items():
-        if task == name or gym_id == name:
-            return fast_id(gym_id) if fidelity == "fast" and task not in NO_FIDELITY else gym_id
+        ids = (gym_id,) if task in NO_FIDELITY else (gym_id, fast_id(gym_id))
+        if name in ids:
+            return name
+        if name == task:
+            return ids[-1] if fidelity == "fast" else gym_id
     known = ", ".join(task for task, _ in GYMNASIUM_IDS.values())
     raise ValueError(f"no Gymnasium id for {name!r}; tasks with one: {known}")
 
@@ -692,9 +695,15 @@ def gymnasium_vector_env(
     """A ``gymnasium.vector.VectorEnv`` of ``num_envs`` envs of jaxpg task ``name`` (or its
     Gymnasium id) on ``device`` (default: JAX's first); ``make_kwargs`` go to ``JaxpgVectorEnv``
     (``render_mode``, ``array_type``, ``autoreset_mode``) and to the task (``fidelity``,
-    ``impl``, ``max_episode_steps`` ...). The task's defaults apply (``fidelity="fast"``); the
-    Gymnasium id's defaults come with ``gymnasium.make_vec``."""
-    if name not in GYMNASIUM_IDS and name not in envs_lib.names():
+    ``impl``, ``max_episode_steps`` ...). A task name gets the task's defaults
+    (``fidelity="fast"``), a jaxpg id the id's (its fidelity and time limit), as
+    ``gymnasium.make_vec(id, num_envs)`` does."""
+    if name.startswith("jaxpg/") and name in gymnasium.registry:
+        spec = gymnasium.spec(name)
+        id_kwargs = {k: v for k, v in spec.kwargs.items() if k != "task"}
+        make_kwargs = {**id_kwargs, "max_episode_steps": spec.max_episode_steps, **make_kwargs}
+        name = spec.kwargs["task"]
+    if name not in envs_lib.names():
         raise ValueError(f"unknown environment {name!r}; known environments: {', '.join(envs_lib.names())}")
     return JaxpgVectorEnv(name, num_envs, device=device, **make_kwargs)
 

@@ -284,8 +284,12 @@ class _Worker:
         self.spaces = self._result(env_kwargs)
 
     def _result(self, message: Any) -> Any:
-        self._send.send(message)
-        ok, value = self._recv.recv()
+        try:
+            self._send.send(message)
+            ok, value = self._recv.recv()
+        except (EOFError, OSError):
+            code = self.process.wait(timeout=30)
+            raise RuntimeError(f"jaxpg's env worker process exited with code {code} (its error is above)") from None
         if not ok:
             raise value
         return value
@@ -297,7 +301,7 @@ class _Worker:
         if self.process.poll() is None:
             try:
                 self.call("close")
-            except (EOFError, OSError):
+            except RuntimeError:
                 pass
             self.process.wait(timeout=30)
         self._send.close()

@@ -363,7 +363,9 @@ def test_make_vec_reaches_the_batched_env_for_every_id():
 @pytest.fixture(scope="module")
 def cartpole_batched():
     """``gymnasium.make_vec("jaxpg/CartPole-v1", 2)``: jaxpg's batched env, next-step autoreset."""
-    return gymnasium.make_vec("jaxpg/CartPole-v1", 2)
+    vec = gymnasium.make_vec("jaxpg/CartPole-v1", 2)
+    assert isinstance(vec, gymnasium_api.JaxpgVectorEnv)
+    return vec
 
 
 def test_next_step_autoreset_lets_gymnasium_vector_wrappers_compose(cartpole_batched):

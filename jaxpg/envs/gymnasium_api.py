@@ -228,6 +228,7 @@ def _set_state_fn(env: envs_lib.Env) -> Callable:
 
 
 def _items(make_kwargs: dict[str, Any]) -> tuple:
+    """``make_kwargs`` as a hashable, order-independent cache key."""
     return tuple(sorted(make_kwargs.items()))
 
 
@@ -248,11 +249,13 @@ def _jax_started() -> bool:
 
 
 def _before_fork() -> None:
+    """``os.fork`` hook in the parent: note whether JAX is running."""
     global _jax_started_before_fork
     _jax_started_before_fork = _jax_started()
 
 
 def _after_fork_in_child() -> None:
+    """``os.fork`` hook in the child: JAX cannot run here if it ran in the parent (nor in its parents)."""
     global _forked_after_jax
     _forked_after_jax = _forked_after_jax or _jax_started_before_fork
 
@@ -368,6 +371,7 @@ class JaxpgEnv(gymnasium.Env):
         self.metadata = {**type(self).metadata, "render_fps": max(1, round(1.0 / self.env.dt))}
 
     def _check_open(self) -> None:
+        """``RuntimeError`` once ``close`` was called."""
         if self._closed:
             raise RuntimeError(f"this {self.task} env is closed: make a new one")
 
@@ -609,6 +613,7 @@ class JaxpgVectorEnv(gymnasium.vector.VectorEnv):
         return np.asarray(x, dtype=self.single_observation_space.dtype)
 
     def _check_open(self) -> None:
+        """``RuntimeError`` once ``close`` was called."""
         if self.closed:
             raise RuntimeError(f"this vector env of {self.task} is closed: make a new one")
 

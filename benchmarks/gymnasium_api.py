@@ -6,9 +6,13 @@ sb3         Stable-Baselines3 PPO (its defaults) on ``jaxpg/InvertedPendulum-v5`
 throughput  env steps/s under random actions, NumPy in and out: ``gymnasium_vector_env`` at
             each ``--num-envs``, against Gymnasium's own MuJoCo vector env
             (``gymnasium.make_vec(..., vectorization_mode="sync"|"async")``) on the CPU.
+single      one env of each ``--ids`` as a Gymnasium user makes it (``gymnasium.make(id)``): the
+            seconds of its first ``make`` + ``reset`` + ``step`` (jaxpg's: compilation) and its
+            env steps/s after that, under random actions.
 
   python benchmarks/gymnasium_api.py sb3 --steps 100000
   python benchmarks/gymnasium_api.py throughput --task hopper --num-envs 1024 4096 16384 --gym-envs 16
+  python benchmarks/gymnasium_api.py single --ids jaxpg/Hopper-v5 jaxpg/HopperFast-v5 Hopper-v5 --steps 2000
 """
 
 from __future__ import annotations
@@ -100,9 +104,38 @@ def run_throughput(task: str, num_envs: list[int], gym_envs: list[int], steps: i
     return rows
 
 
+def run_single(ids: list[str], steps: int) -> list[dict]:
+    """First ``make`` + ``reset`` + ``step`` seconds and steps/s of one env of each id."""
+    import gymnasium
+    import jax
+
+    import jaxpg.envs.gymnasium_api  # noqa: F401 - registers the jaxpg/ ids
+
+    rows = []
+    device = jax.devices()[0].device_kind
+    for gym_id in ids:
+        start = time.perf_counter()
+        env = gymnasium.make(gym_id)
+        env.action_space.seed(0)
+        env.reset(seed=0)
+        env.step(env.action_space.sample())
+        first_s = time.perf_counter() - start
+        actions = [env.action_space.sample() for _ in range(64)]
+        start = time.perf_counter()
+        for t in range(steps):
+            _, _, terminated, truncated, _ = env.step(actions[t % len(actions)])
+            if terminated or truncated:
+                env.reset()
+        rate = steps / (time.perf_counter() - start)
+        rows.append({"id": gym_id, "device": device, "first_s": first_s, "rate": rate})
+        print(f"| {gym_id} | {device} | {first_s:.1f} s | {rate:,.0f} |", flush=True)
+    return rows
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("mode", choices=("sb3", "throughput"))
+    parser.add_argument("mode", choices=("sb3", "throughput", "single"))
+    parser.add_argument("--ids", nargs="*", default=["jaxpg/Hopper-v5", "jaxpg/HopperFast-v5", "Hopper-v5"])
     parser.add_argument("--steps", type=int, default=100_000, help="sb3: training steps; throughput: vector steps")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--task", default="hopper", choices=sorted(GYM_IDS))
@@ -115,6 +148,10 @@ def main() -> None:
         print("| what | env steps | wall clock | env steps/s | jaxpg env (10 episodes) | Gymnasium env (10 episodes) |")
         print("|---|---|---|---|---|---|")
         result: Any = run_sb3(args.steps, args.seed)
+    elif args.mode == "single":
+        print("| id | device | first make + reset + step | env steps/s |")
+        print("|---|---|---|---|")
+        result = run_single(args.ids, args.steps)
     else:
         print("| what | device | envs | env steps/s |")
         print("|---|---|---|---|")

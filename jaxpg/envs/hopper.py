@@ -78,6 +78,9 @@ class Hopper(MjxEnv):
             "reward_forward": zero,
             "reward_ctrl": zero,
             "reward_survive": zero,
+            "x_position": qpos[0],
+            "x_velocity": zero,
+            "z_distance_from_origin": qpos[1] - self.init_qpos[1],
             "task_score": qpos[0],
         }
         return data, self.observation(qpos, qvel), metrics
@@ -95,6 +98,9 @@ class Hopper(MjxEnv):
             "reward_forward": forward,
             "reward_ctrl": -ctrl_cost,
             "reward_survive": survive,
+            "x_position": data.qpos[0],
+            "x_velocity": x_velocity,
+            "z_distance_from_origin": data.qpos[1] - self.init_qpos[1],
             "task_score": data.qpos[0],
         }
         return data, self.observation(data.qpos, data.qvel), reward, ~healthy, metrics

@@ -18,7 +18,7 @@ had uncommitted changes). ``tests/test_notebooks.py`` recomputes the hashes and 
 committed notebook's code or outputs changed since. ``--stamp`` records it for the notebooks as
 they are, without executing them, with the commit that introduced their outputs (from git history).
 
-    python benchmarks/notebooks_full.py --out runs/notebooks-full                 # all five
+    python benchmarks/notebooks_full.py --out runs/notebooks-full                 # all of them
     python benchmarks/notebooks_full.py --out runs/notebooks-full 02 04           # by number
     python benchmarks/notebooks_full.py --in-place 03                             # refresh 03's outputs
     python benchmarks/notebooks_full.py --stamp                                   # record, not run

@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 from jaxpg import envs
-from jaxpg.envs import gymnasium_api
+from jaxpg.envs import gymnasium_api, gymnasium_worker
 
 NUM_ENVS = 4
 SAME_STEP, NEXT_STEP = gymnasium.vector.AutoresetMode.SAME_STEP, gymnasium.vector.AutoresetMode.NEXT_STEP
@@ -334,7 +334,7 @@ def test_worker_process_answers_calls_and_reports_errors():
     """2. The fresh-interpreter worker that serves a single env made after a fork: it gives the
     env's spaces, answers ``reset``/``step`` like the env, raises the env's own errors here, and
     exits on ``close``."""
-    worker = gymnasium_api._Worker({"task": "cartpole"})
+    worker = gymnasium_worker.Worker({"task": "cartpole"})
     try:
         observation_space, action_space, _ = worker.spaces
         assert action_space == gymnasium.spaces.Discrete(2) and observation_space.shape == (4,)
@@ -347,7 +347,7 @@ def test_worker_process_answers_calls_and_reports_errors():
         worker.close()
     assert worker.process.returncode == 0
     with pytest.raises(ValueError, match="no Gymnasium env for task 'nope'"):
-        gymnasium_api._Worker({"task": "nope"})
+        gymnasium_worker.Worker({"task": "nope"})
 
 
 def test_make_vec_reaches_the_batched_env_for_every_id():

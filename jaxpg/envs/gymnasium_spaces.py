@@ -1,0 +1,177 @@
+"""What jaxpg's Gymnasium envs share: their ids, Gymnasium's spaces and ``info`` keys for each task,
+action checks and host-side conversions (``gymnasium_api`` has the single env and the ids'
+registration, ``gymnasium_vector`` the batched vector env).
+
+Importing it checks Gymnasium's version first: an older Gymnasium gets one ``ImportError`` line
+naming the version needed.
+"""
+
+from __future__ import annotations
+
+import re
+from typing import Any
+
+import gymnasium
+import numpy as np
+
+MIN_GYMNASIUM = (1, 1)
+
+
+def check_gymnasium_version(version: str) -> None:
+    """Raise ``ImportError`` with one line naming the Gymnasium version needed when ``version``
+    (e.g. ``gymnasium.__version__``) is older than ``MIN_GYMNASIUM``."""
+    match = re.match(r"(\d+)\.(\d+)", version)
+    found = (int(match.group(1)), int(match.group(2))) if match else (0, 0)
+    if found < MIN_GYMNASIUM:
+        need = ".".join(map(str, MIN_GYMNASIUM))
+        raise ImportError(
+            f"jaxpg's Gymnasium API needs gymnasium>={need}, found {version}: pip install -U 'gymnasium>={need}'"
+        )
+
+
+check_gymnasium_version(getattr(gymnasium, "__version__", "0"))
+
+import jax  # noqa: E402
+from gymnasium import spaces  # noqa: E402
+
+from jaxpg import envs as envs_lib  # noqa: E402
+
+# Gymnasium id -> (jaxpg task, Gymnasium's step limit for it)
+GYMNASIUM_IDS: dict[str, tuple[str, int]] = {
+    "jaxpg/Hopper-v5": ("hopper", 1000),
+    "jaxpg/InvertedPendulum-v5": ("inverted_pendulum", 1000),
+    "jaxpg/InvertedDoublePendulum-v5": ("inverted_double_pendulum", 1000),
+    "jaxpg/HalfCheetah-v5": ("half_cheetah", 1000),
+    "jaxpg/Swimmer-v5": ("swimmer", 1000),
+    "jaxpg/Pusher-v5": ("pusher", 100),
+    "jaxpg/Walker2d-v5": ("walker2d", 1000),
+    "jaxpg/Humanoid-v5": ("humanoid", 1000),
+    "jaxpg/Reacher-v5": ("reacher", 50),
+    "jaxpg/Ant-v5": ("ant", 1000),
+    "jaxpg/CartPole-v1": ("cartpole", 500),
+}
+
+# Tasks with no physics fidelity to choose (pure JAX, the same equations as Gymnasium's).
+NO_FIDELITY = frozenset({"cartpole"})
+
+_POSITION = ("x_position", "z_distance_from_origin")
+_PLANAR = ("x_position", "y_position", "distance_from_origin")
+_TENDONS = ("tendon_length", "tendon_velocity")
+
+# task -> (keys of ``info`` after ``reset``, keys of ``info`` after ``step``): Gymnasium v5's
+INFO_KEYS: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {
+    "hopper": (_POSITION, (*_POSITION, "x_velocity", "reward_forward", "reward_ctrl", "reward_survive")),
+    "walker2d": (_POSITION, (*_POSITION, "x_velocity", "reward_forward", "reward_ctrl", "reward_survive")),
+    "half_cheetah": (("x_position",), ("x_position", "x_velocity", "reward_forward", "reward_ctrl")),
+    "swimmer": (_PLANAR, (*_PLANAR, "x_velocity", "y_velocity", "reward_forward", "reward_ctrl")),
+    "ant": (
+        _PLANAR,
+        (*_PLANAR, "x_velocity", "y_velocity", "reward_forward", "reward_ctrl", "reward_contact", "reward_survive"),
+    ),
+    "humanoid": (
+        (*_PLANAR, *_TENDONS),
+        (*_PLANAR, *_TENDONS, "x_velocity", "y_velocity")
+        + ("reward_forward", "reward_ctrl", "reward_contact", "reward_survive"),
+    ),
+    "inverted_pendulum": ((), ("reward_survive",)),
+    "inverted_double_pendulum": ((), ("reward_survive", "distance_penalty", "velocity_penalty")),
+    "reacher": ((), ("reward_dist", "reward_ctrl")),
+    "pusher": ((), ("reward_dist", "reward_ctrl", "reward_near")),
+    "cartpole": ((), ()),
+}
+
+# info keys read from the physics state (``mjx.Data`` field) rather than the task's metrics.
+DATA_INFO = {"tendon_length": "ten_length", "tendon_velocity": "ten_velocity"}
+
+# The single env's own step limit: none (Gymnasium's ``TimeLimit`` truncates).
+NO_LIMIT = 2**31 - 1
+
+
+def fast_id(gym_id: str) -> str:
+    """The id of ``gym_id``'s task in jaxpg's fast physics: ``"jaxpg/Hopper-v5"`` ->
+    ``"jaxpg/HopperFast-v5"``."""
+    name, version = gym_id.rsplit("-v", 1)
+    return f"{name}Fast-v{version}"
+
+
+def gymnasium_observation_space(task: str, size: int) -> spaces.Box:
+    """The observation space of Gymnasium's env of ``task`` (``size`` entries): float64 unbounded
+    for the MuJoCo tasks; CartPole's float32 box, bounded at twice its termination thresholds."""
+    if task == "cartpole":
+        from jaxpg.envs.cartpole import CartPole
+
+        high = np.array([2 * CartPole.x_threshold, np.inf, 2 * CartPole.theta_threshold, np.inf], np.float32)
+        return spaces.Box(-high, high, dtype=np.float32)
+    return spaces.Box(-np.inf, np.inf, (size,), np.float64)
+
+
+def task_spaces(env: envs_lib.Env) -> tuple[spaces.Space, spaces.Space]:
+    """``(observation_space, action_space)`` of one env of a jaxpg task as jaxpg computes it: a
+    float32 ``Box`` of ``[observation_size]`` unbounded, and a float32 ``Box`` of
+    ``[action_size]`` in the task's range (``Discrete(action_size)`` for a discrete task)."""
+    obs_space = spaces.Box(-np.inf, np.inf, (env.observation_size,), np.float32)
+    if env.discrete:
+        return obs_space, spaces.Discrete(env.action_size)
+    act_space = spaces.Box(env.action_low, env.action_high, (env.action_size,), np.float32)
+    return obs_space, act_space
+
+
+def check_actions(actions: Any, space: spaces.Space, batch: int | None) -> np.ndarray:
+    """``actions`` as a NumPy array of the space's dtype and shape (with a leading ``batch`` axis
+    when given), or ``ValueError`` with one line saying what was expected."""
+    where = "" if batch is None else f" for {batch} envs"
+    arr = np.asarray(actions)
+    if isinstance(space, spaces.Discrete):
+        expected: tuple[int, ...] = () if batch is None else (batch,)
+        if arr.shape != expected or not np.issubdtype(arr.dtype, np.integer):
+            raise ValueError(
+                f"expected integer actions of shape {expected}{where} in [0, {space.n}), got {arr.dtype} {arr.shape}"
+            )
+        if np.any((arr < 0) | (arr >= space.n)):
+            raise ValueError(f"actions must be in [0, {space.n}), got {arr.min()}..{arr.max()}")
+        return arr.astype(np.int32)
+    expected = tuple(space.shape) if batch is None else (batch, *space.shape)
+    if arr.shape != expected or not (np.issubdtype(arr.dtype, np.floating) or np.issubdtype(arr.dtype, np.integer)):
+        raise ValueError(f"expected real actions of shape {expected}{where}, got {arr.dtype} {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError("actions must be finite (got NaN or inf)")
+    return arr.astype(np.float32)
+
+
+def info_arrays(task: str, state: envs_lib.State) -> dict[str, jax.Array]:
+    """The values of every ``info`` key of ``task`` (``INFO_KEYS``, reset's and step's) in
+    ``state``: the task's metrics, or the physics state's fields for ``DATA_INFO`` keys."""
+    reset_keys, step_keys = INFO_KEYS[task]
+    keys = dict.fromkeys((*reset_keys, *step_keys))
+    return {k: _data_field(state.data, DATA_INFO[k]) if k in DATA_INFO else state.metrics[k] for k in keys}
+
+
+def _data_field(data: Any, name: str) -> jax.Array:
+    """Field ``name`` of an ``mjx.Data``, from its implementation's part where MJX keeps it there."""
+    impl = getattr(data, "_impl", None)
+    return getattr(impl, name) if hasattr(impl, name) else getattr(data, name)
+
+
+def host_info(values: dict[str, Any], keys: tuple[str, ...]) -> dict[str, Any]:
+    """``info`` of one env from host ``values``: float64 scalars (as Gymnasium's MuJoCo envs give
+    them) or float64 arrays, for ``keys``."""
+    out: dict[str, Any] = {}
+    for k in keys:
+        v = np.asarray(values[k], np.float64)
+        out[k] = v[()] if v.ndim == 0 else v
+    return out
+
+
+def render_one(env: envs_lib.Env, state: envs_lib.State) -> np.ndarray:
+    """``[H, W, 3] uint8`` frame of one (unbatched) ``state``."""
+    from jaxpg import video
+
+    data = state.data
+    qpos = np.asarray(data.qpos)[None] if hasattr(data, "qpos") else None
+    qvel = np.asarray(data.qvel)[None] if hasattr(data, "qvel") else None
+    return video.render_states(env, np.asarray(state.obs)[None], qpos, qvel)[0]
+
+
+def make_key(make_kwargs: dict[str, Any]) -> tuple:
+    """``make_kwargs`` as a hashable, order-independent cache key."""
+    return tuple(sorted(make_kwargs.items()))

@@ -90,11 +90,9 @@ A2C_MINPY: Mapping[str, Any] = MappingProxyType(
 
 # Brax's PPO on MJX Hopper (the reference run in BENCHMARKS.md): 2048 envs, unrolls of 20 steps, 32
 # minibatches x 4 epochs, lr 3e-4, entropy 1e-3, gamma 0.99, reward scaling 10, observation
-# normalisation, no gradient clipping. Brax gathers 8 unrolls of 20 steps per update
-# (batch 512 x 32 minibatches = 16384 unrolls); horizon 160 holds the same samples per update
-# (327,680) and minibatch size (10,240), with GAE running over the 160 steps.
-# One H100, MJX jax impl, seed 0: 205 k env steps/s after a 75 s first block (compile
-# included); mean-policy return 880 at 11.5 M steps, 123 s.
+# normalisation, no gradient clipping; horizon 160 holds Brax's samples per update (327,680) and
+# minibatch size (10,240). How each preset was chosen: docs/algorithms.md, "How the presets were
+# chosen".
 PPO_BRAX_HOPPER: Mapping[str, Any] = MappingProxyType(
     dict(
         num_envs=2048,
@@ -121,12 +119,8 @@ PPO_BRAX_HOPPER: Mapping[str, Any] = MappingProxyType(
 TABLE: Mapping[tuple[str, str], Preset] = MappingProxyType(
     {
         # --- NPG ---
-        # inverted_pendulum on a 2-core CPU: 4096 samples an iteration. kl_delta 0.03: with the
-        # former 0.1 (BENCHMARKS.md, section H, was measured with it) the mean policies solved the
-        # task in 10-40 iterations but kept collapsing to returns below 100 afterwards (seeds 0-3:
-        # never three evaluations in a row >= 950 for all four within 100 iterations; 0.05
-        # collapsed less). With 0.03 seeds 0-3 evaluated at 1000 at every evaluation from
-        # iteration 25 to 60 (tests/test_learning.py); one of them relapsed after 65.
+        # inverted_pendulum on a 2-core CPU: 4096 samples an iteration, a small KL bound that keeps
+        # the solved policy solved.
         ("npg", "pendulum_cpu"): Preset(
             tasks=("inverted_pendulum",),
             overrides=dict(
@@ -140,24 +134,9 @@ TABLE: Mapping[tuple[str, str], Preset] = MappingProxyType(
             ),
         ),
         # Hopper from the command line (the defaults of experiments/hopper.py): 256 envs x 64
-        # steps, 120 iterations (1.97 M env steps). Chosen by `benchmarks/time_to_return.py sweep` on one
-        # H100 over eight seeds (BENCHMARKS.md): a kl_delta of 0.07, 10 value epochs per iteration
-        # on standardised value targets (16 minibatches an epoch: 1024 samples at 256 x 64, and
-        # the same number of steps at any --num-envs) and an initial log-std of 0 (std 1) took all
-        # eight seeds' mean policies past 3000 by 1.05 M steps and past 3290 by 1.97 M. Without
-        # the last two, four of eight seeds ended below 3000 (238-1713): in the "dive forward
-        # once" local optimum (return ~235), standing (~1000), or still on the way.
-        # A value epoch visits at most 16384 samples (all of them at 256 x 64), so that above 256
-        # envs the value fit stops growing with the batch: at 65536 envs it took 16% of an
-        # iteration (train/raw 0.67 -> 0.78 with the cap; at 4096 envs the mean policy still
-        # reached 3506 in 120 iterations, 3451 without it).
-        # Likewise the conjugate gradient's Fisher-vector products use 16384 samples of the batch
-        # (12% of an iteration at 65536 envs otherwise): with both caps train/raw is 0.91 at 16384
-        # envs and 0.89 at 65536, and the mean policy reached 3349 at 4096 envs (120 iterations)
-        # and 3319 at 16384 (60 iterations).
-        # The mean policy is evaluated after the last iteration (and every 120): one evaluation
-        # (1000 sequential steps) is ~1.3 s on an H100, 3% of a warm run; its program is compiled
-        # on a background thread while training runs.
+        # steps, 120 iterations (1.97 M env steps), chosen over eight seeds on one GPU; the value
+        # fit and the Fisher-vector products capped at 16384 samples so that they stay cheap at
+        # large --num-envs.
         ("npg", "hopper"): Preset(
             tasks=("hopper",),
             overrides=dict(
@@ -176,10 +155,7 @@ TABLE: Mapping[tuple[str, str], Preset] = MappingProxyType(
                 eval_every=120,
             ),
         ),
-        # Hopper on one GPU (BENCHMARKS.md: mean-policy return 3000 in a median 46 s on an H200).
-        # The mean policy is evaluated every 50 iterations and after the last: with 150
-        # iterations, evaluations every 10 took 15 x 1.2 s, 30% of the training loop (BENCHMARKS.md
-        # AP; one evaluation costs the same at 16 or 64 episodes, 1000 latency-bound steps).
+        # Hopper on one GPU, large batches, the mean policy evaluated every 50 iterations.
         ("npg", "hopper_gpu"): Preset(
             tasks=("hopper",),
             overrides=dict(
@@ -268,9 +244,7 @@ TABLE: Mapping[tuple[str, str], Preset] = MappingProxyType(
         # --- A2C ---
         # Pong from 80x80 difference frames (jaxpg's pong and ALE's atari_pong): the seed's
         # network, 6400 -> 200 (ReLU), and a value network like it; t_max 8, Adam, GAE lambda
-        # 0.95, entropy bonus 0.01. lr 1e-3 suits small batches (32 envs on a CPU; 2e-3 did worse
-        # there); with 1024 or more envs on a GPU, 2e-3 reached a running reward of 10 sooner
-        # (BENCHMARKS.md, section J).
+        # 0.95, entropy bonus 0.01, lr 1e-3 for small batches.
         ("a2c", "pong"): Preset(
             tasks=("pong", "atari_pong"),
             overrides=dict(
@@ -290,14 +264,8 @@ TABLE: Mapping[tuple[str, str], Preset] = MappingProxyType(
             ),
         ),
         ("a2c", "minpy"): Preset(overrides=A2C_MINPY),
-        # Solves cartpole on two CPU cores and stays solved (tests/test_learning.py: the mean
-        # policy of seeds 0-3 returned 500 at every evaluation from iteration 400 to 2000).
-        # Rewards are scaled by 0.1: cartpole's returns reach ~100 at gamma 0.99, so unscaled the
-        # value loss dominates the joint gradient clipped to norm 0.5 and the policy's share of
-        # each step is noise; with the former lr 3e-3 and no scaling the seeds touched 500 within
-        # 60-300 iterations but kept collapsing (means of the last 3 evaluations at the end: 329
-        # and 470 after 600 iterations; at lr 1e-3 363-500 after 1000, at 3e-4 below 500 for all
-        # four seeds after 2500).
+        # Solves cartpole on two CPU cores and stays solved; rewards scaled by 0.1 so that the
+        # value loss does not swamp the joint, clipped gradient.
         ("a2c", "cartpole"): Preset(
             tasks=("cartpole",),
             overrides=dict(
@@ -329,8 +297,7 @@ TABLE: Mapping[tuple[str, str], Preset] = MappingProxyType(
             tasks=("hopper",),
             overrides={**PPO_BRAX_HOPPER, "horizon": 20, "eval_every": 50},
         ),
-        # Solves inverted_pendulum on the CPU: seeds 0 and 1 evaluated at 1000 from iteration 35
-        # to 80 (first after 20 iterations, 20 k env steps; tests/test_learning.py).
+        # Solves inverted_pendulum on the CPU.
         ("ppo", "pendulum"): Preset(
             tasks=("inverted_pendulum",),
             overrides=dict(
@@ -349,8 +316,7 @@ TABLE: Mapping[tuple[str, str], Preset] = MappingProxyType(
         # minibatches, Adam 2.5e-4 annealed to 0, clip 0.1, entropy 0.01, value loss 0.5 with
         # value clipping, gradient norm 0.5, GAE(0.99, 0.95), orthogonal initialisation) with the
         # Nature network (three convolutions, 512 ReLU units) in front of each of the policy and
-        # the value function. 16 games rather than 8: ALE's vector env steps 16 games about as
-        # fast as 8 on a 16-core host. anneal_lr_iterations spans 2500 iterations (5.1 M agent
+        # the value function; 16 games, the learning rate annealed over 2500 iterations (5.1 M agent
         # steps, 20 M frames).
         ("ppo", "atari"): Preset(
             tasks=("atari_pong", "pong"),
@@ -371,9 +337,8 @@ TABLE: Mapping[tuple[str, str], Preset] = MappingProxyType(
                 **ATARI_NETWORKS,
             ),
         ),
-        # Hopper on one GPU (BENCHMARKS.md: mean-policy return 3000 in a median 50 s on an H100):
-        # brax_hopper's networks and losses with 8192 envs x 32 steps in 8 minibatches; the mean
-        # policy evaluated every 50 iterations, as NPG's hopper_gpu.
+        # Hopper on one GPU: brax_hopper's networks and losses with 8192 envs x 32 steps in 8
+        # minibatches; the mean policy evaluated every 50 iterations, as NPG's hopper_gpu.
         ("ppo", "hopper_gpu"): Preset(
             tasks=("hopper",),
             overrides={

@@ -195,6 +195,7 @@ def train(
     evaluate: EvaluateFn | None = evaluate_state,
     eval_every: int | None = None,
     final_eval: bool = True,
+    before_first_call: Callable[[], None] | None = None,
 ) -> TrainState:
     """Run ``num_iterations`` more iterations from ``train_state``.
 
@@ -216,6 +217,9 @@ def train(
       eval_every: evaluate after every iteration whose 1-based count is a multiple of this
         (default: ``config.eval_every``; evaluation is off when ``config.eval_envs`` is 0).
       final_eval: also evaluate after the last of the ``num_iterations``.
+      before_first_call: called once, after the first block's program is compiled and before it
+        runs (e.g. ``jaxpg.envs.warp_kernels.KernelBuild.wait``: MuJoCo Warp's kernels, built
+        on other threads while XLA compiled, must be ready before a program launches them).
     Returns the final ``TrainState``.
     """
     config = train_state.config
@@ -236,7 +240,12 @@ def train(
             first = start + done
             chunks, evaluations, position = [], {}, first
             for size in _calls(first, n, iterations_per_call or block_size, eval_every):
-                train_state, chunk = compiled_block(update, size, seeds)(train_state)
+                block = compiled_block(update, size, seeds)
+                if before_first_call is not None:
+                    block.lower(train_state).compile()  # the call below runs this very program
+                    before_first_call()
+                    before_first_call = None
+                train_state, chunk = block(train_state)
                 if evaluator is None and (eval_every or final_eval):
                     evaluator = early_evaluator(evaluate, seeds, train_state)
                 chunks.append(chunk)

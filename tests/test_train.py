@@ -111,6 +111,28 @@ def params_distance(a, b) -> float:
     return float(np.sqrt(sum(np.sum(np.square(np.asarray(x) - np.asarray(y))) for x, y in pairs)))
 
 
+def test_before_first_call_runs_once_between_compiling_and_running_the_first_block(state):
+    """``before_first_call`` (where the command line waits for MuJoCo Warp's kernels) is called
+    once, after the first block's program is compiled and before any block has run, and the run
+    is the same as one without it: the call after it runs the program compiled ahead."""
+    calls = []
+    rows = []
+
+    def hook():
+        calls.append(len(rows))
+
+    def record(ts, metrics, first):
+        rows.append(metrics)
+
+    final = train_lib.train(
+        npg.update, state, 6, block_size=3, evaluate=None, callbacks=[record], before_first_call=hook
+    )
+    assert calls == [0] and len(rows) == 2
+    plain, _ = run(state, 6, block_size=3, evaluate=None)
+    for a, b in zip(jax.tree.leaves(final.params), jax.tree.leaves(plain.params), strict=True):
+        np.testing.assert_array_equal(np.asarray(a), np.asarray(b))
+
+
 def test_scan_of_k_iterations_gives_the_metrics_of_k_single_calls(state):
     """Four iterations as one compiled scan or as four calls of a one-iteration program: the same
     training, up to what float32 allows between two programs.

@@ -124,6 +124,7 @@ def _train(plan_: Plan, ts: Any, wall_offset: float, interrupts: Interrupts) -> 
     from jaxpg import mesh as mesh_lib
     from jaxpg import train
     from jaxpg.algos import core
+    from jaxpg.envs.warp_kernels import KernelBuild
     from jaxpg.run import checkpoint_errors, checkpointer, processes
 
     run, run_dir = plan_.run, plan_.run_dir
@@ -137,6 +138,10 @@ def _train(plan_: Plan, ts: Any, wall_offset: float, interrupts: Interrupts) -> 
         f"{jax.device_count()} {jax.devices()[0].device_kind} device(s)"
         f"{f' in {jax.process_count()} processes' if jax.process_count() > 1 else ''} -> {run_dir}"
     )
+    # MuJoCo Warp's kernels build on all cores while XLA compiles the first block. Its dry run must
+    # not overlap a program that launches them: the initial state's is finished first.
+    jax.block_until_ready(ts)
+    kernels = KernelBuild.start(plan_.env)
     update, evaluate = plan_.module.update, train.evaluate_state
     mesh = mesh_lib.env_mesh() if run.shard else None
     if mesh is not None:
@@ -145,6 +150,7 @@ def _train(plan_: Plan, ts: Any, wall_offset: float, interrupts: Interrupts) -> 
         update = mesh_lib.on_mesh(update, mesh)
         evaluate = mesh_lib.on_mesh(evaluate, mesh)
     if plan_.profile:
+        kernels.wait()
         with jax.set_mesh(mesh) if mesh is not None else contextlib.nullcontext():
             timings = run_profile(plan_, ts, show)
         if timings is not None and primary:
@@ -192,6 +198,7 @@ def _train(plan_: Plan, ts: Any, wall_offset: float, interrupts: Interrupts) -> 
                     seeds=run.vmap_seeds,
                     evaluate=evaluate,
                     final_eval=index == len(segments) - 1,  # the run's last iteration is always evaluated
+                    before_first_call=kernels.wait if index == 0 else None,
                 )
     except Stop as stop:
         progress.close()

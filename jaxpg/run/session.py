@@ -138,10 +138,6 @@ def _train(plan_: Plan, ts: Any, wall_offset: float, interrupts: Interrupts) -> 
         f"{jax.device_count()} {jax.devices()[0].device_kind} device(s)"
         f"{f' in {jax.process_count()} processes' if jax.process_count() > 1 else ''} -> {run_dir}"
     )
-    # MuJoCo Warp's kernels build on all cores while XLA compiles the first block. Its dry run must
-    # not overlap a program that launches them: the initial state's is finished first.
-    jax.block_until_ready(ts)
-    kernels = KernelBuild.start(plan_.env)
     update, evaluate = plan_.module.update, train.evaluate_state
     mesh = mesh_lib.env_mesh() if run.shard else None
     if mesh is not None:
@@ -150,7 +146,6 @@ def _train(plan_: Plan, ts: Any, wall_offset: float, interrupts: Interrupts) -> 
         update = mesh_lib.on_mesh(update, mesh)
         evaluate = mesh_lib.on_mesh(evaluate, mesh)
     if plan_.profile:
-        kernels.wait()
         with jax.set_mesh(mesh) if mesh is not None else contextlib.nullcontext():
             timings = run_profile(plan_, ts, show)
         if timings is not None and primary:
@@ -159,6 +154,10 @@ def _train(plan_: Plan, ts: Any, wall_offset: float, interrupts: Interrupts) -> 
     if remaining <= 0:
         show(f"nothing to do: {run_dir} has done {plan_.start} of {run.iterations} iterations (raise --iterations)")
         return 0
+    # MuJoCo Warp's kernels build on all cores while XLA compiles the first block. Its dry run must
+    # not overlap a program that launches them: the initial state's is finished first.
+    jax.block_until_ready(ts)
+    kernels = KernelBuild.start(plan_.env)
     checkpoints = writer = progress = None
     status = 0
     failure: str | None = None  # the error line, once the run directory is put in order

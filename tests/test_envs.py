@@ -44,6 +44,7 @@ GYM_IDS = {
     "swimmer": "Swimmer-v5",
     "walker2d": "Walker2d-v5",
     "humanoid": "Humanoid-v5",
+    "humanoid_standup": "HumanoidStandup-v5",
     "reacher": "Reacher-v5",
     "ant": "Ant-v5",
     "pusher": "Pusher-v5",
@@ -56,8 +57,12 @@ WITHOUT_TERMINATION = ("half_cheetah", "swimmer", "reacher", "pusher")
 # that their trajectories part from Gymnasium's at the first such contact: their float64 parity run
 # is ``contact_frame_parity`` (checked by test_gymnasium_parity_contact_frames) in place of the others.
 CONTACT_FRAME_TASKS = ("ant",)
-TERMINATING = [task for task in GYM_IDS if task not in WITHOUT_TERMINATION + CONTACT_FRAME_TASKS]
-TERMINATING.remove("humanoid")  # its own parity test, test_gymnasium_parity_humanoid
+# Humanoid's two tasks: their float64 parity run is ``humanoid_parity``, checked by their own tests
+# (test_gymnasium_parity_humanoid, test_gymnasium_parity_humanoid_standup). HumanoidStandup never
+# terminates, but its body parts from Gymnasium's within an episode (see its test).
+HUMANOID_TASKS = ("humanoid", "humanoid_standup")
+NEVER_TERMINATING = (*WITHOUT_TERMINATION, "humanoid_standup")
+TERMINATING = [task for task in GYM_IDS if task not in NEVER_TERMINATING + CONTACT_FRAME_TASKS + HUMANOID_TASKS]
 # Terminating tasks without a cheap controller that keeps them alive to the time limit (a PD
 # controller on Walker2d's joints, with or without feedback on the torso angle, falls in 50-350
 # steps): their time limit is checked a step before a random episode terminates
@@ -136,7 +141,7 @@ def test_fast_fidelity_observation_and_reward_match_gymnasium(task):
                 mine = np.float32([state.metrics[k] for k in INFO_KEYS[task]])
                 theirs = np.float32([info[k] for k in INFO_KEYS[task]])
                 np.testing.assert_allclose(mine, theirs, rtol=2**-23, atol=1e-30)
-    if task in WITHOUT_TERMINATION:
+    if task in NEVER_TERMINATING:
         assert terminations == 0
     else:
         # random actions topple the pendulums; the others outlive these 25 steps
@@ -206,7 +211,7 @@ def test_hopper_reset_distribution_matches_gymnasium():
 
 # Tasks whose MJCF asset is Gymnasium's v5 model to the bit (test_model_matches_gymnasium), and whose
 # reset distribution is compared with Gymnasium's by samples (test_reset_distribution_matches_gymnasium).
-EXACT_MODEL_TASKS = ("half_cheetah", "swimmer", "walker2d", "reacher", "ant", "humanoid", "pusher")
+EXACT_MODEL_TASKS = ("half_cheetah", "swimmer", "walker2d", "reacher", "ant", "humanoid", "humanoid_standup", "pusher")
 RESET_SAMPLES = 2000
 
 
@@ -592,15 +597,30 @@ def test_make_unknown_name_lists_known_names():
     for name in envs.names():
         assert name in str(error.value)
     expected = ["atari_pong", "cartpole", "hopper", "inverted_double_pendulum", "inverted_pendulum", "pong"]
-    expected += ["half_cheetah", "swimmer", "walker2d", "reacher", "pusher", "ant", "humanoid"]
+    expected += ["half_cheetah", "swimmer", "walker2d", "reacher", "pusher", "ant", "humanoid", "humanoid_standup"]
     assert envs.names() == sorted(expected)
 
 
 # Pusher is left out of the command-line smoke run: its training program (many arm-table contact
 # pairs, a rejection-sampled reset inside AutoReset) takes over 3 minutes to compile on two CPU cores,
 # against 17-38 s for the others; its env is stepped in the fast-fidelity, model, reset and
-# float64 parity tests above.
-SMOKE_TASKS = tuple(task for task in EXACT_MODEL_TASKS if task != "pusher")
+# float64 parity tests above. HumanoidStandup too: its training program is Humanoid's (the same
+# code on a model of the same sizes), which takes the longest of those run (95 s on two busy
+# cores). Both are planned from the command line instead (test_command_line_plans_a_task_run).
+SMOKE_TASKS = tuple(task for task in EXACT_MODEL_TASKS if task not in ("pusher", "humanoid_standup"))
+
+
+def check_gymnasium_id(task: str) -> None:
+    """``task``'s Gymnasium id is the one jaxpg registers for it, with Gymnasium's time limit, and
+    ``jaxpg.evaluate --gymnasium`` replays its policies in Gymnasium's env of that id."""
+    from jaxpg.envs import gymnasium_api
+    from jaxpg.run import replay
+
+    assert replay.GYMNASIUM_IDS[task] == GYM_IDS[task]
+    gym_id = gymnasium_api.gymnasium_id(task)
+    assert gym_id == f"jaxpg/{GYM_IDS[task]}"
+    limit = envs.make_task(task, impl="jax").max_episode_steps
+    assert gym.spec(gym_id).max_episode_steps == gym.spec(GYM_IDS[task]).max_episode_steps == limit
 
 
 @pytest.mark.parametrize("task", SMOKE_TASKS)
@@ -609,15 +629,11 @@ def test_training_smoke_run_from_the_command_line(task, tmp_path):
     16 steps, time limit 8 so that episodes end and restart inside the samples, no mean-policy
     evaluation): the run succeeds and logs both iterations with the samples they drew, the 8
     episodes that ended in each, finite returns and task scores, no non-finite step and no
-    rejected update. The task is also the Gymnasium id jaxpg registers, with Gymnasium's limit."""
-    from jaxpg.envs import gymnasium_api
+    rejected update. The task is also the Gymnasium id jaxpg registers, with Gymnasium's limit
+    (``check_gymnasium_id``)."""
     from jaxpg.run import main
 
-    gym_id = gymnasium_api.gymnasium_id(task)
-    assert gym_id == f"jaxpg/{GYM_IDS[task]}"
-    limit = envs.make_task(task, impl="jax").max_episode_steps
-    assert gym.spec(gym_id).max_episode_steps == gym.spec(GYM_IDS[task]).max_episode_steps == limit
-
+    check_gymnasium_id(task)
     run_dir = tmp_path / "run"
     argv = ["--env", task, "--impl", "jax", "--num-envs", "4", "--horizon", "16", "--max-episode-steps", "8"]
     argv += ["--eval-envs", "0"]
@@ -628,6 +644,22 @@ def test_training_smoke_run_from_the_command_line(task, tmp_path):
     for r in records:
         assert r["nonfinite"] == 0 and not r.get("update_rejected") and r["episodes"] == 8, r
         assert np.isfinite(r["return_stochastic"]) and np.isfinite(r["task_score"]), r
+
+
+@pytest.mark.parametrize("task", [task for task in EXACT_MODEL_TASKS if task not in SMOKE_TASKS])
+def test_command_line_plans_a_task_run(task, tmp_path, monkeypatch):
+    """The tasks left out of the smoke run, from the command line up to the compilation: ``--env``
+    and the physics flags plan a run of the task (nothing compiled, nothing written); the task is
+    also the Gymnasium id jaxpg registers, with Gymnasium's limit (``check_gymnasium_id``)."""
+    from jaxpg.run import command_line, planning
+
+    check_gymnasium_id(task)
+    monkeypatch.chdir(tmp_path)
+    argv = ["--env", task, "--impl", "jax", "--fidelity", "gymnasium", "--run-dir", "run"]
+    plan = planning.plan(argv, command_line.Experiment())
+    task_env = plan.env.unwrapped
+    assert isinstance(task_env, envs.task_class(task)) and (task_env.fidelity, task_env.impl) == ("gymnasium", "jax")
+    assert not (tmp_path / "run").exists()
 
 
 def test_wrappers_forward_task_attributes():
@@ -1113,26 +1145,32 @@ def contact_frame_parity(task: str, env, reset, step) -> dict:
 
 # Humanoid's observation in parts (qpos[2:], qvel, cinert[1:], cvel[1:], qfrc_actuator[6:], cfrc_ext[1:]).
 HUMANOID_OBS_PARTS = {"qpos": 22, "qvel": 23, "cinert": 130, "cvel": 78, "qfrc_actuator": 17, "cfrc_ext": 78}
-HUMANOID_STEPS_AFTER = 10  # steps past the termination (the humanoid falling to the floor) in humanoid_parity
+# Steps of ``humanoid_parity`` after each seed's "episode" part: Humanoid's episode ends with its
+# termination (the humanoid falling to the floor); HumanoidStandup never terminates and is given an
+# episode part of ``STANDUP_EPISODE_STEPS`` (see test_gymnasium_parity_humanoid_standup).
+HUMANOID_STEPS_AFTER = {"humanoid": 10, "humanoid_standup": 50}
+STANDUP_EPISODE_STEPS = 12
 
 
-def humanoid_parity(env, reset, step, seeds: int = PARITY_SEEDS) -> dict:
-    """``gymnasium_parity`` for Humanoid: jaxpg's env (``_parity_env``) against Gymnasium's
-    Humanoid-v5 (its model's PGS switched to Newton, see ``make_gymnasium``) from jaxpg's reset
-    states with the same uniform random in-range actions (the draws of ``gymnasium_parity``), each
-    seed to its termination and ``HUMANOID_STEPS_AFTER`` steps on. Observations are compared
+def humanoid_parity(task: str, env, reset, step, seeds: int = PARITY_SEEDS) -> dict:
+    """``gymnasium_parity`` for Humanoid's two tasks: jaxpg's env (``_parity_env``) against
+    Gymnasium's v5 env (its model's PGS switched to Newton, see ``make_gymnasium``) from jaxpg's
+    reset states with the same uniform random in-range actions (the draws of ``gymnasium_parity``).
+    Each seed runs an "episode" part and ``HUMANOID_STEPS_AFTER`` steps "after" it: Humanoid's
+    episode ends with its termination, HumanoidStandup's, which never terminates, after
+    ``STANDUP_EPISODE_STEPS`` (``episode_lengths``: the parts' lengths). Observations are compared
     relative to ``max(1, |obs|)`` (the contact forces ``cfrc_ext`` reach ~2e3, where float32 rounds at
     ~1e-4), with the absolute differences of each part of the observation within the episodes
     (``episode_parts``); also Gymnasium's ``info`` terms (``INFO_KEYS``) against jaxpg's metrics and
     the norms of jaxpg's reset quaternions (``reset_quaternion_norms``)."""
-    gym_env = make_gymnasium("humanoid").unwrapped  # no TimeLimit; Newton
+    gym_env = make_gymnasium(task).unwrapped  # no TimeLimit; Newton
     quantities = ("qpos", "qvel", "obs", "reward", "info")
     result = {"reset_obs": 0.0, "episode_lengths": [], "episode_mismatches": 0, "after_mismatches": 0}
     result |= {f"{part}_{q}": 0.0 for part in ("episode", "after") for q in quantities}
     result["episode_parts"] = {k: 0.0 for k in HUMANOID_OBS_PARTS}
     result["reset_quaternion_norms"] = []
     bounds = np.cumsum([0, *HUMANOID_OBS_PARTS.values()])
-    keys = INFO_KEYS["humanoid"]
+    keys = INFO_KEYS[task]
 
     def note(name: str, a: np.ndarray, b: np.ndarray, relative: bool = False) -> np.ndarray:
         difference = np.abs(np.asarray(a, np.float64) - b)
@@ -1148,8 +1186,11 @@ def humanoid_parity(env, reset, step, seeds: int = PARITY_SEEDS) -> dict:
         note("reset_obs", state.obs, gym_env._get_obs(), relative=True)
         result["reset_quaternion_norms"].append(float(np.linalg.norm(state.data.qpos[3:7])))
         rng = np.random.default_rng(seed)
-        part, left = "episode", HUMANOID_STEPS_AFTER
+        part, left = "episode", HUMANOID_STEPS_AFTER[task]
         for t in range(1, 200):  # random episodes last 17-37 steps; a longer one fails the test
+            if task == "humanoid_standup" and part == "episode" and t > STANDUP_EPISODE_STEPS:
+                result["episode_lengths"].append(STANDUP_EPISODE_STEPS)
+                part = "after"
             action = rng.uniform(env.action_low, env.action_high, env.action_size)
             state = step(state, jnp.asarray(action))
             obs, reward, terminated, _, info = gym_env.step(action)
@@ -1179,7 +1220,8 @@ def parity_worker_main(tasks: list[str]) -> dict:
     ``time_limit_parity`` ("time_limit") and ``coincidence_parity`` ("coincidence"), all on one
     compiled ``reset`` and ``step`` per task, with the CPU seconds of the first two ("cpu_seconds",
     the first with the compilation); ``episode_parity`` ("episode") alone for the tasks
-    ``WITHOUT_TERMINATION``."""
+    ``WITHOUT_TERMINATION``; for HumanoidStandup, which never terminates, ``humanoid_parity``
+    ("random") and its time limit (``coincidence_parity``, "time_limit")."""
     results = {}
     for task in tasks:
         started = time.process_time()
@@ -1192,11 +1234,15 @@ def parity_worker_main(tasks: list[str]) -> dict:
             results[task] = {"episode": episode_parity(task, env, reset, step)}
             results[task]["cpu_seconds"] = {"episode": time.process_time() - started}
             continue
-        if task == "humanoid":
-            random = humanoid_parity(env, reset, step)
+        if task in HUMANOID_TASKS:
+            random = humanoid_parity(task, env, reset, step)
         else:
             random = gymnasium_parity(task, env, reset, step, steps=PARITY_STEPS_FOR_TASK.get(task, PARITY_STEPS))
         seconds = {"random": time.process_time() - started}
+        if task == "humanoid_standup":  # never terminates: the time limit alone, at the episode part's end
+            full = {"truncation": coincidence_parity(task, env, reset, step, STANDUP_EPISODE_STEPS)}
+            results[task] = {"random": random, "time_limit": full, "cpu_seconds": seconds}
+            continue
         if task in WITHOUT_STABILISING_POLICY:
             full = {"truncation": coincidence_parity(task, env, reset, step, random["episode_lengths"][0] - 1)}
         else:
@@ -1504,6 +1550,85 @@ def test_humanoid_newton_in_place_of_pgs():
     assert 10 < min(lengths) and max(lengths) < 99, lengths
 
 
+@pytest.mark.parametrize("task", ["humanoid_standup"])
+def test_gymnasium_parity_humanoid_standup(task, parity_results):
+    """HumanoidStandup in ``fidelity="gymnasium"`` against Gymnasium's HumanoidStandup-v5 with its
+    model's solver switched from PGS to Newton, checked as Humanoid is (``humanoid_parity``, float64,
+    seeds 0-3 of random in-range actions, tight tolerances in an "episode" part and Humanoid's loose
+    ones after it; ``test_humanoid_standup_newton_in_place_of_pgs`` measures the solver change). The
+    task never terminates, and its trajectories part from Gymnasium's within an episode (below), so
+    the episode part is its first ``STANDUP_EPISODE_STEPS`` (12) steps, and 50 steps follow.
+
+    Measured, free-running over the whole 1000-step episodes of seeds 0-3: MJX repeats MuJoCo to
+    rounding for the first 30, 57, 128 and 13 steps (qpos <= 6.3e-14, qvel <= 8.2e-13), the lying
+    body's floor contacts and most of its contacts with itself included (the hands on the pelvis
+    and thighs at the reset, the feet together; with ``mujoco_capsule_frames`` the numbers are the
+    same). They part where a hand, foot or thigh presses on a leg's capsule (seed 3: left hand on
+    left thigh; 0 and 2: right foot on left shin; 1: right thigh on left shin) in a contact whose
+    normal MJX computes 4e-6..3e-5 apart from MuJoCo's (contact point 2e-7..1e-6, distance 1e-11):
+    one physics step then parts qacc by ~1e-3. The flailing body amplifies that to 0.1 in qvel
+    after 222, 414, 390 and 367 steps: no whole episode can be compared step for step (nor can
+    Newton follow PGS through one).
+
+    Here, within the episode parts: qpos 2.1e-15 and qvel 7.4e-14 (tolerance 1e-9); the observation
+    5.9e-8 relative to ``max(1, |obs|)`` (tolerance 1e-6; in absolute terms 2.9e-8 in qpos, 4.6e-7
+    in qvel, 2.5e-7 in cinert, 4.7e-7 in cvel, 3.8e-6 in the actuator forces, 3.0e-5 in the contact
+    forces), the reset observation 5.8e-8; the reward (25-60, the torso's height over the 3 ms
+    timestep) 1.9e-6, its float32 rounding (tolerance 1e-5); Gymnasium's ``info`` terms against
+    jaxpg's metrics 9.2e-14 (tolerance 1e-9). Over the 50 steps after (seeds 3, 0 and 1 part there):
+    qpos 5.8e-6, qvel 7.4e-5, obs 1.7e-3 relative, reward 1.7e-5, ``info`` 1.6e-5 (Humanoid's
+    tolerances: qpos 1e-3, qvel and obs 1e-2, reward and ``info`` 1e-3). No ``terminated`` in
+    either. The time limit: jaxpg's step counter started 12 steps before its limit and Gymnasium
+    made with ``max_episode_steps=12`` (``coincidence_parity``) both say ``truncated`` at step 12
+    and nothing before. The worker's run costs ~50 s of CPU, ~40 s of it compiling the step.
+    """
+    r = parity_results[task]["random"]
+    assert r["episode_lengths"] == [STANDUP_EPISODE_STEPS] * PARITY_SEEDS, r
+    assert all(abs(norm - 1.0) > 1e-5 for norm in r["reset_quaternion_norms"]), r  # as Humanoid's
+    assert r["episode_mismatches"] == 0 and r["after_mismatches"] == 0, r
+    assert r["episode_qpos"] < 1e-9 and r["episode_qvel"] < 1e-9, r
+    assert r["reset_obs"] < 1e-6 and r["episode_obs"] < 1e-6 and r["episode_reward"] < 1e-5, r
+    assert r["episode_info"] < 1e-9, r
+    assert r["after_qpos"] < 1e-3 and r["after_qvel"] < 1e-2 and r["after_obs"] < 1e-2, r
+    assert r["after_reward"] < 1e-3 and r["after_info"] < 1e-3, r
+    flags = parity_results[task]["time_limit"]["truncation"]["flags"]
+    steps = STANDUP_EPISODE_STEPS
+    assert flags == [[t, False, False, False, False] for t in range(1, steps)] + [[steps, False, True, False, True]]
+
+
+def test_humanoid_standup_newton_in_place_of_pgs():
+    """HumanoidStandup-v5's model asks for the PGS solver as Humanoid's does, and ``load_model``
+    gives it Newton in both fidelities. What the swap changes, in MuJoCo itself as for Humanoid
+    (``test_humanoid_newton_in_place_of_pgs``): Gymnasium's env with its model untouched (PGS) and
+    switched to Newton, from the same seeded reset with the same random in-range actions, 8 seeds x
+    50 steps. The body lies on the floor, so the two solvers have contacts to solve from the first
+    step and part there: measured 1.9e-6..9.7e-6 in qpos and qvel at step 1, at most 9.1e-5 over
+    the 50 steps (the observation 7.9e-3 relative to ``max(1, |obs|)``, the reward 2.9e-4).
+    Tolerances: parted by more than 1e-7 at step 1; within 1e-3 in qpos and qvel, 5e-2 in obs and
+    1e-2 in reward over the 50. Running on, the flailing body amplifies it to O(1) (above 0.1 in
+    qpos or qvel after 211-469 steps on the 8 seeds): Newton cannot follow PGS through an episode."""
+    path = os.path.join(os.path.dirname(envs.__file__), "assets", "humanoid_standup.xml")
+    assert mujoco.MjModel.from_xml_path(path).opt.solver == mujoco.mjtSolver.mjSOL_PGS
+    for fidelity in ("gymnasium", "fast"):
+        model = envs.make_task("humanoid_standup", fidelity=fidelity, impl="jax").mj_model
+        assert model.opt.solver == mujoco.mjtSolver.mjSOL_NEWTON
+    for seed in range(8):
+        pgs, newton = gym.make("HumanoidStandup-v5").unwrapped, make_gymnasium("humanoid_standup").unwrapped
+        assert newton.model.opt.solver == mujoco.mjtSolver.mjSOL_NEWTON
+        pgs.reset(seed=seed)
+        newton.reset(seed=seed)
+        rng = np.random.default_rng(seed)
+        for t in range(1, 51):
+            action = rng.uniform(-0.4, 0.4, 17)
+            obs_pgs, reward_pgs, *_ = pgs.step(action)
+            obs, reward, *_ = newton.step(action)
+            state = np.max(np.abs(np.concatenate([newton.data.qpos - pgs.data.qpos, newton.data.qvel - pgs.data.qvel])))
+            assert state > 1e-7 or t > 1, (seed, state)
+            assert state < 1e-3, (seed, t, state)
+            assert np.max(np.abs(obs - obs_pgs) / np.maximum(1.0, np.abs(obs_pgs))) < 5e-2, (seed, t)
+            assert abs(reward - reward_pgs) < 1e-2, (seed, t)
+
+
 # Bounds on the largest differences in ``episode_parity`` (float64; obs and reward after jaxpg's
 # float32 cast; "info" the metrics Gymnasium also reports), the same for its free and its re-synced
 # steps; measured maxima over seeds 0-5 in test_gymnasium_parity_whole_episode's docstring.
@@ -1556,6 +1681,14 @@ INFO_KEYS = {
         "x_velocity",
         "y_position",
         "y_velocity",
+    ],  # fmt: skip
+    "humanoid_standup": [
+        "reward_impact",
+        "reward_linup",
+        "reward_quadctrl",
+        "x_position",
+        "y_position",
+        "z_distance_from_origin",
     ],  # fmt: skip
 }
 

@@ -71,17 +71,23 @@ SUITE_IDS = {
     "pusher": "Pusher-v5",
     "ant": "Ant-v5",
     "humanoid": "Humanoid-v5",
+    "humanoid_standup": "HumanoidStandup-v5",
 }
+# Checked through their fast-physics id (``jaxpg/<Name>Fast-v5``), whose calls and spaces are those of
+# the id in Gymnasium's physics: HumanoidStandup's Euler step compiles in about half the time of
+# Gymnasium's RK4 step (28 s against 51 s on two CPU cores); test_envs.py's float64 parity run compiles
+# and checks the latter.
+FAST_CHECKED = ("humanoid_standup",)
 
 
 @pytest.mark.parametrize(("name", "gym_id"), SUITE_IDS.items(), ids=list(SUITE_IDS))
 def test_gymnasium_check_env_accepts_every_suite_id(name, gym_id):
-    """Gymnasium's checker passes on ``gymnasium.make("jaxpg/<Id>")`` of every MuJoCo task, with
-    no warning that Gymnasium's own env of that id does not also get, and the id's spec carries
-    Gymnasium's time limit."""
+    """Gymnasium's checker passes on ``gymnasium.make("jaxpg/<Id>")`` of every MuJoCo task (its fast
+    id for ``FAST_CHECKED``), with no warning that Gymnasium's own env of that id does not also get,
+    and the id's spec carries Gymnasium's time limit."""
     from gymnasium.utils.env_checker import check_env
 
-    env = gymnasium.make(gymnasium_api.gymnasium_id(name))
+    env = gymnasium.make(gymnasium_api.gymnasium_id(name, "fast" if name in FAST_CHECKED else "gymnasium"))
     assert env.spec.max_episode_steps == gymnasium.spec(gym_id).max_episode_steps
     ours = checker_warnings(lambda e: check_env(e, skip_render_check=True), env.unwrapped)
     with mujoco_warnings_silenced():

@@ -27,6 +27,7 @@ REGISTRY: dict[str, str] = {
     "pusher": "jaxpg.envs.pusher:Pusher",
     "walker2d": "jaxpg.envs.walker2d:Walker2d",
     "humanoid": "jaxpg.envs.humanoid:Humanoid",
+    "humanoid_standup": "jaxpg.envs.humanoid_standup:HumanoidStandup",
     "reacher": "jaxpg.envs.reacher:Reacher",
     "ant": "jaxpg.envs.ant:Ant",
     "cartpole": "jaxpg.envs.cartpole:CartPole",

@@ -46,6 +46,7 @@ GYMNASIUM_IDS: dict[str, tuple[str, int]] = {
     "jaxpg/Pusher-v5": ("pusher", 100),
     "jaxpg/Walker2d-v5": ("walker2d", 1000),
     "jaxpg/Humanoid-v5": ("humanoid", 1000),
+    "jaxpg/HumanoidStandup-v5": ("humanoid_standup", 1000),
     "jaxpg/Reacher-v5": ("reacher", 50),
     "jaxpg/Ant-v5": ("ant", 1000),
     "jaxpg/CartPole-v1": ("cartpole", 500),
@@ -57,6 +58,7 @@ NO_FIDELITY = frozenset({"cartpole"})
 _POSITION = ("x_position", "z_distance_from_origin")
 _PLANAR = ("x_position", "y_position", "distance_from_origin")
 _TENDONS = ("tendon_length", "tendon_velocity")
+_STANDUP = ("x_position", "y_position", "z_distance_from_origin")
 
 # task -> (keys of ``info`` after ``reset``, keys of ``info`` after ``step``): Gymnasium v5's
 INFO_KEYS: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {
@@ -72,6 +74,10 @@ INFO_KEYS: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {
         (*_PLANAR, *_TENDONS),
         (*_PLANAR, *_TENDONS, "x_velocity", "y_velocity")
         + ("reward_forward", "reward_ctrl", "reward_contact", "reward_survive"),
+    ),
+    "humanoid_standup": (
+        (*_STANDUP, *_TENDONS),
+        (*_STANDUP, *_TENDONS, "reward_linup", "reward_quadctrl", "reward_impact"),
     ),
     "inverted_pendulum": ((), ("reward_survive",)),
     "inverted_double_pendulum": ((), ("reward_survive", "distance_penalty", "velocity_penalty")),

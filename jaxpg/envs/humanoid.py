@@ -68,33 +68,27 @@ from jaxpg.envs.base import State
 from jaxpg.envs.mjx_env import Fidelity, Impl, MjxEnv, mjx, planar_position_metrics
 
 
-class Humanoid(MjxEnv):
-    """MJX Humanoid; see the module docstring for the task definition."""
+class HumanoidBase(MjxEnv):
+    """What Humanoid and HumanoidStandup share: Gymnasium's 17-motor humanoid model (``xml_file``)
+    at frame skip 5, its ``[348]`` observation with the external forces ``cfrc_ext`` after the
+    step, and the reset noise; the tasks add their rewards."""
 
-    task_score_name = "forward_distance"
     action_low = -0.4
     action_high = 0.4
 
     def __init__(
         self,
-        fidelity: Fidelity = "fast",
-        impl: Impl | None = None,
-        max_episode_steps: int = 1000,
-        forward_reward_weight: float = 1.25,
-        ctrl_cost_weight: float = 0.1,
-        contact_cost_weight: float = 5e-7,
-        contact_cost_range: tuple[float, float] = (-np.inf, 10.0),
-        healthy_reward: float = 5.0,
-        healthy_z_range: tuple[float, float] = (1.0, 2.0),
-        reset_noise_scale: float = 1e-2,
-        # warp capacities per env: MuJoCo's Humanoid-v5 (Newton) peaked at 10 contacts and 34 constraint
-        # rows over 6 x 1000 random steps, mostly fallen
-        naconmax: int = 32,
-        njmax: int = 128,
+        xml_file: str,
+        fidelity: Fidelity,
+        impl: Impl | None,
+        max_episode_steps: int,
+        reset_noise_scale: float,
+        naconmax: int,
+        njmax: int,
         **mjx_kwargs: Any,
     ):
         super().__init__(
-            "humanoid.xml",
+            xml_file,
             frame_skip=5,
             fidelity=fidelity,
             impl=impl,
@@ -110,14 +104,7 @@ class Humanoid(MjxEnv):
         nbody = self.mj_model.nbody
         self.observation_size = (self.nq - 2) + self.nv + (nbody - 1) * (10 + 6 + 6) + (self.nv - 6)
         self.action_size = self.mj_model.nu
-        self.forward_reward_weight = forward_reward_weight
-        self.ctrl_cost_weight = ctrl_cost_weight
-        self.contact_cost_weight = contact_cost_weight
-        self.contact_cost_range = contact_cost_range
-        self.healthy_reward = healthy_reward
-        self.healthy_z_range = healthy_z_range
         self.reset_noise_scale = reset_noise_scale
-        self.body_mass = np.asarray(self.mj_model.body_mass)
 
     def physics_step(self, data: Any, ctrl: jax.Array) -> Any:
         """``frame_skip`` MJX steps, then the bodies' external forces ``cfrc_ext`` (jax impl: by
@@ -145,10 +132,14 @@ class Humanoid(MjxEnv):
                 data = stage(self.mjx_model, data)
         return data.replace(qpos=qpos.astype(data.qpos.dtype))
 
-    def mass_center(self, data: Any) -> jax.Array:
-        """``[2]`` x-y of the centre of mass: the bodies' ``xipos`` weighted by their masses."""
-        mass = jnp.asarray(self.body_mass, data.xipos.dtype)
-        return (mass @ data.xipos)[:2] / self.body_mass.sum()
+    def reset_state(self, key: jax.Array) -> Any:
+        """The physics state of a reset (``forward``, see ``physics_state``): uniform noise of
+        +-``reset_noise_scale`` on the model's ``qpos0`` and on zero ``qvel``."""
+        kq, kv = jax.random.split(key)
+        s = self.reset_noise_scale
+        qpos = self.init_qpos + jax.random.uniform(kq, (self.nq,), minval=-s, maxval=s)
+        qvel = self.init_qvel + jax.random.uniform(kv, (self.nv,), minval=-s, maxval=s)
+        return self.physics_state(qpos, qvel, forward=True)
 
     def observation(self, data: Any) -> jax.Array:
         """``[348]`` observation from an ``mjx.Data`` after a step (or a forward pass at reset)."""
@@ -164,6 +155,52 @@ class Humanoid(MjxEnv):
             ]
         )
 
+    @staticmethod
+    def external_force_cost(data: Any, weight: float, cost_range: tuple[float, float]) -> jax.Array:
+        """``[]`` ``weight`` times the sum of the squared external forces ``cfrc_ext`` (all bodies),
+        clipped to ``cost_range``: Humanoid's contact cost, HumanoidStandup's impact cost."""
+        return jnp.clip(weight * jnp.sum(jnp.square(data._impl.cfrc_ext)), *cost_range)
+
+
+class Humanoid(HumanoidBase):
+    """MJX Humanoid; see the module docstring for the task definition."""
+
+    task_score_name = "forward_distance"
+
+    def __init__(
+        self,
+        fidelity: Fidelity = "fast",
+        impl: Impl | None = None,
+        max_episode_steps: int = 1000,
+        forward_reward_weight: float = 1.25,
+        ctrl_cost_weight: float = 0.1,
+        contact_cost_weight: float = 5e-7,
+        contact_cost_range: tuple[float, float] = (-np.inf, 10.0),
+        healthy_reward: float = 5.0,
+        healthy_z_range: tuple[float, float] = (1.0, 2.0),
+        reset_noise_scale: float = 1e-2,
+        # warp capacities per env: MuJoCo's Humanoid-v5 (Newton) peaked at 10 contacts and 34 constraint
+        # rows over 6 x 1000 random steps, mostly fallen
+        naconmax: int = 32,
+        njmax: int = 128,
+        **mjx_kwargs: Any,
+    ):
+        super().__init__(
+            "humanoid.xml", fidelity, impl, max_episode_steps, reset_noise_scale, naconmax, njmax, **mjx_kwargs
+        )
+        self.forward_reward_weight = forward_reward_weight
+        self.ctrl_cost_weight = ctrl_cost_weight
+        self.contact_cost_weight = contact_cost_weight
+        self.contact_cost_range = contact_cost_range
+        self.healthy_reward = healthy_reward
+        self.healthy_z_range = healthy_z_range
+        self.body_mass = np.asarray(self.mj_model.body_mass)
+
+    def mass_center(self, data: Any) -> jax.Array:
+        """``[2]`` x-y of the centre of mass: the bodies' ``xipos`` weighted by their masses."""
+        mass = jnp.asarray(self.body_mass, data.xipos.dtype)
+        return (mass @ data.xipos)[:2] / self.body_mass.sum()
+
     def is_healthy(self, qpos: jax.Array) -> jax.Array:
         """``[]`` bool: the torso's height is inside the (open) healthy range."""
         z_min, z_max = self.healthy_z_range
@@ -171,15 +208,10 @@ class Humanoid(MjxEnv):
 
     def contact_cost(self, data: Any) -> jax.Array:
         """``[]`` weighted sum of the squared external forces, clipped to ``contact_cost_range``."""
-        cost = self.contact_cost_weight * jnp.sum(jnp.square(data._impl.cfrc_ext))
-        return jnp.clip(cost, *self.contact_cost_range)
+        return self.external_force_cost(data, self.contact_cost_weight, self.contact_cost_range)
 
     def _reset(self, key: jax.Array) -> tuple[Any, jax.Array, dict[str, jax.Array]]:
-        kq, kv = jax.random.split(key)
-        s = self.reset_noise_scale
-        qpos = self.init_qpos + jax.random.uniform(kq, (self.nq,), minval=-s, maxval=s)
-        qvel = self.init_qvel + jax.random.uniform(kv, (self.nv,), minval=-s, maxval=s)
-        data = self.physics_state(qpos, qvel, forward=True)
+        data = self.reset_state(key)
         zero = jnp.zeros((), data.qpos.dtype)  # the dtype of the step's metrics: one compiled step
         metrics = {
             "reward_survive": zero,

@@ -19,6 +19,7 @@ GYMNASIUM_IDS = {
     "swimmer": "Swimmer-v5",
     "walker2d": "Walker2d-v5",
     "humanoid": "Humanoid-v5",
+    "humanoid_standup": "HumanoidStandup-v5",
     "reacher": "Reacher-v5",
     "ant": "Ant-v5",
     "pusher": "Pusher-v5",

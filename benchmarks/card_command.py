@@ -48,12 +48,14 @@ training, evaluations, checkpoints), then
     python -m jaxpg.evaluate RUN --gymnasium --episodes 10
 
 and prints, per seed: wall clock, env steps, the last in-run mean-policy return and the mean
-return in Gymnasium's CPU Hopper-v5. ``--cold`` gives every run empty caches, as on a bare
-machine: its own XLA compilation cache, MuJoCo Warp kernel cache and CUDA driver compute cache
-(``CUDA_CACHE_PATH``: the driver compiles the PTX it is handed for the GPU and keeps the result
-there; 34 MB after one run on an H100, and with it kept a run with the other two caches empty took
-26-35 s less); ``--warm``
-runs again with the caches that a first run filled.
+return in Gymnasium's CPU Hopper-v5, then where each run's time went, from the arrival times of
+its output lines (``SPLIT``: start-up, the first block, the rest of training, exit; ``python
+benchmarks/card_command.py kernels`` splits the first block's Warp kernels from XLA's
+compilation). ``--cold`` gives every run empty caches, as on a bare machine: its own XLA
+compilation cache, MuJoCo Warp kernel cache and CUDA driver compute cache (``CUDA_CACHE_PATH``:
+the driver compiles the PTX it is handed for the GPU and keeps the result there; 34 MB after one
+run on an H100, and with it kept a run with the other two caches empty took 26-35 s less);
+``--warm`` runs again with the caches that a first run filled.
 
     python benchmarks/card_command.py card --seeds 0 1 2 --modes cold warm --json card.json
 """
@@ -95,8 +97,15 @@ def train_once(seed: int, run_dir: Path, caches: Path, log: Path, extra: list[st
     command = [sys.executable, "experiments/hopper.py", "--num-envs", "256", "--seed", str(seed)]
     command += ["--run-dir", str(run_dir), *extra]
     start = time.perf_counter()
+    stamped = []  # (seconds since start, line) as each line of the output arrived
     with log.open("w") as out:
-        status = subprocess.run(command, cwd=ROOT, env=env, stdout=out, stderr=subprocess.STDOUT).returncode
+        process = subprocess.Popen(
+            command, cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True
+        )
+        for line in process.stdout:
+            stamped.append((time.perf_counter() - start, line.rstrip("\n")))
+            out.write(line)
+        status = process.wait()
     wall = time.perf_counter() - start
     metrics = run_dir / "metrics.jsonl"
     rows = [json.loads(line) for line in metrics.read_text().splitlines() if line.strip()] if metrics.exists() else []
@@ -110,7 +119,31 @@ def train_once(seed: int, run_dir: Path, caches: Path, log: Path, extra: list[st
         "in_run_mean_policy": evaluated[-1]["return_mean_policy"] if evaluated else None,
         "evaluations": len(evaluated),
         "eval_s": sum(r.get("eval_seconds") or 0.0 for r in rows),
+        "split_s": split(stamped, wall),
         "log_tail": log.read_text().splitlines()[-6:],
+    }
+
+
+SPLIT = {
+    "startup": "imports, planning, the initial state, to the `training:` line",
+    "first_block": "the first block of 10 iterations: XLA compilation with Warp's kernels built beside it",
+    "training": "the other iterations and the evaluation, to the `done in` line",
+    "exit": "the closing report, checkpoints' last writes and the interpreter's exit",
+}
+
+
+def split(stamped: list[tuple[float, str]], wall: float) -> dict[str, float | None]:
+    """Seconds of each part of ``SPLIT`` from the arrival times of the run's output lines: the
+    `training:` line, the first progress line (``[ 10/120]``), the `done in` line and the
+    process's end. ``None`` for a part whose marking line never came."""
+
+    def first(pattern: str) -> float | None:
+        return next((t for t, line in stamped if re.match(pattern, line)), None)
+
+    marks = [0.0, first(r"(training|resuming at iteration \d+): "), first(r"\[\s*\d+/\d+\]"), first(r"done in "), wall]
+    return {
+        part: (b - a if a is not None and b is not None else None)
+        for part, a, b in zip(SPLIT, marks[:-1], marks[1:], strict=True)
     }
 
 
@@ -181,6 +214,14 @@ def card_main(argv: Sequence[str]) -> None:
             f"| {row['mode']} | {row['seed']} | {row['wall_s']:.1f} | {row['env_steps']:,.0f} | "
             f"{row['evaluations']} ({row['eval_s']:.1f}) | {row['in_run_mean_policy'] or float('nan'):.0f} | "
             f"{row['gymnasium_return'] or float('nan'):.0f} ± {row['gymnasium_std'] or float('nan'):.0f} |"
+        )
+    print("\nwhere the time went (s): " + "; ".join(f"{part}: {what}" for part, what in SPLIT.items()))
+    print("| mode | seed | " + " | ".join(SPLIT) + " |")
+    print("|---|---|" + "---|" * len(SPLIT))
+    for row in rows:
+        cells = [row["split_s"][part] for part in SPLIT]
+        print(
+            f"| {row['mode']} | {row['seed']} | " + " | ".join("-" if c is None else f"{c:.1f}" for c in cells) + " |"
         )
     for mode in args.modes:
         walls = [r["wall_s"] for r in rows if r["mode"] == mode]

@@ -285,6 +285,43 @@ def test_resume_with_incompatible_checkpoint(trained, runs, capsys):
     assert listing(other) == before
 
 
+# --------------------------------------------------------------------------- how a command flows
+
+
+def driver_calls(argv: list[str]) -> tuple[int, list[str]]:
+    """Run the command ``argv``; returns its exit status and, in order, every call that the
+    command's driver (the code of ``jaxpg/run/main.py``) makes into a function of another jaxpg
+    module, as ``module.function``. Between two such calls control has come back up to the
+    driver: a command climbs back up ``len(calls) - 1`` times."""
+    driver, package = main.__file__, str(Path(jaxpg.__file__).parent)
+    calls = []
+
+    def record(frame, event, arg):
+        caller = frame.f_back
+        if event == "call" and caller is not None and caller.f_code.co_filename == driver:
+            callee = frame.f_code.co_filename
+            if callee != driver and callee.startswith(package):
+                calls.append(f"{frame.f_globals['__name__']}.{frame.f_code.co_name}")
+
+    before = sys.getprofile()
+    sys.setprofile(record)
+    try:
+        status = main.main(argv)
+    finally:
+        sys.setprofile(before)
+    return status, calls
+
+
+def test_a_run_climbs_back_up_to_its_driver_at_most_twice(trained, runs):
+    """``main`` goes down into the host side to start the process, to plan and to execute the
+    plan, and control comes back up to it at most twice (it came back ten times when ``main``
+    itself parsed flags three times, joined the processes and recovered the run directory)."""
+    status, calls = driver_calls([*TINY, "--iterations", "2", "--run-dir", str(runs / "traced")])
+    assert status == 0
+    assert len(calls) - 1 <= 2, calls
+    assert calls[-1] == "jaxpg.run.session.execute"
+
+
 # --------------------------------------------------------------------------- bad input
 
 

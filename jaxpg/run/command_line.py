@@ -30,7 +30,7 @@ stderr with exit status 2, before anything is compiled or written.
 Several devices and processes (``jaxpg.mesh``, ``jaxpg.run.processes``): ``--num-envs`` is split over every device
 (``--shard``, on when there are several). Several processes run one command each, adding
 ``--coordinator-address HOST:PORT --num-processes K --process-id I`` (or the ``JAX_*`` variables);
-``start_processes`` joins them before anything else touches JAX, a coordinator that cannot be
+``startup.start`` joins them before anything else touches JAX, a coordinator that cannot be
 reached is an ``error:`` line with status 2, and process 0 alone writes the run directory.
 """
 

@@ -30,8 +30,10 @@ from jaxpg.run import (
     planning,
     plotting,
     policy_io,
+    pre_flags,
     session,
 )
+from jaxpg.run.flags import UsageError
 from jaxpg.run.plan import Plan
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -343,6 +345,7 @@ BAD_INPUT = [
     (["--policy-hidden", "a"], "--policy-hidden"),
     (["--fidelity", "exact"], "--fidelity"),
     (["--minutes", "0"], "--minutes must be > 0"),
+    (["--video-every"], "argument --video-every: expected one argument"),
 ]
 
 
@@ -547,14 +550,37 @@ def test_every_hyperparameter_flag_says_what_it_is():
 
 
 def test_gl_backend_is_chosen_only_when_videos_may_be_drawn():
-    """``main`` leaves ``MUJOCO_GL`` alone unless the command may draw a video."""
+    """``startup.start`` leaves ``MUJOCO_GL`` alone unless the command may draw a video."""
     experiment = command_line.Experiment(task="inverted_pendulum")
-    assert not command_line.videos_requested(["--iterations", "3"], experiment)
-    assert not command_line.videos_requested(["--video-every", "0"], experiment)
-    assert command_line.videos_requested(["--video-every", "2"], experiment)
-    assert command_line.videos_requested(["--video-every=5"], experiment)
-    assert command_line.videos_requested(["--resume", "runs/x"], experiment)
-    assert command_line.videos_requested([], command_line.Experiment(task="inverted_pendulum", video_every=10))
-    assert not command_line.videos_requested(["--video-every", "many"], experiment)
-    assert command_line.videos_requested(["--video", "5"], experiment)  # an abbreviation argparse accepts
-    assert not command_line.videos_requested(["--video-every"], experiment)
+
+    def videos(argv, experiment=experiment):
+        return pre_flags.parse_pre_flags(argv, experiment).videos
+
+    assert not videos(["--iterations", "3"])
+    assert not videos(["--video-every", "0"])
+    assert videos(["--video-every", "2"])
+    assert videos(["--video-every=5"])
+    assert videos(["--resume", "runs/x"])
+    assert videos([], command_line.Experiment(task="inverted_pendulum", video_every=10))
+    assert not videos(["--video-every", "many"])  # the full parse reports it
+    assert videos(["--video", "5"])  # an abbreviation argparse accepts
+
+
+def test_pre_flags_are_read_in_one_pass_as_the_full_parser_reads_them():
+    """The flags needed before the full parse, read once (abbreviations included); the others are
+    left to the full parse, which reads the same values."""
+    argv = ["--env", "hopper", "--algo", "ppo", "--num-envs", "8", "--res", "runs/a", "--run-dir", "runs/b",
+            "--preset", "lyceum", "--video-every", "0", "--coordinator", "host:1234", "--num-processes", "2",
+            "--process-id", "1", "--distributed-timeout", "5"]  # fmt: skip
+    pre = pre_flags.parse_pre_flags(argv, command_line.Experiment())
+    assert pre == pre_flags.PreFlags(
+        algo="ppo", preset="lyceum", resume="runs/a", run_dir="runs/b", videos=True,
+        coordinator_address="host:1234", num_processes=2, process_id=1, distributed_timeout=5,
+    )  # fmt: skip
+    assert pre.target == "runs/a"
+    assert pre_flags.parse_pre_flags(["--run-dir", "b"], command_line.Experiment()).target == "b"
+    full, _ = command_line.build_parser(command_line.Experiment(), "ppo", None, {}).parse_known_args(argv)
+    fields = [f.name for f in dataclasses.fields(pre_flags.PreFlags) if f.name != "videos"]
+    assert {name: getattr(full, name) for name in fields} == {name: getattr(pre, name) for name in fields}
+    with pytest.raises(UsageError, match="argument --num-processes: invalid int value: 'x'"):
+        pre_flags.parse_pre_flags(["--num-processes", "x"], command_line.Experiment())

@@ -39,7 +39,6 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import typing
-from collections.abc import Sequence
 from typing import Any
 
 from jaxpg import algos
@@ -324,32 +323,6 @@ def add_distributed_flags(parser: argparse.ArgumentParser) -> None:
         metavar="SECONDS",
         help="how long to wait for the coordinator and the other processes (default: 60)",
     )
-
-
-def pre_parse(argv: Sequence[str]) -> argparse.Namespace:
-    pre = Parser(add_help=False)
-    pre.add_argument("--task", "--env", dest="task")
-    pre.add_argument("--algo")
-    pre.add_argument("--resume")
-    pre.add_argument("--run-dir")
-    pre.add_argument("--preset")
-    args, _ = pre.parse_known_args(argv)
-    return args
-
-
-def videos_requested(argv: Sequence[str], experiment: Experiment) -> bool:
-    """Whether this command may draw videos (``--video-every`` > 0 given or by default, or a
-    ``--resume``, whose run may have asked for them): only then does ``main`` choose MuJoCo's
-    offscreen GL backend (``video.configure_gl``), which must happen before MuJoCo is imported.
-    Read with argparse, so that abbreviations (``--video 5``) count as they do in the full parser."""
-    peek = argparse.ArgumentParser(add_help=False, exit_on_error=False)
-    peek.add_argument("--video-every", default=experiment.video_every)
-    peek.add_argument("--resume")
-    try:
-        args, _ = peek.parse_known_args(list(argv))
-        return args.resume is not None or int(args.video_every) > 0
-    except (argparse.ArgumentError, ValueError):
-        return False  # the full parser reports the bad value
 
 
 DEFAULT_EPILOG = """\

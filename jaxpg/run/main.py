@@ -1,9 +1,10 @@
 """``python -m jaxpg.cli``: start, plan, execute.
 
 The command goes down from ``main`` three times and comes back up in between twice:
-``startup.start`` prepares the process (GL backend, compilation cache, several processes, the
-device, a run directory left half replaced), ``planning.plan`` parses and checks the command into
-a ``Plan`` (nothing written or compiled), ``session.execute`` runs it.
+``startup.start`` reads the flags needed first (``PreFlags``) and prepares the process (GL
+backend, compilation cache, several processes, the device, a run directory left half replaced),
+``planning.plan`` parses the whole command and checks it into a ``Plan`` (nothing written or
+compiled), ``session.execute`` runs it.
 """
 
 from __future__ import annotations
@@ -20,8 +21,8 @@ def main(argv: Sequence[str] | None = None, experiment: Experiment | None = None
     experiment = experiment or Experiment(prog="python -m jaxpg.cli", epilog=DEFAULT_EPILOG)
     argv = list(sys.argv[1:] if argv is None else argv)
     try:
-        startup.start(argv, experiment)
-        plan_ = planning.plan(argv, experiment)
+        pre = startup.start(argv, experiment)
+        plan_ = planning.plan(argv, experiment, pre)
     except ValueError as e:  # UsageError, RunDirError, CheckpointError, Config.validate, DistributedError
         message = str(e).strip().splitlines()
         print(f"error: {message[0] if message else type(e).__name__}", file=sys.stderr)

@@ -19,12 +19,12 @@ from jaxpg.run.command_line import (
     algo_module,
     build_parser,
     flag_name,
-    pre_parse,
 )
 from jaxpg.run.config_io import RunConfig
 from jaxpg.run.flags import UsageError
 from jaxpg.run.memory import check_memory
 from jaxpg.run.plan import Plan
+from jaxpg.run.pre_flags import PreFlags, parse_pre_flags
 
 
 def _check_task(task: str, experiment: Experiment) -> None:
@@ -226,9 +226,10 @@ def _field_default(field: dataclasses.Field) -> Any:
     return None
 
 
-def plan(argv: Sequence[str], experiment: Experiment) -> Plan:
-    """Parse and check everything; raises ``UsageError``/``ValueError`` with one line."""
-    pre = pre_parse(argv)
+def plan(argv: Sequence[str], experiment: Experiment, pre: PreFlags | None = None) -> Plan:
+    """Parse and check everything; raises ``UsageError``/``ValueError`` with one line. ``pre``:
+    the flags of ``argv`` already read before the full parse (read here when not given)."""
+    pre = parse_pre_flags(argv, experiment) if pre is None else pre
     resume_run = None
     if pre.resume is not None:
         layout.check_path(pre.resume, "--resume")

@@ -41,7 +41,8 @@ import dataclasses
 import typing
 from typing import Any
 
-from jaxpg import algos
+from jaxpg import algos, envs
+from jaxpg.algos.field_help import field_choices, field_help
 from jaxpg.run import config_io
 from jaxpg.run.flags import UsageError, finite_float, seed_value
 
@@ -147,8 +148,6 @@ def add_config_flags(parser: argparse.ArgumentParser, config_cls: type, defaults
     given): ints, floats, strings, ``T | None`` (``none``), tuples (``nargs='*'``) and booleans
     (``--x/--no-x``). Help shows what the field means (``algos.field_help``), the values a string
     field accepts and the effective default."""
-    from jaxpg.algos.field_help import field_choices, field_help
-
     group = parser.add_argument_group(title)
     unused = getattr(config_cls, "UNUSED_FIELDS", ())
     for name, tp in config_io.field_types(config_cls).items():
@@ -216,8 +215,6 @@ def _keep_count(text: str) -> int:
 
 def build_parser(experiment: Experiment, algo: str, config_cls: type | None, config_defaults: dict[str, Any]) -> Parser:
     """The full parser: run flags plus the ``Config`` flags of ``algo``."""
-    from jaxpg import envs
-
     tasks = experiment.tasks or tuple(envs.names())
     parser = Parser(
         prog=experiment.prog,

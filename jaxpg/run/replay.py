@@ -8,6 +8,9 @@ from typing import Any
 
 import numpy as np
 
+from jaxpg import video as video_lib
+from jaxpg.envs import atari
+
 GYMNASIUM_INSTALL = "pip install 'gymnasium[mujoco]'"
 
 
@@ -28,7 +31,7 @@ GYMNASIUM_IDS = {
 
 def gymnasium_installed() -> bool:
     """Gymnasium can be imported (``GYMNASIUM_INSTALL`` says how to install it otherwise)."""
-    try:
+    try:  # Gymnasium is an optional extra: this module imports without it
         import gymnasium  # noqa: F401
     except ImportError:
         return False
@@ -38,7 +41,7 @@ def gymnasium_installed() -> bool:
 def gymnasium_reference_env(task: str, env_kwargs: dict[str, Any], render: bool = False) -> Any:
     """The Gymnasium env matching a jaxpg task (same time limit). Raises ``ImportError`` with the
     install command when Gymnasium is missing."""
-    try:
+    try:  # an optional extra, as above
         import gymnasium as gym
     except ImportError:
         raise ImportError(f"Gymnasium is not installed: {GYMNASIUM_INSTALL}") from None
@@ -62,8 +65,6 @@ def evaluate_gymnasium(
     video: str | None = None,
 ) -> tuple[np.ndarray, np.ndarray, list[np.ndarray]]:
     """``(returns [N], lengths [N], frames of the first episode)`` of ``policy`` in Gymnasium."""
-    from jaxpg import video as video_lib
-
     env = gymnasium_reference_env(task, env_kwargs, render=video is not None)
     returns, lengths, frames = [], [], []
     for i in range(episodes):
@@ -104,6 +105,4 @@ def evaluate_ale(
 ) -> tuple[np.ndarray, np.ndarray]:
     """``(scores [N], lengths [N])`` of ``policy`` in Gymnasium's ``ALE/Pong-v5``
     (``jaxpg.envs.atari.play_ale``)."""
-    from jaxpg.envs import atari
-
     return atari.play_ale(policy, episodes, action_set, sticky=sticky, seed=seed)

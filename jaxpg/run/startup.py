@@ -7,7 +7,8 @@ from __future__ import annotations
 import sys
 from collections.abc import Sequence
 
-from jaxpg.run import replacing
+from jaxpg import video as video_lib
+from jaxpg.run import compile_cache, processes, replacing
 from jaxpg.run.command_line import Experiment
 from jaxpg.run.flags import check_backend
 from jaxpg.run.pre_flags import PreFlags, parse_pre_flags
@@ -20,9 +21,6 @@ def start(argv: Sequence[str], experiment: Experiment) -> PreFlags:
     the run directory's recovery before planning reads it. Raises ``ValueError`` (one line) on bad
     flags or distributed settings or when JAX has no device, and ``OSError`` when the run
     directory cannot be put back in order."""
-    from jaxpg import video as video_lib
-    from jaxpg.run import compile_cache
-
     pre = parse_pre_flags(argv, experiment)
     if pre.videos:
         video_lib.configure_gl()  # before MuJoCo is imported, and only when a video may be drawn
@@ -37,8 +35,6 @@ def start_processes(pre: PreFlags) -> None:
     """``jax.distributed.initialize`` when the flags or the environment name several processes;
     before anything else touches JAX's devices. ``DistributedError`` (one line) on bad settings or
     an unreachable coordinator."""
-    from jaxpg.run import processes
-
     config = processes.DistributedConfig.resolve(
         pre.coordinator_address, pre.num_processes, pre.process_id, timeout_s=pre.distributed_timeout
     )
@@ -50,8 +46,6 @@ def recover_run_dir(pre: PreFlags) -> None:
     """Before planning: put back the run that an ``--overwrite`` of the command's run directory
     (``--run-dir`` or ``--resume``) moved aside, if its process ended before the new run's first
     checkpoint, or point to it (``replacing.recover_replaced``). Process 0 alone; the others wait."""
-    from jaxpg.run import processes
-
     if pre.target is not None and processes.is_primary():
         for line in replacing.recover_replaced(pre.target):
             print(line, file=sys.stderr)

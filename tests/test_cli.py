@@ -239,8 +239,9 @@ def test_run_saved_under_old_field_names_loads_evaluates_and_resumes(trained, ru
 
 
 def test_old_field_names_map_to_current_ones():
-    """TRPO's configs held NPG's ``step_size`` (never used, now gone): dropped on load; NPG's
-    becomes ``kl_delta``; a current name already present wins."""
+    """TRPO's configs held NPG's ``step_size`` (never used, now gone) and every config a
+    ``loop_unroll`` (it changed no number): dropped on load; NPG's ``step_size`` becomes
+    ``kl_delta``; a current name already present wins."""
     from jaxpg.algos import npg, ppo, trpo
 
     assert config_io.config_from_dict(trpo.Config, {"step_size": 0.05, "max_kl": 0.02}) == trpo.Config(max_kl=0.02)
@@ -248,6 +249,8 @@ def test_old_field_names_map_to_current_ones():
         kl_delta=0.2, network_init="pytorch"
     )
     assert config_io.current_field_names(npg.Config, {"step_size": 0.2, "kl_delta": 0.3}) == {"kl_delta": 0.3}
+    for module in (npg, ppo, trpo):
+        assert config_io.config_from_dict(module.Config, {"loop_unroll": 16}) == module.Config()
     with pytest.raises(layout.RunDirError, match="does not know: step_size"):  # PPO never had one
         config_io.config_from_dict(ppo.Config, {"step_size": 0.2})
 

@@ -1050,13 +1050,5 @@ def eval_main(argv: Sequence[str]) -> None:
 MODES = {"env": env_main, "train": train_main, "scaling": scaling_main, "learner": learner_main, "eval": eval_main}
 
 
-def main(argv: Sequence[str] | None = None) -> None:
-    argv = sys.argv[1:] if argv is None else list(argv)
-    if not argv or argv[0] not in MODES:
-        print(__doc__)
-        raise SystemExit(f"usage: python benchmarks/throughput.py {{{','.join(MODES)}}} [options]")
-    MODES[argv[0]](argv[1:])
-
-
 if __name__ == "__main__":
-    main()
+    harness.run_modes(__file__, MODES, __doc__)

@@ -146,13 +146,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"error: --video: {problem}", file=sys.stderr)
         return 2
     if args.gymnasium:
-        if run.task not in replay.GYMNASIUM_IDS:
+        gym_id = replay.gymnasium_counterpart(run.task)
+        if gym_id is None:
             print(f"error: task {run.task!r} has no Gymnasium counterpart", file=sys.stderr)
             return 2
         returns, lengths, frames = replay.evaluate_gymnasium(
             policy, run.task, run.env_kwargs, args.episodes, args.seed, video=args.video
         )
-        env_name = f"Gymnasium {replay.GYMNASIUM_IDS[run.task]}"
+        env_name = f"Gymnasium {gym_id}"
         metric_line = ""
     else:
         env = run.make_env()

@@ -8,25 +8,18 @@ from typing import Any
 
 import numpy as np
 
+from jaxpg import envs
 from jaxpg import video as video_lib
 from jaxpg.envs import atari
 
 GYMNASIUM_INSTALL = "pip install 'gymnasium[mujoco]'"
 
 
-GYMNASIUM_IDS = {
-    "hopper": "Hopper-v5",
-    "inverted_pendulum": "InvertedPendulum-v5",
-    "inverted_double_pendulum": "InvertedDoublePendulum-v5",
-    "half_cheetah": "HalfCheetah-v5",
-    "swimmer": "Swimmer-v5",
-    "walker2d": "Walker2d-v5",
-    "humanoid": "Humanoid-v5",
-    "reacher": "Reacher-v5",
-    "ant": "Ant-v5",
-    "pusher": "Pusher-v5",
-    "cartpole": "CartPole-v1",
-}
+def gymnasium_counterpart(task: str) -> str | None:
+    """The id of Gymnasium's env that ``task`` reproduces (``"Hopper-v5"``), or ``None``
+    (``jaxpg.envs.GYMNASIUM_COUNTERPARTS``)."""
+    counterpart = envs.GYMNASIUM_COUNTERPARTS.get(task)
+    return None if counterpart is None else counterpart[0]
 
 
 def gymnasium_installed() -> bool:
@@ -46,14 +39,16 @@ def gymnasium_reference_env(task: str, env_kwargs: dict[str, Any], render: bool 
     except ImportError:
         raise ImportError(f"Gymnasium is not installed: {GYMNASIUM_INSTALL}") from None
 
-    if task not in GYMNASIUM_IDS:
-        raise ValueError(f"task {task!r} has no Gymnasium counterpart; known: {', '.join(GYMNASIUM_IDS)}")
+    gym_id = gymnasium_counterpart(task)
+    if gym_id is None:
+        known = ", ".join(envs.GYMNASIUM_COUNTERPARTS)
+        raise ValueError(f"task {task!r} has no Gymnasium counterpart; known: {known}")
     kwargs: dict[str, Any] = {}
     if "max_episode_steps" in env_kwargs:
         kwargs["max_episode_steps"] = int(env_kwargs["max_episode_steps"])
     if render and task != "cartpole":  # CartPole's renderer needs pygame; jaxpg draws it itself
         kwargs.update(render_mode="rgb_array", width=480, height=480)
-    return gym.make(GYMNASIUM_IDS[task], **kwargs)
+    return gym.make(gym_id, **kwargs)
 
 
 def evaluate_gymnasium(

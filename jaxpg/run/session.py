@@ -293,7 +293,7 @@ def _report_end(plan_: Plan, clock: BlockClock) -> None:
     if run.task == "atari_pong":  # the real game is ALE's: play it there
         show(f"evaluate: python -m jaxpg.evaluate {shlex.quote(str(run_dir))} --ale --episodes 10 [--no-sticky]")
         return
-    gymnasium = " [--gymnasium]" if run.task in replay.GYMNASIUM_IDS else ""
+    gymnasium = " [--gymnasium]" if replay.gymnasium_counterpart(run.task) else ""
     quoted = shlex.quote(str(run_dir))
     video = f"[--video {shlex.quote(str(run_dir / layout.VIDEO_DIR / 'final.mp4'))}]"
     show(f"evaluate: python -m jaxpg.evaluate {quoted} --episodes 10{gymnasium} {video}")

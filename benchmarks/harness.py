@@ -10,7 +10,9 @@
   back and synchronised once (as ``jaxpg.train`` dispatches its compiled calls);
 - ``environment()``: the device, backend and the versions of Python, JAX, MuJoCo and jaxpg;
 - ``write_json(path, rows, **meta)``: the rows with ``environment()`` and ``meta``;
-- ``table(rows, columns)``: a Markdown table, and ``rate(x)``: ``1.23 M`` / ``45.6 k``.
+- ``table(rows, columns)``: a Markdown table, and ``rate(x)``: ``1.23 M`` / ``45.6 k``;
+- ``run_modes(script, modes, doc)``: the command line of a script with modes
+  (``python benchmarks/NAME.py MODE [options]``).
 
 The scripts are run from the repository root (``python benchmarks/NAME.py``) and import this
 module as their sibling: Python puts a script's own directory first on ``sys.path``.
@@ -21,6 +23,7 @@ from __future__ import annotations
 import json
 import platform
 import statistics
+import sys
 import time
 from collections.abc import Callable, Sequence
 from importlib import metadata
@@ -150,3 +153,16 @@ def table(rows: Sequence[Any], columns: Sequence[tuple[str, Callable[[Any], Any]
     lines = ["| " + " | ".join(h for h, _ in columns) + " |", "|" + "---|" * len(columns)]
     lines += ["| " + " | ".join(str(cell(r)) for _, cell in columns) + " |" for r in rows]
     return "\n".join(lines)
+
+
+def run_modes(
+    script: str, modes: dict[str, Callable[[list[str]], Any]], doc: str | None, argv: Sequence[str] | None = None
+) -> None:
+    """``python benchmarks/NAME.py MODE [options]``: ``modes[MODE](options)``, where ``argv``
+    (default ``sys.argv[1:]``) is ``[MODE, *options]``. Without a known mode: the script's ``doc``
+    and a usage line naming the modes, exit status 1. ``script``: the script's ``__file__``."""
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if not argv or argv[0] not in modes:
+        print(doc)
+        raise SystemExit(f"usage: python benchmarks/{Path(script).name} {{{','.join(modes)}}} [options]")
+    modes[argv[0]](argv[1:])

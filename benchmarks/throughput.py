@@ -222,7 +222,7 @@ For each (impl, num_envs) this measures, in a fresh process (so that peak memory
          state of the process and the GPU; the benchmark record, section AS);
   train  env steps/s of full training iterations (sampling, GAE, policy step, value fit), several
          iterations per compiled call exactly as ``jaxpg.train`` runs them, and one per call
-         (``iterations_per_call=1``), the two timed alternately from the same state (since
+         (``jax.jit(update)`` called back to back), the two timed alternately from the same state (since
          the benchmark record section AK; before, one iteration per call was timed after the scan, on a
          more trained policy, as one timing of ``3 x iterations`` unsynchronised calls);
 and reports their ratio, both compile times and the peak device memory per env.
@@ -331,7 +331,7 @@ def train_measure(
     ts2, metrics = jax.block_until_ready(block(ts))
     train_compile = time.perf_counter() - start
     ts2, metrics = jax.block_until_ready(block(ts2))  # warm-up with the call's own outputs
-    # ... against one iteration per compiled call (jaxpg.train's iterations_per_call=1): the same
+    # ... against one iteration per compiled call (jax.jit(update)): the same
     # number of calls dispatched back to back, synchronised once. The two chains start from the
     # same state and alternate, so that both time the same stage of training (the physics of a
     # policy that has learned to hop costs differently from one that falls), and each figure is
@@ -743,8 +743,9 @@ costs 15-17 ms per iteration at every batch size, half of it the value fit's 160
 This times, per batch size (``T = --horizon`` steps x ``--envs`` envs):
 
 - ``gae``: ``jaxpg.returns.gae`` as a reverse ``lax.scan`` (``parallel=False``: one step per loop
-  iteration, and unrolled ``--unroll`` steps) against ``parallel=True``, a ``lax.associative_scan`` (a
-  log-depth tree of whole-batch operations);
+  iteration; and this script's copy of it unrolled ``--unroll`` steps, which the package dropped
+  after section AA) against ``parallel=True``, a ``lax.associative_scan`` (a log-depth tree of
+  whole-batch operations);
 - ``value fit``: ``jaxpg.value.fit_value`` with the card's settings (10 epochs x 16 minibatches of
   1024 drawn from at most 16384 samples, MLP 128x128), its minibatches gathered one per step or
   all before the loop, with Adam per parameter array or over one flattened
@@ -760,17 +761,39 @@ fit's final loss).
 """
 
 
+def unrolled_gae(
+    rewards: jax.Array,
+    values: jax.Array,
+    next_values: jax.Array,
+    terminated: jax.Array,
+    truncated: jax.Array,
+    gamma: float,
+    lam: float,
+    unroll: int,
+) -> jax.Array:
+    """Advantages ``[T, B]`` as ``jaxpg.returns.gae`` computes them sequentially (all inputs ``[T, B]``),
+    its reverse ``lax.scan`` running ``unroll`` steps per loop iteration: the same numbers, another
+    program (the package dropped this form after section AA found it no faster)."""
+    deltas = rewards + gamma * jnp.where(terminated, 0.0, next_values) - values
+    carry_on = gamma * lam * (1.0 - (terminated | truncated).astype(deltas.dtype))
+
+    def step(next_adv: jax.Array, xs: tuple[jax.Array, jax.Array]) -> tuple[jax.Array, jax.Array]:
+        delta, c = xs
+        adv = delta + c * next_adv
+        return adv, adv
+
+    return jax.lax.scan(step, jnp.zeros_like(deltas[-1]), (deltas, carry_on), reverse=True, unroll=unroll)[1]
+
+
 def gae_forms(unroll: int) -> dict[str, Callable]:
     """Jitted GAE forms, each ``(rewards, values, next_values, terminated, truncated) -> advantages``."""
 
-    def form(parallel: bool, u: int = 1) -> Callable:
-        return jax.jit(
-            lambda r, v, nv, te, tr: returns.gae(r, v, nv, te, tr, 0.99, 0.95, unroll=u, parallel=parallel)[0]
-        )
+    def form(parallel: bool) -> Callable:
+        return jax.jit(lambda r, v, nv, te, tr: returns.gae(r, v, nv, te, tr, 0.99, 0.95, parallel=parallel)[0])
 
     return {
         "lax.scan (the default)": form(False),
-        f"lax.scan, unroll {unroll}": form(False, unroll),
+        f"lax.scan, unroll {unroll}": jax.jit(lambda *args: unrolled_gae(*args, 0.99, 0.95, unroll)),
         "associative_scan (parallel=True)": form(True),
     }
 
@@ -1027,13 +1050,5 @@ def eval_main(argv: Sequence[str]) -> None:
 MODES = {"env": env_main, "train": train_main, "scaling": scaling_main, "learner": learner_main, "eval": eval_main}
 
 
-def main(argv: Sequence[str] | None = None) -> None:
-    argv = sys.argv[1:] if argv is None else list(argv)
-    if not argv or argv[0] not in MODES:
-        print(__doc__)
-        raise SystemExit(f"usage: python benchmarks/throughput.py {{{','.join(MODES)}}} [options]")
-    MODES[argv[0]](argv[1:])
-
-
 if __name__ == "__main__":
-    main()
+    harness.run_modes(__file__, MODES, __doc__)

@@ -445,13 +445,5 @@ def plot_main(argv: Sequence[str]) -> None:
 MODES = {"run": run_main, "sweep": sweep_main, "plot": plot_main}
 
 
-def main(argv: Sequence[str] | None = None) -> None:
-    argv = sys.argv[1:] if argv is None else list(argv)
-    if not argv or argv[0] not in MODES:
-        print(__doc__)
-        raise SystemExit(f"usage: python benchmarks/time_to_return.py {{{','.join(MODES)}}} [options]")
-    MODES[argv[0]](argv[1:])
-
-
 if __name__ == "__main__":
-    main()
+    harness.run_modes(__file__, MODES, __doc__)

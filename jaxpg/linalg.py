@@ -54,7 +54,7 @@ class CGResult:
 
 
 def conjugate_gradient(
-    matvec: Callable[[PyTree], PyTree], b: PyTree, iters: int, residual_tol: float = 0.0, unroll: int = 1
+    matvec: Callable[[PyTree], PyTree], b: PyTree, iters: int, residual_tol: float = 0.0
 ) -> CGResult:
     """Solve ``A x = b`` for symmetric positive-definite ``A`` given as ``matvec(v) = A v``.
 
@@ -62,8 +62,7 @@ def conjugate_gradient(
     ``alpha = r.r / p.Ap``, ``x += alpha p``, ``r -= alpha A p``, ``p = r + (r'.r' / r.r) p``.
     Runs exactly ``iters`` loop steps (a ``lax.fori_loop``, so it compiles once and never syncs
     with the host); once ``||r|| <= residual_tol`` (or if ``p.Ap <= 0``) the iterate is frozen and
-    later steps are no-ops. ``b`` and ``x`` are pytrees of the same structure. ``unroll``
-    (static) runs that many steps per iteration of the compiled loop.
+    later steps are no-ops. ``b`` and ``x`` are pytrees of the same structure.
     """
     x = jax.tree.map(jnp.zeros_like, b)
     rdotr = tree_vdot(b, b)
@@ -83,10 +82,7 @@ def conjugate_gradient(
         return x, r, p, new_rdotr, count + active.astype(jnp.int32)
 
     state = (x, b, b, rdotr, jnp.zeros((), jnp.int32))
-    if unroll > 1 and isinstance(iters, int):
-        x, _, _, rdotr, count = jax.lax.fori_loop(0, iters, body, state, unroll=unroll)
-    else:  # also a traced ``iters`` (e.g. vmapped over iteration counts), which cannot unroll
-        x, _, _, rdotr, count = jax.lax.fori_loop(0, iters, body, state)
+    x, _, _, rdotr, count = jax.lax.fori_loop(0, iters, body, state)
     return CGResult(x=x, residual_norm=jnp.sqrt(rdotr), iterations=count)
 
 

@@ -46,7 +46,6 @@ def discounted_returns(
     truncated: jax.Array,
     gamma: ArrayLike,
     next_values: jax.Array | None = None,
-    unroll: int = 1,
     parallel: bool = False,
 ) -> jax.Array:
     """Reward-to-go ``G_t = r_t + gamma G_{t+1}`` within each episode: ``[T, B]``.
@@ -62,8 +61,6 @@ def discounted_returns(
       terminated, truncated: ``[T, B]`` bool.
       gamma: discount factor.
       next_values: optional ``[T, B]`` ``V(next_obs)``.
-      unroll: with ``parallel=False``, time steps per iteration of the compiled loop (static; the
-        result is the same).
       parallel: static; ``reverse_linear_recurrence`` instead of the sequential ``lax.scan``.
     """
     rewards = jnp.asarray(rewards)
@@ -83,7 +80,7 @@ def discounted_returns(
         g = r + gamma * jnp.where(d, end, future)
         return g, g
 
-    _, returns = jax.lax.scan(step, next_values[-1], (rewards, done, end_values), reverse=True, unroll=unroll)
+    _, returns = jax.lax.scan(step, next_values[-1], (rewards, done, end_values), reverse=True)
     return returns
 
 
@@ -95,7 +92,6 @@ def gae(
     truncated: jax.Array,
     gamma: ArrayLike,
     lam: ArrayLike,
-    unroll: int = 1,
     parallel: bool = False,
 ) -> tuple[jax.Array, jax.Array]:
     """Generalised advantage estimation (Schulman et al., 2016, eq. 16).
@@ -109,8 +105,6 @@ def gae(
       rewards, values, next_values: ``[T, B]``; ``values = V(obs)``, ``next_values = V(next_obs)``.
       terminated, truncated: ``[T, B]`` bool.
       gamma, lam: discount and GAE lambda.
-      unroll: with ``parallel=False``, time steps per iteration of the compiled loop (static; the
-        result is the same).
       parallel: static; ``reverse_linear_recurrence`` instead of the sequential ``lax.scan``.
     Returns ``(advantages [T, B], value_targets [T, B])`` with ``value_targets = advantages + values``
     (the TD(lambda) returns).
@@ -128,7 +122,7 @@ def gae(
         adv = delta + c * next_adv
         return adv, adv
 
-    _, advantages = jax.lax.scan(step, jnp.zeros_like(deltas[-1]), (deltas, carry_on), reverse=True, unroll=unroll)
+    _, advantages = jax.lax.scan(step, jnp.zeros_like(deltas[-1]), (deltas, carry_on), reverse=True)
     return advantages, advantages + values
 
 

@@ -146,21 +146,16 @@ def early_evaluator(evaluate: EvaluateFn, seeds: bool, example: TrainState) -> C
     return _early_compile(compiled_evaluate(evaluate, seeds), tuple(leaves), treedef)
 
 
-def _chunk_sizes(total: int, per_call: int) -> list[int]:
-    """``total`` iterations as calls of ``per_call`` (the last one shorter)."""
-    return [min(per_call, total - start) for start in range(0, total, per_call)]
-
-
-def _calls(first: int, n: int, per_call: int, eval_every: int) -> list[int]:
-    """Sizes of the compiled calls for iterations ``first + 1 .. first + n``: at most
-    ``per_call`` each, and ending at every multiple of ``eval_every`` (0: no evaluation)."""
+def _calls(first: int, n: int, eval_every: int) -> list[int]:
+    """Sizes of the compiled calls for iterations ``first + 1 .. first + n``: one call, split after
+    every multiple of ``eval_every`` (0: no evaluation) so that the evaluation runs between calls."""
     sizes: list[int] = []
     done = first
     while done < first + n:
         stop = first + n
         if eval_every > 0:
             stop = min(stop, (done // eval_every + 1) * eval_every)
-        sizes.extend(_chunk_sizes(stop - done, per_call))
+        sizes.append(stop - done)
         done = stop
     return sizes
 
@@ -191,7 +186,6 @@ def train(
     callbacks: Sequence[Callback] = (),
     seeds: bool = False,
     max_consecutive_failures: int = 10,
-    iterations_per_call: int | None = None,
     evaluate: EvaluateFn | None = evaluate_state,
     eval_every: int | None = None,
     final_eval: bool = True,
@@ -203,15 +197,14 @@ def train(
       update: an algorithm's ``update``.
       train_state: from the algorithm's ``init`` (or ``init_seeds`` with ``seeds=True``).
       num_iterations: how many iterations to run; the last block may be shorter (one extra compile).
-      block_size: iterations per block, i.e. how often the host sees metrics.
+      block_size: iterations per block, i.e. how often the host sees metrics; a block is one
+        compiled ``lax.scan``, split only where an evaluation falls inside it.
       callbacks: ``callback(train_state, metrics, first_iteration)`` after each block, where
         ``metrics`` maps names to NumPy arrays ``[n]`` (``[n, num_seeds]`` with seeds) and
         ``first_iteration`` is the 0-based index of the block's first iteration.
       seeds: ``train_state`` has a leading seed axis.
       max_consecutive_failures: raise ``TrainingDiverged`` once this many updates in a row were
         rejected as non-finite.
-      iterations_per_call: iterations fused into one compiled ``lax.scan`` (default: the whole
-        block). The block's metrics are the same either way.
       evaluate: the evaluation run between calls (default ``evaluate_state``; ``None``: none). Wrap
         it like ``update`` (e.g. ``jaxpg.mesh.on_mesh``) when training on a mesh.
       eval_every: evaluate after every iteration whose 1-based count is a multiple of this
@@ -239,7 +232,7 @@ def train(
             n = min(block_size, num_iterations - done)
             first = start + done
             chunks, evaluations, position = [], {}, first
-            for size in _calls(first, n, iterations_per_call or block_size, eval_every):
+            for size in _calls(first, n, eval_every):
                 block = compiled_block(update, size, seeds)
                 if before_first_call is not None:
                     block.lower(train_state).compile()  # the call below runs this very program

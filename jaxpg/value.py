@@ -50,7 +50,6 @@ def fit_value(
     batch_size: int,
     weights: jax.Array | None = None,
     samples_per_epoch: int = 0,
-    unroll: int = 1,
 ) -> tuple[Params, optax.OptState, jax.Array]:
     """``epochs`` passes of minibatch ``optimizer`` steps on ``value_loss``.
 
@@ -64,9 +63,7 @@ def fit_value(
       obs: ``[N, obs_dim]``; targets: ``[N]``; weights: optional ``[N]`` (e.g. the ``valid`` mask).
       key: PRNG key for the shuffles.
       epochs, batch_size, samples_per_epoch: static.
-      unroll: static; minibatch steps per iteration of the compiled loop. All ``epochs x
-        num_batches`` minibatches are drawn first and stepped through in one loop; unrolling it
-        changes the compiled program, not the arithmetic.
+    All ``epochs x num_batches`` minibatches are drawn first and stepped through in one loop.
     Returns ``(params, opt_state, mean_loss [])``, the loss averaged over all minibatch steps
     (each measured before its step; NaN when no step is taken).
     """
@@ -89,7 +86,7 @@ def fit_value(
         return jax.random.permutation(epoch_key, n)[: num_batches * batch_size].reshape(num_batches, batch_size)
 
     indices = jax.vmap(epoch_indices)(jax.random.split(key, epochs)).reshape(epochs * num_batches, batch_size)
-    (params, opt_state), losses = jax.lax.scan(minibatch, (params, opt_state), indices, unroll=unroll)
+    (params, opt_state), losses = jax.lax.scan(minibatch, (params, opt_state), indices)
     return params, opt_state, jnp.mean(losses)
 
 

@@ -1,15 +1,24 @@
-"""Test-wide settings, applied before any test module imports MuJoCo."""
+"""Test-wide settings, applied before any test module imports MuJoCo, and the run directory that
+the tests of damaged checkpoints share (``pristine_run``, ``run_copy``)."""
 
+import dataclasses
+import json
 import os
+import shutil
+from pathlib import Path
+from typing import Any
 
+import jax
 import pytest
 
-# MuJoCo picks its OpenGL backend at first import: jaxpg.video.configure_gl sets MUJOCO_GL to a
-# backend whose library loads (OSMesa from Debian's libosmesa6, which .ci/run installs, or EGL),
-# and to none on a machine without either, so that `import mujoco` still works there and the
-# rendering tests skip.
-from jaxpg import video  # noqa: E402
+from jaxpg import algos, video
+from jaxpg.run import config_io, layout
+from jaxpg.run.checkpointer import Checkpointer
 
+# MuJoCo picks its OpenGL backend at first import (none of the imports above imports it:
+# tests/test_imports.py): jaxpg.video.configure_gl sets MUJOCO_GL to a backend whose library loads
+# (OSMesa from Debian's libosmesa6, which .ci/run installs, or EGL), and to none on a machine
+# without either, so that `import mujoco` still works there and the rendering tests skip.
 video.configure_gl()
 
 # jaxpg's command lines keep compiled programs in a persistent cache (jaxpg.run.compile_cache): give the
@@ -53,3 +62,58 @@ def _compiled_programs_freed_after_each_module():
 
     jax.clear_caches()
     gc.collect()
+
+
+# --------------------------------------------------------------------------- a checkpointed run
+
+
+@dataclasses.dataclass(frozen=True)
+class PristineRun:
+    """A cartpole NPG run directory written from the algorithm's ``init``, nothing trained:
+    ``config.json``, ``metrics.jsonl`` of iterations 1-4 (a resume needs the metrics of the
+    iterations its checkpoint holds) and checkpoints 2 and 4, scored 2 and 4."""
+
+    path: Path
+    initial: Any  # the TrainState of ``init``
+
+    def state(self, step: int) -> Any:
+        """The state checkpoint ``step`` holds: ``initial`` with the policy parameters moved by
+        ``0.01 * step``, so that each checkpoint differs."""
+        return self.initial.replace(params=jax.tree.map(lambda x: x + 0.01 * step, self.initial.params))
+
+
+@pytest.fixture(scope="module")
+def pristine_run(tmp_path_factory) -> PristineRun:
+    """A ``PristineRun``, written once per module; tests damage copies of it (``run_copy``).
+    Nothing is compiled beyond what ``init`` and the checkpoint's ``jax.eval_shape`` trace."""
+    module = algos.get("npg")
+    config = module.Config(num_envs=4, horizon=8, policy_hidden=(8,), value_hidden=(8,), value_batch_size=8)
+    run = config_io.RunConfig(
+        task="cartpole",
+        algo="npg",
+        config=config_io.config_to_dict(config),
+        seeds=[0],
+        iterations=4,
+        checkpoint_every=2,
+    )
+    path = tmp_path_factory.mktemp("runs") / "run"
+    path.mkdir()
+    run.save(path)
+    rows = [{"iteration": i, "seed": 0, "env_steps": 32.0 * i, "wall_time_s": float(i)} for i in range(1, 5)]
+    (path / layout.METRICS_FILE).write_text("".join(json.dumps(r) + "\n" for r in rows))
+    pristine = PristineRun(path, module.init(jax.random.PRNGKey(0), run.make_env(), config))
+    ckpt = Checkpointer(path / layout.CHECKPOINT_DIR, keep=None, create=True)
+    for step in (2, 4):
+        ckpt.save(
+            step, pristine.state(step), score=float(step), info={"task": run.task, "algo": run.algo, "seeds": [0]}
+        )
+    ckpt.close()
+    return pristine
+
+
+@pytest.fixture
+def run_copy(pristine_run: PristineRun, tmp_path: Path) -> Path:
+    """A fresh copy of ``pristine_run``'s directory, for one test to damage."""
+    path = tmp_path / "run"
+    shutil.copytree(pristine_run.path, path)
+    return path

@@ -30,8 +30,10 @@ from jaxpg.run import (
     planning,
     plotting,
     policy_io,
+    pre_flags,
     session,
 )
+from jaxpg.run.flags import UsageError
 from jaxpg.run.plan import Plan
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -237,8 +239,9 @@ def test_run_saved_under_old_field_names_loads_evaluates_and_resumes(trained, ru
 
 
 def test_old_field_names_map_to_current_ones():
-    """TRPO's configs held NPG's ``step_size`` (never used, now gone): dropped on load; NPG's
-    becomes ``kl_delta``; a current name already present wins."""
+    """TRPO's configs held NPG's ``step_size`` (never used, now gone) and every config a
+    ``loop_unroll`` (it changed no number): dropped on load; NPG's ``step_size`` becomes
+    ``kl_delta``; a current name already present wins."""
     from jaxpg.algos import npg, ppo, trpo
 
     assert config_io.config_from_dict(trpo.Config, {"step_size": 0.05, "max_kl": 0.02}) == trpo.Config(max_kl=0.02)
@@ -246,6 +249,8 @@ def test_old_field_names_map_to_current_ones():
         kl_delta=0.2, network_init="pytorch"
     )
     assert config_io.current_field_names(npg.Config, {"step_size": 0.2, "kl_delta": 0.3}) == {"kl_delta": 0.3}
+    for module in (npg, ppo, trpo):
+        assert config_io.config_from_dict(module.Config, {"loop_unroll": 16}) == module.Config()
     with pytest.raises(layout.RunDirError, match="does not know: step_size"):  # PPO never had one
         config_io.config_from_dict(ppo.Config, {"step_size": 0.2})
 
@@ -285,6 +290,43 @@ def test_resume_with_incompatible_checkpoint(trained, runs, capsys):
     assert listing(other) == before
 
 
+# --------------------------------------------------------------------------- how a command flows
+
+
+def driver_calls(argv: list[str]) -> tuple[int, list[str]]:
+    """Run the command ``argv``; returns its exit status and, in order, every call that the
+    command's driver (the code of ``jaxpg/run/main.py``) makes into a function of another jaxpg
+    module, as ``module.function``. Between two such calls control has come back up to the
+    driver: a command climbs back up ``len(calls) - 1`` times."""
+    driver, package = main.__file__, str(Path(jaxpg.__file__).parent)
+    calls = []
+
+    def record(frame, event, arg):
+        caller = frame.f_back
+        if event == "call" and caller is not None and caller.f_code.co_filename == driver:
+            callee = frame.f_code.co_filename
+            if callee != driver and callee.startswith(package):
+                calls.append(f"{frame.f_globals['__name__']}.{frame.f_code.co_name}")
+
+    before = sys.getprofile()
+    sys.setprofile(record)
+    try:
+        status = main.main(argv)
+    finally:
+        sys.setprofile(before)
+    return status, calls
+
+
+def test_a_run_climbs_back_up_to_its_driver_at_most_twice(trained, runs):
+    """``main`` goes down into the host side to start the process, to plan and to execute the
+    plan, and control comes back up to it at most twice (it came back ten times when ``main``
+    itself parsed flags three times, joined the processes and recovered the run directory)."""
+    status, calls = driver_calls([*TINY, "--iterations", "2", "--run-dir", str(runs / "traced")])
+    assert status == 0
+    assert len(calls) - 1 <= 2, calls
+    assert calls[-1] == "jaxpg.run.session.execute"
+
+
 # --------------------------------------------------------------------------- bad input
 
 
@@ -306,6 +348,7 @@ BAD_INPUT = [
     (["--policy-hidden", "a"], "--policy-hidden"),
     (["--fidelity", "exact"], "--fidelity"),
     (["--minutes", "0"], "--minutes must be > 0"),
+    (["--video-every"], "argument --video-every: expected one argument"),
 ]
 
 
@@ -510,14 +553,37 @@ def test_every_hyperparameter_flag_says_what_it_is():
 
 
 def test_gl_backend_is_chosen_only_when_videos_may_be_drawn():
-    """``main`` leaves ``MUJOCO_GL`` alone unless the command may draw a video."""
+    """``startup.start`` leaves ``MUJOCO_GL`` alone unless the command may draw a video."""
     experiment = command_line.Experiment(task="inverted_pendulum")
-    assert not command_line.videos_requested(["--iterations", "3"], experiment)
-    assert not command_line.videos_requested(["--video-every", "0"], experiment)
-    assert command_line.videos_requested(["--video-every", "2"], experiment)
-    assert command_line.videos_requested(["--video-every=5"], experiment)
-    assert command_line.videos_requested(["--resume", "runs/x"], experiment)
-    assert command_line.videos_requested([], command_line.Experiment(task="inverted_pendulum", video_every=10))
-    assert not command_line.videos_requested(["--video-every", "many"], experiment)
-    assert command_line.videos_requested(["--video", "5"], experiment)  # an abbreviation argparse accepts
-    assert not command_line.videos_requested(["--video-every"], experiment)
+
+    def videos(argv, experiment=experiment):
+        return pre_flags.parse_pre_flags(argv, experiment).videos
+
+    assert not videos(["--iterations", "3"])
+    assert not videos(["--video-every", "0"])
+    assert videos(["--video-every", "2"])
+    assert videos(["--video-every=5"])
+    assert videos(["--resume", "runs/x"])
+    assert videos([], command_line.Experiment(task="inverted_pendulum", video_every=10))
+    assert not videos(["--video-every", "many"])  # the full parse reports it
+    assert videos(["--video", "5"])  # an abbreviation argparse accepts
+
+
+def test_pre_flags_are_read_in_one_pass_as_the_full_parser_reads_them():
+    """The flags needed before the full parse, read once (abbreviations included); the others are
+    left to the full parse, which reads the same values."""
+    argv = ["--env", "hopper", "--algo", "ppo", "--num-envs", "8", "--res", "runs/a", "--run-dir", "runs/b",
+            "--preset", "lyceum", "--video-every", "0", "--coordinator", "host:1234", "--num-processes", "2",
+            "--process-id", "1", "--distributed-timeout", "5"]  # fmt: skip
+    pre = pre_flags.parse_pre_flags(argv, command_line.Experiment())
+    assert pre == pre_flags.PreFlags(
+        algo="ppo", preset="lyceum", resume="runs/a", run_dir="runs/b", videos=True,
+        coordinator_address="host:1234", num_processes=2, process_id=1, distributed_timeout=5,
+    )  # fmt: skip
+    assert pre.target == "runs/a"
+    assert pre_flags.parse_pre_flags(["--run-dir", "b"], command_line.Experiment()).target == "b"
+    full, _ = command_line.build_parser(command_line.Experiment(), "ppo", None, {}).parse_known_args(argv)
+    fields = [f.name for f in dataclasses.fields(pre_flags.PreFlags) if f.name != "videos"]
+    assert {name: getattr(full, name) for name in fields} == {name: getattr(pre, name) for name in fields}
+    with pytest.raises(UsageError, match="argument --num-processes: invalid int value: 'x'"):
+        pre_flags.parse_pre_flags(["--num-processes", "x"], command_line.Experiment())

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import contextlib
 import functools
+import inspect
 import json
 import os
 import subprocess
@@ -36,18 +37,12 @@ from jaxpg.envs import AutoReset
 from jaxpg.envs.cartpole import CartPoleData
 from jaxpg.envs.mjx_env import FAST_LS_ITERATIONS, FAST_SOLVER_ITERATIONS, MjxEnv, warp_available
 
+# The MuJoCo tasks and the ids of the Gymnasium envs they reproduce (the package's map, checked
+# against Gymnasium's registry by test_every_gymnasium_counterpart_is_in_gymnasiums_registry).
 GYM_IDS = {
-    "hopper": "Hopper-v5",
-    "inverted_pendulum": "InvertedPendulum-v5",
-    "inverted_double_pendulum": "InvertedDoublePendulum-v5",
-    "half_cheetah": "HalfCheetah-v5",
-    "swimmer": "Swimmer-v5",
-    "walker2d": "Walker2d-v5",
-    "humanoid": "Humanoid-v5",
-    "humanoid_standup": "HumanoidStandup-v5",
-    "reacher": "Reacher-v5",
-    "ant": "Ant-v5",
-    "pusher": "Pusher-v5",
+    task: gym_id
+    for task, (gym_id, _) in envs.GYMNASIUM_COUNTERPARTS.items()
+    if issubclass(envs.task_class(task), MjxEnv)
 }
 # Tasks that never terminate (Gymnasium's step always returns terminated False): their float64
 # parity run is one whole episode to the time limit under random actions (``episode_parity``, checked
@@ -94,6 +89,16 @@ def make_gymnasium(task: str, **kwargs) -> gym.Env:
         # (test_humanoid_newton_in_place_of_pgs measures what that changes against Gymnasium's own PGS).
         env.unwrapped.model.opt.solver = mujoco.mjtSolver.mjSOL_NEWTON
     return env
+
+
+def test_every_gymnasium_counterpart_is_in_gymnasiums_registry():
+    """``envs.GYMNASIUM_COUNTERPARTS`` against Gymnasium itself: each id is an env of Gymnasium's
+    registry whose step limit is the one the map gives, which is also the task's default
+    ``max_episode_steps``."""
+    for task, (gym_id, limit) in envs.GYMNASIUM_COUNTERPARTS.items():
+        assert gym_id in gym.registry, (task, gym_id)
+        assert gym.spec(gym_id).max_episode_steps == limit, (task, gym_id)
+        assert inspect.signature(envs.task_class(task)).parameters["max_episode_steps"].default == limit, task
 
 
 # --------------------------------------------------------------------------------------------

@@ -4,14 +4,13 @@ older jaxpg without a manifest still load, the final checkpoint survives any --k
 and "best" ranks checkpoints by one kind of return.
 
 One cartpole NPG run directory is written once per module from the algorithm's ``init``
-(checkpoints 2 and 4, nothing trained); tests damage copies of it. Nothing is compiled beyond
-what ``init`` and ``jax.eval_shape`` trace."""
+(checkpoints 2 and 4, nothing trained: conftest's ``pristine_run``); tests damage copies of it
+(``run_copy``). Nothing is compiled beyond what ``init`` and ``jax.eval_shape`` trace."""
 
 from __future__ import annotations
 
 import json
 import re
-import shutil
 import types
 from pathlib import Path
 
@@ -21,8 +20,7 @@ import pytest
 from test_checkpoint import make_state
 
 import jaxpg
-from jaxpg import algos
-from jaxpg.run import checkpoint_format, command_line, config_io, layout, main, metrics_log, planning, session
+from jaxpg.run import checkpoint_format, command_line, config_io, main, metrics_log, planning, session
 from jaxpg.run.checkpoint_errors import CheckpointError
 from jaxpg.run.checkpointer import Checkpointer
 
@@ -31,47 +29,9 @@ def listing(path: Path) -> dict:
     return {str(p.relative_to(path)): (p.stat().st_size, p.stat().st_mtime_ns) for p in sorted(path.rglob("*"))}
 
 
-def shifted(ts, step: int):
-    """``ts`` with the policy parameters moved by ``step``, so that each checkpoint differs."""
-    return ts.replace(params=jax.tree.map(lambda x: x + 0.01 * step, ts.params))
-
-
 def assert_tree_equal(got, want) -> None:
     for a, b in zip(jax.tree.leaves(got), jax.tree.leaves(want), strict=True):
         np.testing.assert_array_equal(np.asarray(a), np.asarray(b))
-
-
-@pytest.fixture(scope="module")
-def pristine(tmp_path_factory):
-    """A run directory with checkpoints 2 (score 2) and 4 (score 4) and the state they were made of."""
-    module = algos.get("npg")
-    config = module.Config(num_envs=4, horizon=8, policy_hidden=(8,), value_hidden=(8,), value_batch_size=8)
-    run = config_io.RunConfig(
-        task="cartpole",
-        algo="npg",
-        config=config_io.config_to_dict(config),
-        seeds=[0],
-        iterations=4,
-        checkpoint_every=2,
-    )
-    run_dir = tmp_path_factory.mktemp("runs") / "run"
-    run_dir.mkdir()
-    run.save(run_dir)
-    rows = [{"iteration": i, "seed": 0, "env_steps": 32.0 * i, "wall_time_s": float(i)} for i in range(1, 5)]
-    (run_dir / layout.METRICS_FILE).write_text("".join(json.dumps(r) + "\n" for r in rows))
-    ts = module.init(jax.random.PRNGKey(0), run.make_env(), config)
-    ckpt = Checkpointer(run_dir / layout.CHECKPOINT_DIR, keep=None, create=True)
-    for step in (2, 4):
-        ckpt.save(step, shifted(ts, step), score=float(step), info={"task": run.task, "algo": run.algo, "seeds": [0]})
-    ckpt.close()
-    return run_dir, ts
-
-
-@pytest.fixture
-def run_dir(pristine, tmp_path):
-    path = tmp_path / "run"
-    shutil.copytree(pristine[0], path)
-    return path
 
 
 def flip_bytes(step_dir: Path, item: str, count: int = 64) -> Path:
@@ -104,45 +64,45 @@ def checksum_warning(err: str, item: str, bad: int = 4, used: int = 2) -> None:
     assert re.fullmatch(pattern + rf"using checkpoint {used}", lines[0]), lines[0]
 
 
-def test_flipped_bytes_in_the_policy_item_are_caught_by_load_policy(pristine, run_dir, capfd):
-    flip_bytes(run_dir / "checkpoints" / "4", "policy")
-    before = listing(run_dir)
-    policy = jaxpg.load_policy(run_dir)
+def test_flipped_bytes_in_the_policy_item_are_caught_by_load_policy(pristine_run, run_copy, capfd):
+    flip_bytes(run_copy / "checkpoints" / "4", "policy")
+    before = listing(run_copy)
+    policy = jaxpg.load_policy(run_copy)
     checksum_warning(capfd.readouterr().err, "policy")
     assert policy.step == 2  # which step it used
-    assert_tree_equal(policy.params, shifted(pristine[1], 2).params)
+    assert_tree_equal(policy.params, pristine_run.state(2).params)
     # Asked for by number, the damaged step is one error line, not another step.
     with pytest.raises(CheckpointError, match=rf"^checkpoint step 4 in \S+ is damaged \({damage_reason(4, 'policy')}"):
-        jaxpg.load_policy(run_dir, 4)
-    assert listing(run_dir) == before
+        jaxpg.load_policy(run_copy, 4)
+    assert listing(run_copy) == before
 
 
-def test_flipped_bytes_in_the_state_item_make_resume_fall_back(pristine, run_dir, capfd):
-    flip_bytes(run_dir / "checkpoints" / "4", "state")
-    before = listing(run_dir)
-    plan = planning.plan(["--resume", str(run_dir), "--iterations", "6"], command_line.Experiment())
+def test_flipped_bytes_in_the_state_item_make_resume_fall_back(pristine_run, run_copy, capfd):
+    flip_bytes(run_copy / "checkpoints" / "4", "state")
+    before = listing(run_copy)
+    plan = planning.plan(["--resume", str(run_copy), "--iterations", "6"], command_line.Experiment())
     checksum_warning(capfd.readouterr().err, "state")
     assert plan.start == 2
-    assert_tree_equal(plan.state, shifted(pristine[1], 2))
-    assert listing(run_dir) == before
+    assert_tree_equal(plan.state, pristine_run.state(2))
+    assert listing(run_copy) == before
 
 
-def test_no_intact_checkpoint_is_one_error_line(run_dir, capfd):
-    flip_bytes(run_dir / "checkpoints" / "4", "state")
-    flip_bytes(run_dir / "checkpoints" / "2", "policy")
-    before = listing(run_dir)
+def test_no_intact_checkpoint_is_one_error_line(run_copy, capfd):
+    flip_bytes(run_copy / "checkpoints" / "4", "state")
+    flip_bytes(run_copy / "checkpoints" / "2", "policy")
+    before = listing(run_copy)
     with pytest.raises(CheckpointError, match=r"^no checkpoint in \S+ reads back completely \(checkpoint 4 and 1 "):
-        jaxpg.load_policy(run_dir)
-    assert main.main(["--resume", str(run_dir)]) == 2
+        jaxpg.load_policy(run_copy)
+    assert main.main(["--resume", str(run_copy)]) == 2
     err = capfd.readouterr().err.splitlines()
     assert len(err) == 1 and err[0].startswith("error: no checkpoint in "), err
-    assert listing(run_dir) == before
+    assert listing(run_copy) == before
 
 
-def test_a_missing_manifest_of_a_new_checkpoint_is_damage(pristine, run_dir, capfd):
+def test_a_missing_manifest_of_a_new_checkpoint_is_damage(pristine_run, run_copy, capfd):
     """A save killed after Orbax's commit but before the manifest: meta promises one."""
-    (run_dir / "checkpoints" / "4" / checkpoint_format.MANIFEST).unlink()
-    policy = jaxpg.load_policy(run_dir)
+    (run_copy / "checkpoints" / "4" / checkpoint_format.MANIFEST).unlink()
+    policy = jaxpg.load_policy(run_copy)
     err = capfd.readouterr().err.splitlines()
     assert err == [
         "warning: checkpoint 4 is damaged (its checksum manifest is missing (the save did not finish)); "
@@ -160,13 +120,13 @@ def make_old(step_dir: Path) -> None:
     meta_path.write_text(json.dumps(meta))
 
 
-def test_old_checkpoints_without_a_manifest_load_with_one_note(pristine, run_dir, capfd):
+def test_old_checkpoints_without_a_manifest_load_with_one_note(pristine_run, run_copy, capfd):
     for step in (2, 4):
-        make_old(run_dir / "checkpoints" / str(step))
-    policy = jaxpg.load_policy(run_dir, "latest")
+        make_old(run_copy / "checkpoints" / str(step))
+    policy = jaxpg.load_policy(run_copy, "latest")
     assert policy.step == 4
-    assert_tree_equal(policy.params, shifted(pristine[1], 4).params)
-    reader = Checkpointer(run_dir / "checkpoints")
+    assert_tree_equal(policy.params, pristine_run.state(4).params)
+    reader = Checkpointer(run_copy / "checkpoints")
     assert reader.damage(4) is None and reader.damage(2) is None  # two old steps: still one note
     err = capfd.readouterr().err.splitlines()
     assert len(err) == 2 and all(
@@ -186,14 +146,14 @@ def test_final_checkpoint_survives_keep_zero(tmp_path):
     assert ckpt.latest_step() == 6 and ckpt.best_step() == 2
 
 
-def test_keep_checkpoints_zero_is_refused_on_the_command_line(run_dir, capsys):
-    before = listing(run_dir)
-    fresh = ["--keep-checkpoints", "0", "--run-dir", str(run_dir / "new")]
-    for argv in (fresh, ["--resume", str(run_dir), "--keep-checkpoints", "0"]):
+def test_keep_checkpoints_zero_is_refused_on_the_command_line(run_copy, capsys):
+    before = listing(run_copy)
+    fresh = ["--keep-checkpoints", "0", "--run-dir", str(run_copy / "new")]
+    for argv in (fresh, ["--resume", str(run_copy), "--keep-checkpoints", "0"]):
         assert main.main(argv) == 2
         err = capsys.readouterr().err.splitlines()
         assert err == ["error: argument --keep-checkpoints: must be >= 1 (the latest checkpoint is always kept), got 0"]
-    assert listing(run_dir) == before
+    assert listing(run_copy) == before
 
 
 def test_checkpoint_score_compares_like_with_like():
@@ -209,14 +169,14 @@ def test_checkpoint_score_compares_like_with_like():
     assert metrics_log.checkpoint_score(several, evaluated=True) == 4.0  # mean over seeds
 
 
-def test_end_of_run_report_never_recommends_a_damaged_best(pristine, run_dir, capsys):
+def test_end_of_run_report_never_recommends_a_damaged_best(pristine_run, run_copy, capsys):
     """Checkpoint 4 scores highest but is damaged: the report names the best intact one, 2."""
-    flip_bytes(run_dir / "checkpoints" / "4", "state")
-    ckpt = Checkpointer(run_dir / "checkpoints", keep=None)
-    ckpt.save(6, shifted(pristine[1], 6), score=1.0, info={"task": "cartpole", "algo": "npg", "seeds": [0]})
+    flip_bytes(run_copy / "checkpoints" / "4", "state")
+    ckpt = Checkpointer(run_copy / "checkpoints", keep=None)
+    ckpt.save(6, pristine_run.state(6), score=1.0, info={"task": "cartpole", "algo": "npg", "seeds": [0]})
     ckpt.close()
-    run = config_io.RunConfig.load(run_dir)
-    plan = types.SimpleNamespace(run=run, run_dir=run_dir, profile=False)
+    run = config_io.RunConfig.load(run_copy)
+    plan = types.SimpleNamespace(run=run, run_dir=run_copy, profile=False)
     callbacks = types.SimpleNamespace(block_times=[(2, 1.0)], eval_seconds=0.0, evaluations=0, samples=32)
     session._report_end(plan, callbacks)
     captured = capsys.readouterr()

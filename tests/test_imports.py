@@ -120,6 +120,26 @@ def test_every_module_imports_alone_in_a_fresh_interpreter():
     assert done.returncode == 0, done.stdout + done.stderr
 
 
+def imported_in_a_fresh_interpreter(modules: str, check: str) -> str:
+    """What ``check`` (a Python expression) prints after ``import {modules}`` in a new interpreter."""
+    script = f"import sys\nimport {modules}\nprint({check})\n"
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    return done.stdout.strip()
+
+
+def test_the_command_lines_import_no_simulator_plots_or_checkpoints_and_touch_no_device():
+    """Why some imports of ``jaxpg.run`` wait inside functions: importing the command lines
+    leaves MuJoCo unimported (``startup.start`` chooses its GL backend first), JAX's devices
+    untouched (``jax.distributed.initialize`` must come first), and matplotlib, Orbax and the
+    optional Gymnasium out of ``--help``; the plotting command imports no JAX at all."""
+    heavy = "[m for m in ('mujoco', 'matplotlib', 'orbax.checkpoint', 'gymnasium') if m in sys.modules]"
+    started = "jax._src.xla_bridge.backends_are_initialized()"  # JAX's own test of it
+    modules = "jaxpg.cli, jaxpg.evaluate, jax._src.xla_bridge"
+    assert imported_in_a_fresh_interpreter(modules, f"{heavy}, {started}") == "[] False"
+    assert imported_in_a_fresh_interpreter("jaxpg.run.plotting", "'jax' in sys.modules") == "False"
+
+
 MAX_LINES = 400
 
 

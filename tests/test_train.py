@@ -69,8 +69,8 @@ def test_train_evaluates_between_calls_at_its_cadence_and_at_the_end(state):
 
     # Evaluating changes nothing in training: the same run without evaluation has the same metrics.
     # The evaluations split the block into calls of 3, 3 and 1 iterations; the run without them is
-    # split the same way, so that both run the same compiled programs (the same bits).
-    _, plain = run(state, 7, block_size=7, evaluate=None, iterations_per_call=3)
+    # split the same way (blocks of 3), so that both run the same compiled programs (the same bits).
+    _, plain = run(state, 7, block_size=3, evaluate=None)
     for key in TRAINING_KEYS:
         np.testing.assert_array_equal(metrics[key], plain[key], err_msg=key)
     assert "evaluated" not in plain

@@ -22,8 +22,6 @@ FIELD_HELP: dict[str, str] = {
     "eval_envs": "mean-policy evaluation episodes, run between compiled calls (0: no evaluation)",
     "eval_every": "iterations between mean-policy evaluations (one always runs after the last iteration)",
     "eval_horizon": "steps of an evaluation episode (0: the task's time limit)",
-    "loop_unroll": "steps per compiled-loop iteration in GAE, the value fit and conjugate gradient "
-    "(same arithmetic, longer compiles; 1: no unrolling)",
     "max_update_kl": "roll back an update whose mean KL(old || new) exceeds this (0: never)",
     # networks
     "policy": "policy distribution (categorical is implied by a discrete task)",

@@ -116,4 +116,4 @@ def phase_natural_gradient(ts: core.TrainState, batch: core.Batch, grad: jax.Arr
     """The natural direction ``x = F^-1 g [num_params]`` by ``config.cg_iters`` conjugate-gradient
     iterations on ``fisher_vector_product`` over ``fisher_subsample``'s states."""
     fvp = fisher_vector_product(ts, *fisher_subsample(ts, batch))
-    return linalg.conjugate_gradient(fvp, grad, ts.config.cg_iters, unroll=ts.config.loop_unroll)
+    return linalg.conjugate_gradient(fvp, grad, ts.config.cg_iters)

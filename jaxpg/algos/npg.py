@@ -100,25 +100,20 @@ def natural_step(
     fisher_vector_product: Callable[[Any], Any],
     kl_delta: jax.Array | float,
     cg_iters: int,
-    unroll: int = 1,
 ) -> NaturalGradientState:
     """NPG's step for the gradient ``grads`` (a pytree like the parameters): the natural direction
     ``x = F^-1 g`` (``cg_iters`` iterations of ``linalg.conjugate_gradient`` on the flattened
-    vector, ``unroll`` of them per iteration of the compiled loop) and the normalised step length
+    vector) and the normalised step length
     ``s = sqrt(kl_delta / g'x)`` (``normalized_step``), so that the quadratic model
     ``0.5 (s x)' F (s x)`` of the step's mean KL is ``kl_delta / 2`` (Kakade 2001; the step of
     LyceumAI and mjrl). ``fisher_vector_product(v) -> (F + damping I) v`` maps pytrees like
     ``grads`` (``natural_gradient.fisher_operator``)."""
     flat_grad, _ = ravel_pytree(grads)
-    cg = linalg.conjugate_gradient(
-        natural_gradient.flat_operator(fisher_vector_product, grads), flat_grad, cg_iters, unroll=unroll
-    )
+    cg = linalg.conjugate_gradient(natural_gradient.flat_operator(fisher_vector_product, grads), flat_grad, cg_iters)
     return NaturalGradientState(cg.x, normalized_step(flat_grad, cg.x, kl_delta), cg.residual_norm)
 
 
-def scale_by_natural_gradient(
-    kl_delta: jax.Array | float, cg_iters: int, unroll: int = 1
-) -> optax.GradientTransformationExtraArgs:
+def scale_by_natural_gradient(kl_delta: jax.Array | float, cg_iters: int) -> optax.GradientTransformationExtraArgs:
     """``natural_step`` as an optax transformation, for research code that chains it: a gradient
     ``g`` in, ``s x`` out (``NaturalGradientState``'s ``step_size * direction``, shaped like the
     parameters). NPG's own ``update`` calls ``natural_step`` directly, since its KL back-off takes
@@ -133,8 +128,7 @@ def scale_by_natural_gradient(
 
     The updates point along ``+g``'s natural direction: for the gradient of an objective to
     maximise (NPG's surrogate) apply them as they are, for a loss chain ``optax.scale(-1.0)``
-    after it. ``kl_delta`` may be traced (``update_with_kl_delta``). ``unroll`` (static) runs
-    that many CG iterations per iteration of the compiled loop.
+    after it. ``kl_delta`` may be traced (``update_with_kl_delta``).
     """
 
     def init(params: Any) -> NaturalGradientState:
@@ -150,7 +144,7 @@ def scale_by_natural_gradient(
         **extra_args: Any,
     ) -> tuple[Any, NaturalGradientState]:
         del state, params, extra_args
-        solve = natural_step(grads, fisher_vector_product, kl_delta, cg_iters, unroll)
+        solve = natural_step(grads, fisher_vector_product, kl_delta, cg_iters)
         _, unravel = ravel_pytree(grads)
         return unravel(solve.step_size * solve.direction), solve
 
@@ -223,7 +217,7 @@ def phase_natural_step(
 ) -> NaturalGradientState:
     """``natural_step`` with the Fisher matrix of ``fisher_subsample``'s states at ``ts.params``."""
     fvp = natural_gradient.fisher_operator(ts, *natural_gradient.fisher_subsample(ts, batch))
-    return natural_step(grads, fvp, kl_delta, ts.config.cg_iters, ts.config.loop_unroll)
+    return natural_step(grads, fvp, kl_delta, ts.config.cg_iters)
 
 
 def phase_kl_backoff(

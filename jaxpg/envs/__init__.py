@@ -37,6 +37,24 @@ REGISTRY: dict[str, str] = {
     "atari_pong": "jaxpg.envs.atari:AtariPong",
 }
 
+# task -> (the id of the Gymnasium env it reproduces, Gymnasium's step limit for that env), known
+# without importing Gymnasium: ``python -m jaxpg.evaluate --gymnasium`` replays a policy in that
+# env (``jaxpg.run.replay``), and ``jaxpg.envs.gymnasium_api`` registers the task as ``jaxpg/<id>``.
+GYMNASIUM_COUNTERPARTS: dict[str, tuple[str, int]] = {
+    "hopper": ("Hopper-v5", 1000),
+    "inverted_pendulum": ("InvertedPendulum-v5", 1000),
+    "inverted_double_pendulum": ("InvertedDoublePendulum-v5", 1000),
+    "half_cheetah": ("HalfCheetah-v5", 1000),
+    "swimmer": ("Swimmer-v5", 1000),
+    "pusher": ("Pusher-v5", 100),
+    "walker2d": ("Walker2d-v5", 1000),
+    "humanoid": ("Humanoid-v5", 1000),
+    "humanoid_standup": ("HumanoidStandup-v5", 1000),
+    "reacher": ("Reacher-v5", 50),
+    "ant": ("Ant-v5", 1000),
+    "cartpole": ("CartPole-v1", 500),
+}
+
 
 def names() -> list[str]:
     """The names ``make`` accepts, sorted."""

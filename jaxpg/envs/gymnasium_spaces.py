@@ -36,20 +36,10 @@ from gymnasium import spaces  # noqa: E402
 
 from jaxpg import envs as envs_lib  # noqa: E402
 
-# Gymnasium id -> (jaxpg task, Gymnasium's step limit for it)
+# jaxpg's Gymnasium id -> (jaxpg task, Gymnasium's step limit for it): ``jaxpg/<id>`` for each of
+# ``envs.GYMNASIUM_COUNTERPARTS``.
 GYMNASIUM_IDS: dict[str, tuple[str, int]] = {
-    "jaxpg/Hopper-v5": ("hopper", 1000),
-    "jaxpg/InvertedPendulum-v5": ("inverted_pendulum", 1000),
-    "jaxpg/InvertedDoublePendulum-v5": ("inverted_double_pendulum", 1000),
-    "jaxpg/HalfCheetah-v5": ("half_cheetah", 1000),
-    "jaxpg/Swimmer-v5": ("swimmer", 1000),
-    "jaxpg/Pusher-v5": ("pusher", 100),
-    "jaxpg/Walker2d-v5": ("walker2d", 1000),
-    "jaxpg/Humanoid-v5": ("humanoid", 1000),
-    "jaxpg/HumanoidStandup-v5": ("humanoid_standup", 1000),
-    "jaxpg/Reacher-v5": ("reacher", 50),
-    "jaxpg/Ant-v5": ("ant", 1000),
-    "jaxpg/CartPole-v1": ("cartpole", 500),
+    f"jaxpg/{gym_id}": (task, limit) for task, (gym_id, limit) in envs_lib.GYMNASIUM_COUNTERPARTS.items()
 }
 
 # Tasks with no physics fidelity to choose (pure JAX, the same equations as Gymnasium's).

@@ -30,7 +30,7 @@ from typing import Any
 import numpy as np
 
 from jaxpg import mesh as mesh_lib
-from jaxpg.run import console, layout, metrics_log
+from jaxpg.run import console, layout, metrics_log, plotting, policy_episodes
 from jaxpg.run.interrupts import Stop, StopAtOnce, TimeUp
 from jaxpg.run.output import is_primary, seed_slice
 from jaxpg.run.plan import Plan
@@ -261,8 +261,6 @@ class Checkpoints:
     def plot(self) -> None:
         """Redraw ``curves.png``; a failure is a warning line (a plot must never stop training)."""
         try:
-            from jaxpg.run import plotting
-
             plotting.plot_run(self.plan.run_dir, task_score_name=self.plan.env.task_score_name)
         except Exception as e:  # noqa: BLE001 - a plot must never stop training
             self.progress.write(f"warning: curves.png not updated ({type(e).__name__}: {e})")
@@ -282,8 +280,6 @@ class Videos:
             self.record(ts, last)
 
     def record(self, ts: Any, step: int) -> None:
-        from jaxpg.run import policy_episodes
-
         run = self.plan.run
         path = self.plan.run_dir / layout.VIDEO_DIR / f"iter_{step:06d}.mp4"
         try:

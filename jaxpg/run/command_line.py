@@ -30,7 +30,7 @@ stderr with exit status 2, before anything is compiled or written.
 Several devices and processes (``jaxpg.mesh``, ``jaxpg.run.processes``): ``--num-envs`` is split over every device
 (``--shard``, on when there are several). Several processes run one command each, adding
 ``--coordinator-address HOST:PORT --num-processes K --process-id I`` (or the ``JAX_*`` variables);
-``start_processes`` joins them before anything else touches JAX, a coordinator that cannot be
+``startup.start`` joins them before anything else touches JAX, a coordinator that cannot be
 reached is an ``error:`` line with status 2, and process 0 alone writes the run directory.
 """
 
@@ -39,10 +39,10 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import typing
-from collections.abc import Sequence
 from typing import Any
 
-from jaxpg import algos
+from jaxpg import algos, envs
+from jaxpg.algos.field_help import field_choices, field_help
 from jaxpg.run import config_io
 from jaxpg.run.flags import UsageError, finite_float, seed_value
 
@@ -148,8 +148,6 @@ def add_config_flags(parser: argparse.ArgumentParser, config_cls: type, defaults
     given): ints, floats, strings, ``T | None`` (``none``), tuples (``nargs='*'``) and booleans
     (``--x/--no-x``). Help shows what the field means (``algos.field_help``), the values a string
     field accepts and the effective default."""
-    from jaxpg.algos.field_help import field_choices, field_help
-
     group = parser.add_argument_group(title)
     unused = getattr(config_cls, "UNUSED_FIELDS", ())
     for name, tp in config_io.field_types(config_cls).items():
@@ -217,8 +215,6 @@ def _keep_count(text: str) -> int:
 
 def build_parser(experiment: Experiment, algo: str, config_cls: type | None, config_defaults: dict[str, Any]) -> Parser:
     """The full parser: run flags plus the ``Config`` flags of ``algo``."""
-    from jaxpg import envs
-
     tasks = experiment.tasks or tuple(envs.names())
     parser = Parser(
         prog=experiment.prog,
@@ -324,32 +320,6 @@ def add_distributed_flags(parser: argparse.ArgumentParser) -> None:
         metavar="SECONDS",
         help="how long to wait for the coordinator and the other processes (default: 60)",
     )
-
-
-def pre_parse(argv: Sequence[str]) -> argparse.Namespace:
-    pre = Parser(add_help=False)
-    pre.add_argument("--task", "--env", dest="task")
-    pre.add_argument("--algo")
-    pre.add_argument("--resume")
-    pre.add_argument("--run-dir")
-    pre.add_argument("--preset")
-    args, _ = pre.parse_known_args(argv)
-    return args
-
-
-def videos_requested(argv: Sequence[str], experiment: Experiment) -> bool:
-    """Whether this command may draw videos (``--video-every`` > 0 given or by default, or a
-    ``--resume``, whose run may have asked for them): only then does ``main`` choose MuJoCo's
-    offscreen GL backend (``video.configure_gl``), which must happen before MuJoCo is imported.
-    Read with argparse, so that abbreviations (``--video 5``) count as they do in the full parser."""
-    peek = argparse.ArgumentParser(add_help=False, exit_on_error=False)
-    peek.add_argument("--video-every", default=experiment.video_every)
-    peek.add_argument("--resume")
-    try:
-        args, _ = peek.parse_known_args(list(argv))
-        return args.resume is not None or int(args.video_every) > 0
-    except (argparse.ArgumentError, ValueError):
-        return False  # the full parser reports the bad value
 
 
 DEFAULT_EPILOG = """\

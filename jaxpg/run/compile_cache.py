@@ -18,6 +18,8 @@ import sys
 import tempfile
 from pathlib import Path
 
+import jax
+
 ENV_VAR = "JAXPG_COMPILATION_CACHE"
 DEFAULT_DIR = Path("~/.cache/jaxpg/xla")
 _OFF = ("off", "0", "none", "false", "")
@@ -44,8 +46,6 @@ def enable(directory: str | os.PathLike | None = None, min_compile_seconds: floa
     creating and removing a temporary file in it) leaves the cache off, with one ``warning:``
     line on stderr saying so.
     """
-    import jax
-
     path = Path(directory).expanduser() if directory is not None else cache_dir()
     if path is None:
         return None

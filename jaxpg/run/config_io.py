@@ -12,6 +12,7 @@ import typing
 from pathlib import Path
 from typing import Any
 
+from jaxpg import algos
 from jaxpg.run.layout import (
     CONFIG_FILE,
     FORMAT_VERSION,
@@ -71,8 +72,6 @@ class RunConfig:
         return max(size, 1)
 
     def algo_module(self) -> types.ModuleType:
-        from jaxpg import algos
-
         return algos.get(self.algo)
 
     def algo_config(self) -> Any:
@@ -81,7 +80,7 @@ class RunConfig:
 
     def make_env(self) -> Any:
         """The run's env (``jaxpg.envs.make_shared``: one object per task and arguments)."""
-        from jaxpg import envs
+        from jaxpg import envs  # here: python -m jaxpg.run.plotting reads config.json without JAX
 
         return envs.make_shared(self.task, **self.env_kwargs)
 

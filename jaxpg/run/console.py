@@ -8,6 +8,7 @@ import warnings
 from typing import Any
 
 import numpy as np
+from tqdm.auto import tqdm
 
 from jaxpg.run.metrics_log import latest_value
 
@@ -115,10 +116,7 @@ class Progress:
     """
 
     def __init__(self, total: int, initial: int = 0, enabled: bool | None = None, desc: str = "train"):
-        from tqdm.auto import tqdm
-
         disable = None if enabled is None else not enabled
-        self._tqdm = tqdm
         self.bar = tqdm(total=total, initial=initial, desc=desc, unit="it", dynamic_ncols=True, disable=disable)
 
     def update(self, n: int, metrics: dict[str, np.ndarray], steps_per_s: float) -> None:
@@ -132,7 +130,7 @@ class Progress:
         self.bar.update(n)
 
     def write(self, line: str) -> None:
-        self._tqdm.write(line, file=sys.stdout)
+        tqdm.write(line, file=sys.stdout)
 
     def close(self) -> None:
         self.bar.close()

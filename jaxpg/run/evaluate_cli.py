@@ -25,15 +25,8 @@ from typing import Any
 
 import numpy as np
 
-from jaxpg.run.policy_episodes import play_episodes
-from jaxpg.run.replay import (
-    GYMNASIUM_IDS,
-    GYMNASIUM_INSTALL,
-    ale_action_set,
-    evaluate_ale,
-    evaluate_gymnasium,
-    gymnasium_installed,
-)
+from jaxpg import video as video_lib
+from jaxpg.run.flags import UsageError, check_backend, seed_value
 
 
 def _stats(x: np.ndarray) -> str:
@@ -43,8 +36,6 @@ def _stats(x: np.ndarray) -> str:
 def _video_problem(run: Any, gymnasium: bool) -> str | None:
     """Why the video of ``run``'s task cannot be rendered here (one line), or ``None``. Only tasks
     drawn by MuJoCo's OpenGL renderer can fail; CartPole and Pong are drawn with NumPy."""
-    from jaxpg import video as video_lib
-
     if gymnasium:
         needs_gl = run.task != "cartpole"
     else:
@@ -80,9 +71,6 @@ def output_problem(path: Path) -> str | None:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    from jaxpg import video as video_lib
-    from jaxpg.run.flags import UsageError, check_backend, seed_value
-
     parser = argparse.ArgumentParser(
         prog="python -m jaxpg.evaluate",
         description=__doc__.split("\n\n")[0].split(": ", 1)[-1] if __doc__ else None,
@@ -106,14 +94,19 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.video:  # MuJoCo is not imported yet: choose a GL backend that loads, only for a video
         video_lib.configure_gl()
+    # Here, once the arguments parse: the policy's modules bring JAX's training stack (flax, optax),
+    # a third of the 0.9 s that --help would take with them.
+    from jaxpg.envs import atari
+    from jaxpg.run import policy_episodes, policy_io, replay
+
     if args.episodes < 1:
         print("error: --episodes must be >= 1", file=sys.stderr)
         return 2
     if args.video and Path(args.video).suffix.lower() not in (".mp4", ".gif"):
         print(f"error: --video must end in .mp4 or .gif, got {args.video!r}", file=sys.stderr)
         return 2
-    if args.gymnasium and not gymnasium_installed():
-        print(f"error: --gymnasium needs Gymnasium: {GYMNASIUM_INSTALL}", file=sys.stderr)
+    if args.gymnasium and not replay.gymnasium_installed():
+        print(f"error: --gymnasium needs Gymnasium: {replay.GYMNASIUM_INSTALL}", file=sys.stderr)
         return 2
     if args.ale and (args.gymnasium or args.video):
         print("error: --ale plays ALE/Pong-v5 alone: drop --gymnasium and --video", file=sys.stderr)
@@ -128,16 +121,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"error: {e}", file=sys.stderr)
         return 2
     try:
-        from jaxpg.run import policy_io
-
         if args.ale:
-            from jaxpg.envs import atari
-
             atari.require_ale()
         policy = policy_io.load_policy(
             args.run_dir, args.step, seed=args.train_seed, deterministic=not args.sample, sample_seed=args.seed
         )
-        action_set = ale_action_set(policy.run.task, policy.run.env_kwargs) if args.ale else None
+        action_set = replay.ale_action_set(policy.run.task, policy.run.env_kwargs) if args.ale else None
     except (ValueError, ImportError) as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
@@ -145,7 +134,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     kind = "sampled actions" if args.sample else "mean policy"
     where = f"checkpoint step {policy.step} of {args.run_dir} (seed {policy.seed}), {kind}"
     if args.ale:
-        scores, lengths = evaluate_ale(policy, action_set, args.episodes, args.sticky, args.seed)
+        scores, lengths = replay.evaluate_ale(policy, action_set, args.episodes, args.sticky, args.seed)
         sticky = "sticky actions 0.25" if args.sticky else "repeat_action_probability=0"
         print(f"{where}, {args.episodes} games of ALE/Pong-v5 ({sticky})")
         print(f"score: {_stats(scores)}  (min {np.min(scores):+.0f}, max {np.max(scores):+.0f}; points won - lost)")
@@ -157,17 +146,18 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"error: --video: {problem}", file=sys.stderr)
         return 2
     if args.gymnasium:
-        if run.task not in GYMNASIUM_IDS:
+        gym_id = replay.gymnasium_counterpart(run.task)
+        if gym_id is None:
             print(f"error: task {run.task!r} has no Gymnasium counterpart", file=sys.stderr)
             return 2
-        returns, lengths, frames = evaluate_gymnasium(
+        returns, lengths, frames = replay.evaluate_gymnasium(
             policy, run.task, run.env_kwargs, args.episodes, args.seed, video=args.video
         )
-        env_name = f"Gymnasium {GYMNASIUM_IDS[run.task]}"
+        env_name = f"Gymnasium {gym_id}"
         metric_line = ""
     else:
         env = run.make_env()
-        eps = play_episodes(
+        eps = policy_episodes.play_episodes(
             env, policy.policy, policy.params, policy.obs_stats, args.seed, args.episodes, deterministic=not args.sample
         )
         returns, lengths = eps.returns, eps.lengths

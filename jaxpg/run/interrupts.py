@@ -10,6 +10,8 @@ import threading
 import time
 from typing import Any
 
+import jax
+
 
 class Stop(Exception):
     """Raised by the callbacks after an interrupt, once the current compiled call has finished and
@@ -62,8 +64,6 @@ class Interrupts:
         self._previous_wakeup_fd = -1
 
     def __enter__(self) -> Interrupts:
-        import jax
-
         if jax.process_count() == 1:
             for signum in (signal.SIGINT, signal.SIGTERM):
                 self.previous[signum] = signal.signal(signum, self._handle)

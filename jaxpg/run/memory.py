@@ -5,6 +5,9 @@ from __future__ import annotations
 import os
 from typing import Any
 
+import jax
+
+from jaxpg.algos import core
 from jaxpg.run.flags import UsageError
 
 
@@ -38,8 +41,6 @@ def available_memory() -> tuple[int, str, bool] | None:
     allocator's limit minus what is in use; ``shared`` False: each device holds its own share),
     or on CPU the host's available memory (``shared`` True: every CPU device draws on it);
     ``None`` when the platform does not say."""
-    import jax
-
     devices = jax.local_devices()
     if devices[0].platform == "cpu":
         host = _host_available_bytes()
@@ -58,8 +59,6 @@ def check_memory(config: Any, env: Any, num_seeds: int, shares: int) -> None:
     ``core.memory_lower_bound`` of the config for ``num_seeds`` seeds, its batch split over ``shares``
     devices, exceeds the memory available (``available_memory``), so that an absurd size is
     refused up front instead of hanging in an allocation."""
-    from jaxpg.algos import core
-
     memory = available_memory()
     if memory is None:
         return

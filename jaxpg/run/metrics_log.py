@@ -147,7 +147,7 @@ class MetricsWriter:
         self._file = (self.run_dir / METRICS_FILE).open("a")
         self._writers: dict[int, Any] = {}
         if tensorboard:
-            try:
+            try:  # here: without tensorboardX a run goes on, writing metrics.jsonl alone
                 from tensorboardX import SummaryWriter
             except ImportError:
                 print("warning: tensorboardX is not installed: no TensorBoard event files", file=sys.stderr)

@@ -5,17 +5,17 @@ from __future__ import annotations
 
 from typing import Any
 
+import jax
+
+from jaxpg.run import processes
+
 
 def seed_slice(tree: Any, index: int, vmap_seeds: bool) -> Any:
-    import jax
-
     return jax.tree.map(lambda x: x[index], tree) if vmap_seeds else tree
 
 
 def is_primary() -> bool:
     """This process writes files and prints (``jaxpg.run.processes.is_primary``)."""
-    from jaxpg.run import processes
-
     return processes.is_primary()
 
 

@@ -8,6 +8,9 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+import jax
+
+from jaxpg import train
 from jaxpg.run.config_io import RunConfig
 
 
@@ -37,17 +40,11 @@ class Plan:
 def _compiled_init(module: Any, env: Any, config: Any, seeds: tuple[int, ...]) -> Any:
     """Jitted ``init`` (several seeds: ``train.init_seeds``), cached so that runs in one process
     share the compiled program."""
-    import jax
-
-    from jaxpg import train
-
     if len(seeds) > 1:
         return jax.jit(lambda: train.init_seeds(module.init, seeds, env, config))
     return jax.jit(lambda key: module.init(key, env, config))
 
 
 def initial_state(module: Any, env: Any, config: Any, seeds: Sequence[int]) -> Any:
-    import jax
-
     init = _compiled_init(module, env, config, tuple(seeds))
     return init() if len(seeds) > 1 else init(jax.random.PRNGKey(seeds[0]))

@@ -10,8 +10,10 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from jaxpg import algos
-from jaxpg.run import config_io, directory, layout, metrics_log, replacing, run_lock
+import jax
+
+from jaxpg import algos, envs
+from jaxpg.run import checkpointer, config_io, directory, layout, metrics_log, policy_io, replacing, run_lock
 from jaxpg.run.command_line import (
     CONFIG_PREFIX,
     ENV_PREFIX,
@@ -19,25 +21,21 @@ from jaxpg.run.command_line import (
     algo_module,
     build_parser,
     flag_name,
-    pre_parse,
 )
 from jaxpg.run.config_io import RunConfig
 from jaxpg.run.flags import UsageError
 from jaxpg.run.memory import check_memory
 from jaxpg.run.plan import Plan
+from jaxpg.run.pre_flags import PreFlags, parse_pre_flags
 
 
 def _check_task(task: str, experiment: Experiment) -> None:
-    from jaxpg import envs
-
     allowed = experiment.tasks or tuple(envs.names())
     if task not in envs.names() or task not in allowed:
         raise UsageError(f"unknown task {task!r}; known tasks: {', '.join(allowed)}")
 
 
 def _make_env(task: str, env_kwargs: dict[str, Any]) -> Any:
-    from jaxpg import envs
-
     try:
         return envs.make_shared(task, **env_kwargs)
     except TypeError as e:
@@ -74,16 +72,12 @@ def _check_fresh_run_dir(run_dir: Path, overwrite: bool) -> None:
 
 
 def _device_count() -> int:
-    import jax
-
     return jax.device_count()
 
 
 def _check_sharding(config: Any, explicit: bool | None) -> bool:
     """Whether the env batch is split over ``jax.devices()`` (all devices of all processes):
     by default when there are several; ``UsageError`` if ``--num-envs`` does not divide."""
-    import jax
-
     count, processes = jax.device_count(), jax.process_count()
     shard = (count > 1) if explicit is None else explicit
     if processes > 1 and not shard:
@@ -159,8 +153,6 @@ def plan_fresh(args: argparse.Namespace, experiment: Experiment, module: Any, al
 
 
 def plan_resume(args: argparse.Namespace, run: RunConfig, run_dir: Path) -> Plan:
-    from jaxpg.run import checkpointer, policy_io
-
     fixed = [flag_name(k) for k in (*_explicit_config(args), *_explicit_env(args))]
     for key in ("seed", "seeds", "preset", "fidelity", "impl", "max_episode_steps", "run_dir", "overwrite"):
         if getattr(args, key) is not None:
@@ -226,9 +218,10 @@ def _field_default(field: dataclasses.Field) -> Any:
     return None
 
 
-def plan(argv: Sequence[str], experiment: Experiment) -> Plan:
-    """Parse and check everything; raises ``UsageError``/``ValueError`` with one line."""
-    pre = pre_parse(argv)
+def plan(argv: Sequence[str], experiment: Experiment, pre: PreFlags | None = None) -> Plan:
+    """Parse and check everything; raises ``UsageError``/``ValueError`` with one line. ``pre``:
+    the flags of ``argv`` already read before the full parse (read here when not given)."""
+    pre = parse_pre_flags(argv, experiment) if pre is None else pre
     resume_run = None
     if pre.resume is not None:
         layout.check_path(pre.resume, "--resume")

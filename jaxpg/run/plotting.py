@@ -77,6 +77,8 @@ def plot_runs(
     task_score_name: str | None = None,
 ) -> Path:
     """Draw ``[(label, records)]`` into ``path`` (png, pdf, svg ...) and return the path."""
+    # Here, not at the top: matplotlib takes 0.4 s to import, which a run pays at its first plot,
+    # after its first block, not before its first line.
     import matplotlib
 
     matplotlib.use("Agg", force=False)

@@ -8,7 +8,13 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+import jax
+import jax.numpy as jnp
 import numpy as np
+
+from jaxpg import rollout as rollout_lib
+from jaxpg import video as video_lib
+from jaxpg.algos.core import make_act
 
 
 class Episodes:
@@ -49,11 +55,6 @@ def physics_states(state: Any) -> dict[str, Any]:
 def _rollout_impl(env: Any, policy: Any, num_episodes: int, horizon: int, deterministic: bool) -> Callable:
     """The jitted ``(params, obs_stats, key) -> {name: array}`` behind ``play_episodes``: an episodic
     ``jaxpg.rollout`` of the policy (its mode, or samples) that records the physics states."""
-    import jax
-    import jax.numpy as jnp
-
-    from jaxpg import rollout as rollout_lib
-    from jaxpg.algos.core import make_act
 
     def run(params: Any, obs_stats: Any, key: jax.Array) -> dict[str, jax.Array]:
         reset_key, steps_key = jax.random.split(key)  # as rollout_lib.rollout_episodes splits it
@@ -82,8 +83,6 @@ def play_episodes(
 ) -> Episodes:
     """``num_episodes`` episodes of ``policy`` in the jaxpg env ``env``, in parallel (jitted once
     per env, policy and shape). ``horizon`` defaults to the env's time limit."""
-    import jax
-
     horizon = int(horizon or env.max_episode_steps)
     key = jax.random.PRNGKey(seed) if isinstance(seed, int) else seed
     out = jax.device_get(_rollout_impl(env, policy, num_episodes, horizon, deterministic)(params, obs_stats, key))
@@ -102,8 +101,6 @@ def record_policy(
     """Roll out the mean policy for one episode (``play_episodes``) and save its video
     (``video.save_episode_video``); returns ``(path, episode
     return, episode length)``."""
-    from jaxpg import video as video_lib
-
     horizon = int(max_steps or env.max_episode_steps)
     episodes = play_episodes(env, policy, params, obs_stats, seed, num_episodes=1, horizon=horizon)
     length = int(episodes.lengths[0])

@@ -15,14 +15,14 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from jaxpg import train
+from jaxpg.algos import core
 from jaxpg.run import checkpoint_format, checkpointer, config_io, layout
 
 
 def abstract_train_state(run: config_io.RunConfig, env: Any = None) -> Any:
     """The ``jax.eval_shape`` of the run's initial ``TrainState`` (seed-stacked for several
     seeds): the restore target, built by the algorithm's ``init`` with the saved config."""
-    from jaxpg import train
-
     module = run.algo_module()
     config = run.algo_config()
     env = run.make_env() if env is None else env
@@ -164,8 +164,6 @@ def load_policy(
     Raises ``ValueError`` (``RunDirError``/``CheckpointError``) with one line when the run or
     checkpoint is missing, foreign, damaged or does not fit, or ``run_dir`` is a file.
     """
-    from jaxpg.algos import core
-
     run = load_run_config(run_dir)
     env = run.make_env()
     config = run.algo_config()

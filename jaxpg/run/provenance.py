@@ -13,11 +13,13 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+import jax
+
+import jaxpg
+
 
 def versions() -> dict[str, str]:
     """Versions of Python and the packages a run's numbers depend on."""
-    import jaxpg
-
     out = {"python": platform.python_version(), "jaxpg": jaxpg.__version__}
     for dist in (
         "jax",
@@ -64,8 +66,6 @@ def git_commit() -> str | None:
 
 def device_info() -> dict[str, Any]:
     """The JAX backend, device kind and count the run used."""
-    import jax
-
     devices = jax.devices()
     return {
         "backend": jax.default_backend(),

@@ -11,7 +11,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from jaxpg.run import directory, layout, metrics_log, provenance, run_lock
+from jaxpg.run import checkpoint_errors, checkpointer, directory, layout, metrics_log, provenance, run_lock
 from jaxpg.run.plan import Plan
 
 REPLACED = ".replaced-"  # RUN.replaced-PID: the run that process PID's --overwrite moved aside
@@ -29,8 +29,6 @@ def has_checkpoint(run_dir: str | os.PathLike) -> bool:
     """Whether ``run_dir`` holds a committed checkpoint (a step ``--resume`` could start from);
     ``True`` as well when its checkpoint directory cannot be read, so that nothing is taken for
     empty that is not known to be."""
-    from jaxpg.run import checkpoint_errors, checkpointer
-
     ckpt_dir = Path(run_dir) / layout.CHECKPOINT_DIR
     if not ckpt_dir.is_dir():
         return False

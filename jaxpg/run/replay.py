@@ -8,28 +8,23 @@ from typing import Any
 
 import numpy as np
 
+from jaxpg import envs
+from jaxpg import video as video_lib
+from jaxpg.envs import atari
+
 GYMNASIUM_INSTALL = "pip install 'gymnasium[mujoco]'"
 
 
-GYMNASIUM_IDS = {
-    "hopper": "Hopper-v5",
-    "inverted_pendulum": "InvertedPendulum-v5",
-    "inverted_double_pendulum": "InvertedDoublePendulum-v5",
-    "half_cheetah": "HalfCheetah-v5",
-    "swimmer": "Swimmer-v5",
-    "walker2d": "Walker2d-v5",
-    "humanoid": "Humanoid-v5",
-    "humanoid_standup": "HumanoidStandup-v5",
-    "reacher": "Reacher-v5",
-    "ant": "Ant-v5",
-    "pusher": "Pusher-v5",
-    "cartpole": "CartPole-v1",
-}
+def gymnasium_counterpart(task: str) -> str | None:
+    """The id of Gymnasium's env that ``task`` reproduces (``"Hopper-v5"``), or ``None``
+    (``jaxpg.envs.GYMNASIUM_COUNTERPARTS``)."""
+    counterpart = envs.GYMNASIUM_COUNTERPARTS.get(task)
+    return None if counterpart is None else counterpart[0]
 
 
 def gymnasium_installed() -> bool:
     """Gymnasium can be imported (``GYMNASIUM_INSTALL`` says how to install it otherwise)."""
-    try:
+    try:  # Gymnasium is an optional extra: this module imports without it
         import gymnasium  # noqa: F401
     except ImportError:
         return False
@@ -39,19 +34,21 @@ def gymnasium_installed() -> bool:
 def gymnasium_reference_env(task: str, env_kwargs: dict[str, Any], render: bool = False) -> Any:
     """The Gymnasium env matching a jaxpg task (same time limit). Raises ``ImportError`` with the
     install command when Gymnasium is missing."""
-    try:
+    try:  # an optional extra, as above
         import gymnasium as gym
     except ImportError:
         raise ImportError(f"Gymnasium is not installed: {GYMNASIUM_INSTALL}") from None
 
-    if task not in GYMNASIUM_IDS:
-        raise ValueError(f"task {task!r} has no Gymnasium counterpart; known: {', '.join(GYMNASIUM_IDS)}")
+    gym_id = gymnasium_counterpart(task)
+    if gym_id is None:
+        known = ", ".join(envs.GYMNASIUM_COUNTERPARTS)
+        raise ValueError(f"task {task!r} has no Gymnasium counterpart; known: {known}")
     kwargs: dict[str, Any] = {}
     if "max_episode_steps" in env_kwargs:
         kwargs["max_episode_steps"] = int(env_kwargs["max_episode_steps"])
     if render and task != "cartpole":  # CartPole's renderer needs pygame; jaxpg draws it itself
         kwargs.update(render_mode="rgb_array", width=480, height=480)
-    return gym.make(GYMNASIUM_IDS[task], **kwargs)
+    return gym.make(gym_id, **kwargs)
 
 
 def evaluate_gymnasium(
@@ -63,8 +60,6 @@ def evaluate_gymnasium(
     video: str | None = None,
 ) -> tuple[np.ndarray, np.ndarray, list[np.ndarray]]:
     """``(returns [N], lengths [N], frames of the first episode)`` of ``policy`` in Gymnasium."""
-    from jaxpg import video as video_lib
-
     env = gymnasium_reference_env(task, env_kwargs, render=video is not None)
     returns, lengths, frames = [], [], []
     for i in range(episodes):
@@ -105,6 +100,4 @@ def evaluate_ale(
 ) -> tuple[np.ndarray, np.ndarray]:
     """``(scores [N], lengths [N])`` of ``policy`` in Gymnasium's ``ALE/Pong-v5``
     (``jaxpg.envs.atari.play_ale``)."""
-    from jaxpg.envs import atari
-
     return atari.play_ale(policy, episodes, action_set, sticky=sticky, seed=seed)

@@ -28,7 +28,23 @@ import signal
 import sys
 from typing import Any
 
-from jaxpg.run import console, layout, metrics_log, run_lock
+import jax
+
+from jaxpg import mesh as mesh_lib
+from jaxpg import train
+from jaxpg.algos import core
+from jaxpg.envs.warp_kernels import KernelBuild
+from jaxpg.run import (
+    checkpoint_errors,
+    checkpointer,
+    console,
+    layout,
+    metrics_log,
+    processes,
+    profiling,
+    replay,
+    run_lock,
+)
 from jaxpg.run.callbacks import BlockClock, HostCallbacks, host_callbacks
 from jaxpg.run.interrupts import Interrupts, Stop, TimeUp, exit_status
 from jaxpg.run.output import Silent, is_primary, seed_slice, show
@@ -38,8 +54,6 @@ from jaxpg.run.replacing import finish_run_dir, prepare_run_dir, resume_command
 
 def run_profile(plan_: Plan, ts: Any, out: Any) -> dict[str, float] | None:
     """Time each phase of one iteration (``jaxpg.run.profiling.profile_phases``)."""
-    from jaxpg.run import profiling
-
     run = plan_.run
     if run.algo not in profiling.phased_algorithms():
         known = ", ".join(profiling.phased_algorithms())
@@ -67,8 +81,6 @@ def execute(plan_: Plan) -> int:
     with 130 / 143; a second SIGINT exits at once. Write errors (disk full, permissions) and
     checkpoint errors are one ``error:`` line with status 2.
     """
-    from jaxpg.run import processes
-
     run, run_dir = plan_.run, plan_.run_dir
     primary = is_primary()
     if plan_.start > 0 and plan_.start >= run.iterations:
@@ -119,14 +131,6 @@ def execute(plan_: Plan) -> int:
 
 def _train(plan_: Plan, ts: Any, wall_offset: float, interrupts: Interrupts) -> int:
     """The training loop of ``execute``, in a prepared and locked run directory."""
-    import jax
-
-    from jaxpg import mesh as mesh_lib
-    from jaxpg import train
-    from jaxpg.algos import core
-    from jaxpg.envs.warp_kernels import KernelBuild
-    from jaxpg.run import checkpoint_errors, checkpointer, processes
-
     run, run_dir = plan_.run, plan_.run_dir
     primary = is_primary()
     processes.barrier("jaxpg: run directory ready")
@@ -282,8 +286,6 @@ def _report_end(plan_: Plan, clock: BlockClock) -> None:
         seeds = f", {len(run.seeds)} seeds vmapped" if run.vmap_seeds else ""
         show(f"fused update (scan of {run.block_size} iterations{seeds}): {secs / iters * 1e3:.2f} ms per iteration")
     try:
-        from jaxpg.run import checkpointer
-
         checkpoints = checkpointer.Checkpointer(run_dir / layout.CHECKPOINT_DIR, keep=None)
         # Both verified: a damaged step is skipped (with a warning line), never recommended.
         best, latest = checkpoints.resolve_step("best"), checkpoints.resolve_step("latest")
@@ -297,9 +299,7 @@ def _report_end(plan_: Plan, clock: BlockClock) -> None:
     if run.task == "atari_pong":  # the real game is ALE's: play it there
         show(f"evaluate: python -m jaxpg.evaluate {shlex.quote(str(run_dir))} --ale --episodes 10 [--no-sticky]")
         return
-    from jaxpg.run import replay
-
-    gymnasium = " [--gymnasium]" if run.task in replay.GYMNASIUM_IDS else ""
+    gymnasium = " [--gymnasium]" if replay.gymnasium_counterpart(run.task) else ""
     quoted = shlex.quote(str(run_dir))
     video = f"[--video {shlex.quote(str(run_dir / layout.VIDEO_DIR / 'final.mp4'))}]"
     show(f"evaluate: python -m jaxpg.evaluate {quoted} --episodes 10{gymnasium} {video}")

@@ -47,7 +47,6 @@ def gae_advantages(
         traj.truncated,
         config.gamma,
         config.gae_lambda,
-        unroll=config.loop_unroll,
         parallel=parallel,
     )
     if config.value_target == "returns":
@@ -57,7 +56,6 @@ def gae_advantages(
             traj.truncated,
             config.gamma,
             next_values=next_values,
-            unroll=config.loop_unroll,
             parallel=parallel,
         )
     return advantages, targets

@@ -9,7 +9,7 @@ attribute, never with a fallback.
 Two class attributes describe a ``Config`` to the command line and to saved runs:
 ``UNUSED_FIELDS`` names the fields the algorithm ignores (no flag; ``validate`` refuses a value
 other than the default), and ``OLD_FIELD_NAMES`` maps the names that configs saved by earlier
-versions used to the current ones (``None``: a field that was never used and is gone), so that
+versions used to the current ones (``None``: a field that is gone and changed no result), so that
 old run directories still load (``jaxpg.run.config_io.config_from_dict``).
 """
 
@@ -47,12 +47,6 @@ class BaseConfig:
     Trust-region guard: an update whose mean KL(old || new) over its batch exceeds
     ``max_update_kl`` is rolled back and counted in ``update_rejected`` (NPG first shrinks its
     step, see ``npg.update``); healthy updates move the policy by 0.001-0.1 nats. 0 turns it off.
-    Compiled loops: the learner's sequential loops (GAE's reverse scan over the horizon, the
-    value fit's minibatch steps, conjugate gradient) run ``loop_unroll`` steps per loop iteration.
-    The arithmetic is the same (results agree to float rounding); only the compiled program
-    changes. 1 (no unrolling) compiles fastest; on one H100 at 1024 Hopper envs 16 gained under
-    1 % and cost 10 s more compilation (BENCHMARKS.md, section AA), so it is a knob to try on
-    other hardware, not a default.
     """
 
     num_envs: int = 64
@@ -74,10 +68,10 @@ class BaseConfig:
     eval_every: int = 10
     eval_horizon: int = 0
     max_update_kl: float = 1.0
-    loop_unroll: int = 1
 
     UNUSED_FIELDS: ClassVar[tuple[str, ...]] = ()
-    OLD_FIELD_NAMES: ClassVar[dict[str, str | None]] = {"policy_init": "network_init"}
+    # loop_unroll unrolled the learner's loops, which changed no number and, measured, no speed.
+    OLD_FIELD_NAMES: ClassVar[dict[str, str | None]] = {"policy_init": "network_init", "loop_unroll": None}
 
     @property
     def samples_per_iteration(self) -> int:
@@ -128,8 +122,6 @@ class BaseConfig:
                 f"eval_envs and eval_horizon must be >= 0 and eval_every >= 1, got "
                 f"{self.eval_envs}, {self.eval_horizon}, {self.eval_every}"
             )
-        if self.loop_unroll < 1:
-            raise ValueError(f"loop_unroll must be >= 1 (1: no unrolling), got {self.loop_unroll}")
         if not self.max_update_kl >= 0:
             raise ValueError(f"max_update_kl must be >= 0 (0: no check), got {self.max_update_kl}")
 

@@ -61,6 +61,5 @@ def phase_value_fit(ts: TrainState, batch: Batch, key: jax.Array) -> tuple[Train
         batch_size=config.value_minibatch_size,
         weights=batch.weights,
         samples_per_epoch=config.value_epoch_samples,
-        unroll=config.loop_unroll,
     )
     return ts.replace(value_params=value_params, value_opt_state=value_opt_state), loss

@@ -1,0 +1,52 @@
+"""What a command does first, before it plans: choose MuJoCo's GL backend when it may draw a video,
+turn the compilation cache on, join the other processes, check that JAX has a device, and put
+back a run directory that a killed ``--overwrite`` left moved aside (``start``)."""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Sequence
+
+from jaxpg import video as video_lib
+from jaxpg.run import compile_cache, processes, replacing
+from jaxpg.run.command_line import Experiment
+from jaxpg.run.flags import check_backend
+from jaxpg.run.pre_flags import PreFlags, parse_pre_flags
+
+
+def start(argv: Sequence[str], experiment: Experiment) -> PreFlags:
+    """Prepare this process for the command ``argv``; returns the flags it read (``PreFlags``),
+    for planning. Each step comes where it must: the GL backend before MuJoCo is imported, the
+    cache before the first compilation, ``jax.distributed`` before anything touches JAX's devices,
+    the run directory's recovery before planning reads it. Raises ``ValueError`` (one line) on bad
+    flags or distributed settings or when JAX has no device, and ``OSError`` when the run
+    directory cannot be put back in order."""
+    pre = parse_pre_flags(argv, experiment)
+    if pre.videos:
+        video_lib.configure_gl()  # before MuJoCo is imported, and only when a video may be drawn
+    compile_cache.enable()  # a second run of the same program loads it instead of compiling
+    start_processes(pre)
+    check_backend()
+    recover_run_dir(pre)
+    return pre
+
+
+def start_processes(pre: PreFlags) -> None:
+    """``jax.distributed.initialize`` when the flags or the environment name several processes;
+    before anything else touches JAX's devices. ``DistributedError`` (one line) on bad settings or
+    an unreachable coordinator."""
+    config = processes.DistributedConfig.resolve(
+        pre.coordinator_address, pre.num_processes, pre.process_id, timeout_s=pre.distributed_timeout
+    )
+    if config is not None:
+        processes.initialize(config)
+
+
+def recover_run_dir(pre: PreFlags) -> None:
+    """Before planning: put back the run that an ``--overwrite`` of the command's run directory
+    (``--run-dir`` or ``--resume``) moved aside, if its process ended before the new run's first
+    checkpoint, or point to it (``replacing.recover_replaced``). Process 0 alone; the others wait."""
+    if pre.target is not None and processes.is_primary():
+        for line in replacing.recover_replaced(pre.target):
+            print(line, file=sys.stderr)
+    processes.barrier("jaxpg: run directory recovered")

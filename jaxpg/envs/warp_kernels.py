@@ -107,7 +107,7 @@ class KernelBuild:
             jobs = [(module, block_dim, device) for device in devices for module, block_dim in loads]
             with ThreadPoolExecutor(max_workers=workers) as pool:
                 list(pool.map(lambda job: job[0].load(job[2], job[1]), jobs))
-        except BaseException as e:  # reported by wait(); the kernels are then built at first use
+        except BaseException as e:  # kept in ``error``; the kernels are then built at first use
             self.error = e
         self.seconds = time.perf_counter() - start
 

@@ -201,7 +201,7 @@ def _train(plan_: Plan, ts: Any, wall_offset: float, interrupts: Interrupts) -> 
                     seeds=run.vmap_seeds,
                     evaluate=evaluate,
                     final_eval=index == len(segments) - 1,  # the run's last iteration is always evaluated
-                    before_first_call=kernels.wait if index == 0 else None,
+                    before_first_call=kernels.wait if index == 0 and kernels.modules else None,
                 )
     except Stop as stop:
         progress.close()

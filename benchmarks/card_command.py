@@ -88,27 +88,13 @@ implementation instead of Warp). The command is ``python experiments/hopper.py -
 def train_once(seed: int, run_dir: Path, caches: Path, log: Path, extra: list[str]) -> dict[str, Any]:
     """One training process, timed as a whole; returns the row without the Gymnasium score."""
     env = {
-        **os.environ,
         "JAXPG_COMPILATION_CACHE": str(caches / "xla"),
         "WARP_CACHE_PATH": str(caches / "warp"),
         "CUDA_CACHE_PATH": str(caches / "cuda"),  # the driver's cache of the PTX it compiled
-        "PYTHONUNBUFFERED": "1",
     }
     command = [sys.executable, "experiments/hopper.py", "--num-envs", "256", "--seed", str(seed)]
-    command += ["--run-dir", str(run_dir), *extra]
-    start = time.perf_counter()
-    stamped = []  # (seconds since start, line) as each line of the output arrived
-    with log.open("w") as out:
-        process = subprocess.Popen(
-            command, cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True
-        )
-        for line in process.stdout:
-            stamped.append((time.perf_counter() - start, line.rstrip("\n")))
-            out.write(line)
-        status = process.wait()
-    wall = time.perf_counter() - start
-    metrics = run_dir / "metrics.jsonl"
-    rows = [json.loads(line) for line in metrics.read_text().splitlines() if line.strip()] if metrics.exists() else []
+    status, wall, stamped = harness.run_process([*command, "--run-dir", str(run_dir), *extra], env, log)
+    rows = harness.metrics_rows(run_dir)
     evaluated = [r for r in rows if r.get("return_mean_policy") is not None]
     return {
         "seed": seed,
@@ -147,27 +133,13 @@ def split(stamped: list[tuple[float, str]], wall: float) -> dict[str, float | No
     }
 
 
-def start_gymnasium(run_dir: Path, log: Path) -> subprocess.Popen:
-    """``python -m jaxpg.evaluate RUN --gymnasium --episodes 10`` in the background (CPU only, so
-    it runs beside the next training process without touching the GPU)."""
-    command = [sys.executable, "-m", "jaxpg.evaluate", str(run_dir), "--gymnasium", "--episodes", "10"]
-    env = {**os.environ, "JAX_PLATFORMS": "cpu", "JAXPG_COMPILATION_CACHE": "off"}
-    return subprocess.Popen(command, cwd=ROOT, env=env, stdout=log.open("w"), stderr=subprocess.STDOUT)
-
-
-def gymnasium_score(log: Path) -> tuple[float | None, float | None]:
-    """Mean and std of the returns that ``jaxpg.evaluate`` printed."""
-    match = re.search(r"^return: ([-\d.]+) ± ([\d.]+)", log.read_text(), re.M)
-    return (float(match.group(1)), float(match.group(2))) if match else (None, None)
-
-
 def collect(pending: list, wait: bool) -> None:
     """Fill in the Gymnasium scores of the evaluations that have finished (all, with ``wait``)."""
     for row, gym_log, process in pending:
         if "gymnasium_return" in row or (not wait and process.poll() is None):
             continue
         process.wait()
-        row["gymnasium_return"], row["gymnasium_std"] = gymnasium_score(gym_log)
+        row["gymnasium_return"], row["gymnasium_std"] = harness.gymnasium_score(gym_log)
         row["gymnasium_output"] = gym_log.read_text().splitlines()[-3:]
         print(f"  {row['mode']} seed {row['seed']}: Gymnasium {row['gymnasium_return']} ± {row['gymnasium_std']}")
 
@@ -195,7 +167,7 @@ def card_main(argv: Sequence[str]) -> None:
             row = {"mode": mode, **train_once(seed, run_dir, caches, out / f"{mode}-seed{seed}.log", args.extra)}
             rows.append(row)
             gym_log = out / f"{mode}-seed{seed}-gymnasium.log"
-            pending.append((row, gym_log, start_gymnasium(run_dir, gym_log)))
+            pending.append((row, gym_log, harness.gymnasium_replay(run_dir, gym_log)))
             print(
                 f"  {mode} seed {seed}: {row['wall_s']:.1f} s, {row['env_steps']:,.0f} env steps, in-run mean "
                 f"policy {row['in_run_mean_policy']}, exit {row['status']}",

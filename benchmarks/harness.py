@@ -12,7 +12,10 @@
 - ``write_json(path, rows, **meta)``: the rows with ``environment()`` and ``meta``;
 - ``table(rows, columns)``: a Markdown table, and ``rate(x)``: ``1.23 M`` / ``45.6 k``;
 - ``run_modes(script, modes, doc)``: the command line of a script with modes
-  (``python benchmarks/NAME.py MODE [options]``).
+  (``python benchmarks/NAME.py MODE [options]``);
+- ``run_process(command, env, log)``: a training process as a user runs it, timed as a whole, its
+  output lines stamped with their arrival; ``gymnasium_replay(run_dir, log)`` and
+  ``gymnasium_score(log)``: its final mean policy scored in Gymnasium's own env, beside the next run.
 
 The scripts are run from the repository root (``python benchmarks/NAME.py``) and import this
 module as their sibling: Python puts a script's own directory first on ``sys.path``.
@@ -21,8 +24,11 @@ module as their sibling: Python puts a script's own directory first on ``sys.pat
 from __future__ import annotations
 
 import json
+import os
 import platform
+import re
 import statistics
+import subprocess
 import sys
 import time
 from collections.abc import Callable, Sequence
@@ -166,3 +172,44 @@ def run_modes(
         print(doc)
         raise SystemExit(f"usage: python benchmarks/{Path(script).name} {{{','.join(modes)}}} [options]")
     modes[argv[0]](argv[1:])
+
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def run_process(command: Sequence[str], env: dict[str, str], log: Path) -> tuple[int, float, list[tuple[float, str]]]:
+    """Run ``command`` from the repository root with environment ``env`` (added to this process's),
+    its output written to ``log``; returns the exit status, the wall clock of the whole process in
+    seconds and each output line with the seconds since the start at which it arrived."""
+    start = time.perf_counter()
+    stamped = []
+    full_env = {**os.environ, "PYTHONUNBUFFERED": "1", **env}
+    with log.open("w") as out:
+        process = subprocess.Popen(
+            list(command), cwd=ROOT, env=full_env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True
+        )
+        for line in process.stdout:
+            stamped.append((time.perf_counter() - start, line.rstrip("\n")))
+            out.write(line)
+        status = process.wait()
+    return status, time.perf_counter() - start, stamped
+
+
+def gymnasium_replay(run_dir: Path, log: Path, episodes: int = 10) -> subprocess.Popen:
+    """``python -m jaxpg.evaluate RUN --gymnasium --episodes N`` in the background, on the CPU (so
+    that it runs beside the next training process without touching the GPU)."""
+    command = [sys.executable, "-m", "jaxpg.evaluate", str(run_dir), "--gymnasium", "--episodes", str(episodes)]
+    env = {**os.environ, "JAX_PLATFORMS": "cpu", "JAXPG_COMPILATION_CACHE": "off"}
+    return subprocess.Popen(command, cwd=ROOT, env=env, stdout=log.open("w"), stderr=subprocess.STDOUT)
+
+
+def gymnasium_score(log: Path) -> tuple[float | None, float | None]:
+    """Mean and standard deviation of the returns that ``jaxpg.evaluate`` printed (``None`` if none)."""
+    match = re.search(r"^return: ([-\d.]+) ± ([\d.]+)", log.read_text(), re.M)
+    return (float(match.group(1)), float(match.group(2))) if match else (None, None)
+
+
+def metrics_rows(run_dir: Path) -> list[dict[str, Any]]:
+    """The rows of a run directory's ``metrics.jsonl`` (``[]`` when there is none)."""
+    path = Path(run_dir) / "metrics.jsonl"
+    return [json.loads(line) for line in path.read_text().splitlines() if line.strip()] if path.exists() else []

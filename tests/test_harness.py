@@ -29,7 +29,7 @@ def test_run_modes_without_a_known_mode_prints_the_doc_and_the_usage(harness, ar
     assert capsys.readouterr().out == "the doc\n"
 
 
-@pytest.mark.parametrize("script", ["throughput", "time_to_return", "card_command"])
+@pytest.mark.parametrize("script", ["throughput", "time_to_return", "card_command", "suite"])
 def test_the_scripts_with_modes_name_them_when_run_without_one(script):
     proc = subprocess.run(
         [sys.executable, str(ROOT / "benchmarks" / f"{script}.py")], capture_output=True, text=True, cwd=ROOT
@@ -39,3 +39,35 @@ def test_the_scripts_with_modes_name_them_when_run_without_one(script):
     assert (
         proc.stderr.strip().splitlines()[-1] == f"usage: python benchmarks/{script}.py {{{','.join(modes)}}} [options]"
     )
+
+
+def test_a_run_is_split_by_the_arrival_of_its_output_lines():
+    """card_command.py's split of a run: start-up to the ``training:`` line, the first block to the
+    first progress line, the rest to ``done in``, then the exit; a part whose line never came is
+    ``None``."""
+    split = load_script("benchmarks/card_command.py").split
+    lines = [(9.8, "training: npg on hopper"), (10.0, "warning: x"), (34.2, "[ 10/120] | steps"), (36.0, "[ 20/120]")]
+    lines += [(60.0, "done in 39.7 s: 0.129 s per iteration"), (60.2, "evaluation: 1 of the mean policy")]
+    parts = split(lines, 62.5)
+    assert parts == pytest.approx({"startup": 9.8, "first_block": 24.4, "training": 25.8, "exit": 2.5})
+    assert split([(1.0, "error: no such task")], 2.0) == dict.fromkeys(parts)
+
+
+def test_suite_judges_each_preset_against_its_target():
+    suite = load_script("benchmarks/suite.py")
+    assert suite.judge("walker2d", "walker2d_1m", [3900.0, 3800.0, 4000.0], [90.0] * 3, [1e6] * 3).startswith("met")
+    assert suite.judge("walker2d", "walker2d_1m", [3000.0], [90.0], [1e6]).startswith("missed by 827")
+    assert "over 1 M steps" in suite.judge("hopper", "hopper_1m", [3000.0], [90.0], [2e6])
+    assert suite.judge("ant", "ant_fast", [4100.0, 4200.0, 3900.0], [200.0] * 3, [5e7] * 3).startswith("met")
+    assert "too slow" in suite.judge("ant", "ant_fast", [4100.0], [400.0], [5e7])
+    assert suite.judge("humanoid", "humanoid_fast", [4000.0], [500.0], [5e7]).startswith("missed by 1000")
+    assert suite.judge("swimmer", "swimmer_fast", [300.0], [60.0], [1e7]) == "no target"
+    assert suite.judge("ant", "ant_fast", [], [60.0], [1e7]) == "no score"
+
+
+def test_suite_band_holds_each_seed_last_value():
+    band = load_script("benchmarks/suite.py").band
+    curves = [[(1.0, 10.0), (3.0, 30.0)], [(2.0, 20.0)], []]
+    low, mid, high = band(curves, [0.0, 1.0, 2.5, 3.0])
+    assert low[0] != low[0] and mid[0] != mid[0]  # NaN before any curve starts
+    assert (low[1:], mid[1:], high[1:]) == ([10.0, 10.0, 20.0], [10.0, 15.0, 25.0], [10.0, 20.0, 30.0])

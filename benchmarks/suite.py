@@ -1,0 +1,259 @@
+"""The Gymnasium MuJoCo suite trained: tasks x presets x seeds, each a fresh process as a user runs
+it, each final mean policy scored in Gymnasium's own v5 env, against the published figures.
+
+Two modes (``python benchmarks/suite.py MODE --help`` for each):
+
+  run   train every ``TASK:ALGO:PRESET`` for every seed, then replay each run's final mean policy
+        in Gymnasium; print the table, write JSON (runs and their metrics);
+  plot  mean-policy return against wall clock and against env steps, one panel per task, the
+        seeds of each preset as a band, from ``run --json`` files.
+
+    python benchmarks/suite.py run --runs walker2d:ppo:walker2d_fast ant:ppo:ant_fast --seeds 0 1 2 \\
+        --json suite.json
+    python benchmarks/suite.py plot suite.json --out docs/suite.png
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import shutil
+import statistics
+import sys
+import tempfile
+from collections.abc import Sequence
+from pathlib import Path
+
+import harness
+
+RAW = argparse.RawDescriptionHelpFormatter
+
+# The best published on-policy return within 1 M env steps for each task, and its source
+# (CPU simulators, Gymnasium v3/v4: compare with care): Tianshou's MuJoCo benchmark (best 10-seed
+# average of NPG, TRPO, PPO and A2C).
+SAMPLE_EFFICIENT_BEST: dict[str, tuple[float, str]] = {
+    "hopper": (2609.0, "Tianshou PPO"),
+    "walker2d": (3827.0, "Tianshou TRPO"),
+    "half_cheetah": (5784.0, "Tianshou PPO"),
+    "ant": (3485.0, "Tianshou A2C"),
+    "humanoid": (1726.0, "Tianshou A2C"),
+}
+# What a fast preset is asked to reach, and within how many seconds of the whole process on one
+# GPU with warm caches.
+FAST_TARGETS: dict[str, tuple[float, float]] = {
+    "walker2d": (4000.0, 300.0),
+    "half_cheetah": (6000.0, 300.0),
+    "ant": (4000.0, 300.0),
+    "humanoid": (5000.0, 600.0),
+}
+
+RUN_DOC = """Train every TASK:ALGO:PRESET for every seed, each a fresh process, and score it in Gymnasium.
+
+Each run is exactly ``python -m jaxpg.cli --env TASK --algo ALGO --preset PRESET --seed S
+--run-dir DIR`` (plus ``--extra``), timed as a whole process (imports, compilation, training,
+evaluations, checkpoints); its final mean policy is then replayed for ``--episodes`` episodes in
+Gymnasium's own env (``python -m jaxpg.evaluate DIR --gymnasium``, on the CPU, beside the next
+run). The caches (XLA, MuJoCo Warp, CUDA driver) are shared by all runs unless ``--cold`` gives
+each run its own empty ones. A preset whose name ends in ``_1m`` is judged as sample-efficient
+(at most 1 M env steps, against the best published figure); one ending in ``_fast`` against the
+fast target and its time limit.
+
+    python benchmarks/suite.py run --runs hopper:npg:hopper walker2d:ppo:walker2d_fast --seeds 0 1 2
+"""
+
+PLOT_DOC = """Mean-policy return against wall clock and against env steps, one column per task.
+
+Reads ``run --json`` files; each TASK:ALGO:PRESET is a line (the median over seeds) in a band (the
+lowest to the highest seed), on a common grid of wall-clock seconds and of env steps.
+
+    python benchmarks/suite.py plot suite.json --out docs/suite.png
+"""
+
+
+def parse_run(text: str) -> tuple[str, str, str]:
+    """``"walker2d:ppo:walker2d_fast"`` -> ``("walker2d", "ppo", "walker2d_fast")``."""
+    parts = text.split(":")
+    if len(parts) != 3 or not all(parts):
+        raise argparse.ArgumentTypeError(f"expected TASK:ALGO:PRESET, got {text!r}")
+    return parts[0], parts[1], parts[2]
+
+
+def judge(task: str, preset: str, scores: list[float], walls: list[float], steps: list[float]) -> str:
+    """What the median Gymnasium score of a preset's seeds says against its target."""
+    if not scores:
+        return "no score"
+    median = statistics.median(scores)
+    if preset.endswith("_1m") and task in SAMPLE_EFFICIENT_BEST:
+        best, source = SAMPLE_EFFICIENT_BEST[task]
+        over_budget = max(steps) > 1_000_000
+        verdict = "met" if median > best and not over_budget else f"missed by {best - median:.0f}"
+        return f"{verdict} ({source} {best:.0f}{'; over 1 M steps' if over_budget else ''})"
+    if preset.endswith("_fast") and task in FAST_TARGETS:
+        target, seconds = FAST_TARGETS[task]
+        late = statistics.median(walls) > seconds
+        verdict = "met" if median >= target and not late else f"missed by {max(target - median, 0):.0f}"
+        return f"{verdict} (>= {target:.0f} within {seconds:.0f} s{'; too slow' if late else ''})"
+    return "no target"
+
+
+def train_and_time(task: str, algo: str, preset: str, seed: int, out: Path, caches: Path, extra: list[str]) -> dict:
+    """One run as a fresh process; its row (without the Gymnasium score)."""
+    name = f"{task}-{algo}-{preset}-seed{seed}"
+    run_dir = out / name
+    shutil.rmtree(run_dir, ignore_errors=True)
+    env = {
+        "JAXPG_COMPILATION_CACHE": str(caches / "xla"),
+        "WARP_CACHE_PATH": str(caches / "warp"),
+        "CUDA_CACHE_PATH": str(caches / "cuda"),
+    }
+    command = [sys.executable, "-m", "jaxpg.cli", "--env", task, "--algo", algo, "--preset", preset]
+    command += ["--seed", str(seed), "--run-dir", str(run_dir), *extra]
+    status, wall, _ = harness.run_process(command, env, out / f"{name}.log")
+    rows = harness.metrics_rows(run_dir)
+    evaluated = [r for r in rows if r.get("return_mean_policy") is not None]
+    curve = [(r["wall_time_s"], r["env_steps"], r["return_mean_policy"]) for r in evaluated]
+    return {
+        "task": task,
+        "algo": algo,
+        "preset": preset,
+        "seed": seed,
+        "status": status,
+        "wall_s": wall,
+        "env_steps": rows[-1]["env_steps"] if rows else math.nan,
+        "in_run_mean_policy": evaluated[-1]["return_mean_policy"] if evaluated else None,
+        "curve": curve,  # (training wall clock s, env steps, mean-policy return) at each evaluation
+        "run_dir": str(run_dir),
+    }
+
+
+def summary(rows: list[dict]) -> list[dict]:
+    """One row per TASK:ALGO:PRESET: its seeds' scores, medians and verdict."""
+    groups: dict[tuple[str, str, str], list[dict]] = {}
+    for row in rows:
+        groups.setdefault((row["task"], row["algo"], row["preset"]), []).append(row)
+    out = []
+    for (task, algo, preset), runs in groups.items():
+        scores = [r["gymnasium_return"] for r in runs if r.get("gymnasium_return") is not None]
+        walls, steps = [r["wall_s"] for r in runs], [r["env_steps"] for r in runs]
+        out.append(
+            {
+                "run": f"{task}:{algo}:{preset}",
+                "seeds": len(runs),
+                "scores": scores,
+                "median": statistics.median(scores) if scores else math.nan,
+                "wall_s": statistics.median(walls),
+                "env_steps": statistics.median(steps),
+                "verdict": judge(task, preset, scores, walls, steps),
+            }
+        )
+    return out
+
+
+def run_main(argv: Sequence[str]) -> None:
+    parser = argparse.ArgumentParser(prog="suite.py run", description=RUN_DOC, formatter_class=RAW)
+    parser.add_argument("--runs", nargs="+", type=parse_run, required=True, help="TASK:ALGO:PRESET ...")
+    parser.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2])
+    parser.add_argument("--episodes", type=int, default=10, help="Gymnasium episodes per run (default: 10)")
+    parser.add_argument("--cold", action="store_true", help="every run with its own empty caches")
+    parser.add_argument("--out", default=None, help="where runs and logs go (default: a temporary directory)")
+    parser.add_argument("--json", default=None)
+    parser.add_argument("--extra", nargs=argparse.REMAINDER, default=[], help="flags added to every run")
+    args = parser.parse_args(argv)
+
+    out = Path(args.out or tempfile.mkdtemp(prefix="suite-"))
+    out.mkdir(parents=True, exist_ok=True)
+    rows, pending = [], []
+    for task, algo, preset in args.runs:
+        for seed in args.seeds:
+            caches = out / (f"caches-{task}-{preset}-{seed}" if args.cold else "caches")
+            if args.cold:
+                shutil.rmtree(caches, ignore_errors=True)
+            row = train_and_time(task, algo, preset, seed, out, caches, args.extra)
+            rows.append(row)
+            log = out / f"{task}-{algo}-{preset}-seed{seed}-gymnasium.log"
+            pending.append((row, log, harness.gymnasium_replay(Path(row["run_dir"]), log, args.episodes)))
+            print(
+                f"  {task} {algo}:{preset} seed {seed}: {row['wall_s']:.1f} s, {row['env_steps']:,.0f} env steps, "
+                f"in-run mean policy {row['in_run_mean_policy']}, exit {row['status']}",
+                flush=True,
+            )
+    for row, log, process in pending:
+        process.wait()
+        row["gymnasium_return"], row["gymnasium_std"] = harness.gymnasium_score(log)
+    groups = summary(rows)
+    harness.write_json(args.json, rows, summary=groups, argv=list(argv))
+    print(f"\n{harness.describe()}")
+    print(
+        harness.table(
+            groups,
+            [
+                ("task:algo:preset", lambda g: g["run"]),
+                ("seeds", lambda g: g["seeds"]),
+                ("Gymnasium v5, each seed", lambda g: ", ".join(f"{s:.0f}" for s in g["scores"]) or "-"),
+                ("median", lambda g: f"{g['median']:.0f}"),
+                ("env steps", lambda g: f"{g['env_steps']:,.0f}"),
+                ("whole process s", lambda g: f"{g['wall_s']:.0f}"),
+                ("target", lambda g: g["verdict"]),
+            ],
+        )
+    )
+
+
+def band(curves: list[list[tuple[float, float]]], grid: list[float]) -> tuple[list[float], list[float], list[float]]:
+    """Lowest, median and highest return over ``curves`` (each ``[(x, return)]``, x increasing) at
+    each point of ``grid``, holding each curve's last value before that point (NaN before its
+    first)."""
+
+    def at(curve: list[tuple[float, float]], x: float) -> float:
+        seen = [r for cx, r in curve if cx <= x]
+        return seen[-1] if seen else math.nan
+
+    lows, mids, highs = [], [], []
+    for x in grid:
+        values = [v for v in (at(c, x) for c in curves) if not math.isnan(v)]
+        lows.append(min(values) if values else math.nan)
+        mids.append(statistics.median(values) if values else math.nan)
+        highs.append(max(values) if values else math.nan)
+    return lows, mids, highs
+
+
+def plot_main(argv: Sequence[str]) -> None:
+    parser = argparse.ArgumentParser(prog="suite.py plot", description=PLOT_DOC, formatter_class=RAW)
+    parser.add_argument("files", nargs="+")
+    parser.add_argument("--out", default="suite.png")
+    args = parser.parse_args(argv)
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    rows = [row for path in args.files for row in harness.rows_of(path)]
+    tasks = list(dict.fromkeys(row["task"] for row in rows))
+    fig, axes = plt.subplots(2, len(tasks), figsize=(4 * len(tasks), 6.5), squeeze=False)
+    for column, task in enumerate(tasks):
+        runs: dict[str, list[dict]] = {}
+        for row in rows:
+            if row["task"] == task:
+                runs.setdefault(f"{row['algo']}:{row['preset']}", []).append(row)
+        for axis_row, (index, label) in enumerate(((0, "training wall clock (s)"), (1, "env steps"))):
+            ax = axes[axis_row][column]
+            for name, seeds in runs.items():
+                curves = [[(point[index], point[2]) for point in row["curve"]] for row in seeds]
+                end = max((c[-1][0] for c in curves if c), default=0.0)
+                grid = [end * i / 200 for i in range(201)]
+                low, mid, high = band(curves, grid)
+                ax.plot(grid, mid, label=name)
+                ax.fill_between(grid, low, high, alpha=0.25)
+            ax.set_xlabel(label)
+            ax.set_ylabel("mean-policy return")
+            ax.set_title(task)
+            ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(args.out, dpi=120)
+    print(f"wrote {args.out}")
+
+
+MODES = {"run": run_main, "plot": plot_main}
+
+if __name__ == "__main__":
+    harness.run_modes(__file__, MODES, __doc__)

@@ -621,7 +621,7 @@ def check_gymnasium_id(task: str) -> None:
     from jaxpg.envs import gymnasium_api
     from jaxpg.run import replay
 
-    assert replay.GYMNASIUM_IDS[task] == GYM_IDS[task]
+    assert replay.gymnasium_counterpart(task) == GYM_IDS[task]
     gym_id = gymnasium_api.gymnasium_id(task)
     assert gym_id == f"jaxpg/{GYM_IDS[task]}"
     limit = envs.make_task(task, impl="jax").max_episode_steps

@@ -195,10 +195,12 @@ def run_process(command: Sequence[str], env: dict[str, str], log: Path) -> tuple
     return status, time.perf_counter() - start, stamped
 
 
-def gymnasium_replay(run_dir: Path, log: Path, episodes: int = 10) -> subprocess.Popen:
-    """``python -m jaxpg.evaluate RUN --gymnasium --episodes N`` in the background, on the CPU (so
-    that it runs beside the next training process without touching the GPU)."""
+def gymnasium_replay(run_dir: Path, log: Path, episodes: int = 10, train_seed: int | None = None) -> subprocess.Popen:
+    """``python -m jaxpg.evaluate RUN --gymnasium --episodes N [--train-seed S]`` in the
+    background, on the CPU (so that it runs beside the next training process without touching the
+    GPU)."""
     command = [sys.executable, "-m", "jaxpg.evaluate", str(run_dir), "--gymnasium", "--episodes", str(episodes)]
+    command += [] if train_seed is None else ["--train-seed", str(train_seed)]
     env = {**os.environ, "JAX_PLATFORMS": "cpu", "JAXPG_COMPILATION_CACHE": "off"}
     return subprocess.Popen(command, cwd=ROOT, env=env, stdout=log.open("w"), stderr=subprocess.STDOUT)
 

@@ -96,9 +96,12 @@ def judge(task: str, preset: str, scores: list[float], walls: list[float], steps
     return "no target"
 
 
-def train_and_time(task: str, algo: str, preset: str, seed: int, out: Path, caches: Path, extra: list[str]) -> dict:
-    """One run as a fresh process; its row (without the Gymnasium score)."""
-    name = f"{task}-{algo}-{preset}-seed{seed}"
+def train_and_time(
+    task: str, algo: str, preset: str, seeds: list[int], out: Path, caches: Path, extra: list[str]
+) -> list[dict]:
+    """One run as a fresh process, training ``seeds`` (several: together in one vmapped program);
+    one row per seed (without the Gymnasium score)."""
+    name = f"{task}-{algo}-{preset}-seed{'-'.join(map(str, seeds))}"
     run_dir = out / name
     shutil.rmtree(run_dir, ignore_errors=True)
     env = {
@@ -107,23 +110,31 @@ def train_and_time(task: str, algo: str, preset: str, seed: int, out: Path, cach
         "CUDA_CACHE_PATH": str(caches / "cuda"),
     }
     command = [sys.executable, "-m", "jaxpg.cli", "--env", task, "--algo", algo, "--preset", preset]
-    command += ["--seed", str(seed), "--run-dir", str(run_dir), *extra]
+    command += ["--seeds" if len(seeds) > 1 else "--seed", *map(str, seeds), "--run-dir", str(run_dir), *extra]
     status, wall, _ = harness.run_process(command, env, out / f"{name}.log")
-    rows = harness.metrics_rows(run_dir)
-    evaluated = [r for r in rows if r.get("return_mean_policy") is not None]
-    curve = [(r["wall_time_s"], r["env_steps"], r["return_mean_policy"]) for r in evaluated]
-    return {
-        "task": task,
-        "algo": algo,
-        "preset": preset,
-        "seed": seed,
-        "status": status,
-        "wall_s": wall,
-        "env_steps": rows[-1]["env_steps"] if rows else math.nan,
-        "in_run_mean_policy": evaluated[-1]["return_mean_policy"] if evaluated else None,
-        "curve": curve,  # (training wall clock s, env steps, mean-policy return) at each evaluation
-        "run_dir": str(run_dir),
-    }
+    metrics = harness.metrics_rows(run_dir)
+    out_rows = []
+    for seed in seeds:
+        rows = [r for r in metrics if r.get("seed", seed) == seed]
+        evaluated = [r for r in rows if r.get("return_mean_policy") is not None]
+        curve = [(r["wall_time_s"], r["env_steps"], r["return_mean_policy"]) for r in evaluated]
+        out_rows.append(
+            {
+                "task": task,
+                "algo": algo,
+                "preset": preset,
+                "seed": seed,
+                "seeds_in_process": len(seeds),
+                "status": status,
+                "wall_s": wall,
+                "env_steps": rows[-1]["env_steps"] if rows else math.nan,
+                "in_run_mean_policy": evaluated[-1]["return_mean_policy"] if evaluated else None,
+                "curve": curve,  # (training wall clock s, env steps, mean-policy return) at each evaluation
+                "run_dir": str(run_dir),
+                "extra": extra,
+            }
+        )
+    return out_rows
 
 
 def summary(rows: list[dict]) -> list[dict]:
@@ -155,6 +166,12 @@ def run_main(argv: Sequence[str]) -> None:
     parser.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2])
     parser.add_argument("--episodes", type=int, default=10, help="Gymnasium episodes per run (default: 10)")
     parser.add_argument("--cold", action="store_true", help="every run with its own empty caches")
+    parser.add_argument(
+        "--vmap-seeds",
+        action="store_true",
+        help="train each TASK:ALGO:PRESET's seeds together in one process (one vmapped program: to compare "
+        "settings over many seeds; its wall clock is the whole batch's, not one seed's)",
+    )
     parser.add_argument("--out", default=None, help="where runs and logs go (default: a temporary directory)")
     parser.add_argument("--json", default=None)
     parser.add_argument("--extra", nargs=argparse.REMAINDER, default=[], help="flags added to every run")
@@ -164,19 +181,20 @@ def run_main(argv: Sequence[str]) -> None:
     out.mkdir(parents=True, exist_ok=True)
     rows, pending = [], []
     for task, algo, preset in args.runs:
-        for seed in args.seeds:
-            caches = out / (f"caches-{task}-{preset}-{seed}" if args.cold else "caches")
+        for seeds in [args.seeds] if args.vmap_seeds else [[seed] for seed in args.seeds]:
+            caches = out / (f"caches-{task}-{preset}-{seeds[0]}" if args.cold else "caches")
             if args.cold:
                 shutil.rmtree(caches, ignore_errors=True)
-            row = train_and_time(task, algo, preset, seed, out, caches, args.extra)
-            rows.append(row)
-            log = out / f"{task}-{algo}-{preset}-seed{seed}-gymnasium.log"
-            pending.append((row, log, harness.gymnasium_replay(Path(row["run_dir"]), log, args.episodes)))
-            print(
-                f"  {task} {algo}:{preset} seed {seed}: {row['wall_s']:.1f} s, {row['env_steps']:,.0f} env steps, "
-                f"in-run mean policy {row['in_run_mean_policy']}, exit {row['status']}",
-                flush=True,
-            )
+            for row in train_and_time(task, algo, preset, seeds, out, caches, args.extra):
+                rows.append(row)
+                log = out / f"{task}-{algo}-{preset}-seed{row['seed']}-gymnasium.log"
+                replay = harness.gymnasium_replay(Path(row["run_dir"]), log, args.episodes, train_seed=row["seed"])
+                pending.append((row, log, replay))
+                print(
+                    f"  {task} {algo}:{preset} seed {row['seed']}: {row['wall_s']:.1f} s, {row['env_steps']:,.0f} "
+                    f"env steps, in-run mean policy {row['in_run_mean_policy']}, exit {row['status']}",
+                    flush=True,
+                )
     for row, log, process in pending:
         process.wait()
         row["gymnasium_return"], row["gymnasium_std"] = harness.gymnasium_score(log)

@@ -151,6 +151,7 @@ def summary(rows: list[dict]) -> list[dict]:
                 "run": f"{task}:{algo}:{preset}",
                 "seeds": len(runs),
                 "scores": scores,
+                "in_run": [r["in_run_mean_policy"] for r in runs if r.get("in_run_mean_policy") is not None],
                 "median": statistics.median(scores) if scores else math.nan,
                 "wall_s": statistics.median(walls),
                 "env_steps": statistics.median(steps),
@@ -164,7 +165,9 @@ def run_main(argv: Sequence[str]) -> None:
     parser = argparse.ArgumentParser(prog="suite.py run", description=RUN_DOC, formatter_class=RAW)
     parser.add_argument("--runs", nargs="+", type=parse_run, required=True, help="TASK:ALGO:PRESET ...")
     parser.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2])
-    parser.add_argument("--episodes", type=int, default=10, help="Gymnasium episodes per run (default: 10)")
+    parser.add_argument(
+        "--episodes", type=int, default=10, help="Gymnasium episodes per run; 0: no replay (default: 10)"
+    )
     parser.add_argument("--cold", action="store_true", help="every run with its own empty caches")
     parser.add_argument(
         "--vmap-seeds",
@@ -188,8 +191,9 @@ def run_main(argv: Sequence[str]) -> None:
             for row in train_and_time(task, algo, preset, seeds, out, caches, args.extra):
                 rows.append(row)
                 log = out / f"{task}-{algo}-{preset}-seed{row['seed']}-gymnasium.log"
-                replay = harness.gymnasium_replay(Path(row["run_dir"]), log, args.episodes, train_seed=row["seed"])
-                pending.append((row, log, replay))
+                if args.episodes > 0:
+                    replay = harness.gymnasium_replay(Path(row["run_dir"]), log, args.episodes, train_seed=row["seed"])
+                    pending.append((row, log, replay))
                 print(
                     f"  {task} {algo}:{preset} seed {row['seed']}: {row['wall_s']:.1f} s, {row['env_steps']:,.0f} "
                     f"env steps, in-run mean policy {row['in_run_mean_policy']}, exit {row['status']}",
@@ -208,6 +212,7 @@ def run_main(argv: Sequence[str]) -> None:
                 ("task:algo:preset", lambda g: g["run"]),
                 ("seeds", lambda g: g["seeds"]),
                 ("Gymnasium v5, each seed", lambda g: ", ".join(f"{s:.0f}" for s in g["scores"]) or "-"),
+                ("in-run mean policy, each seed", lambda g: ", ".join(f"{s:.0f}" for s in g["in_run"]) or "-"),
                 ("median", lambda g: f"{g['median']:.0f}"),
                 ("env steps", lambda g: f"{g['env_steps']:,.0f}"),
                 ("whole process s", lambda g: f"{g['wall_s']:.0f}"),

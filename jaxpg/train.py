@@ -92,8 +92,22 @@ def evaluate_state(train_state: TrainState) -> dict[str, jax.Array]:
 
 @functools.lru_cache(maxsize=32)
 def compiled_evaluate(evaluate: EvaluateFn, seeds: bool) -> Callable:
-    """The jitted ``evaluate`` (``vmap``-ed over the leading seed axis with ``seeds``)."""
-    return jax.jit(jax.vmap(evaluate) if seeds else evaluate)
+    """The jitted ``evaluate`` (over the leading seed axis with ``seeds``: see ``evaluate_seeds``)."""
+    return jax.jit(functools.partial(evaluate_seeds, evaluate) if seeds else evaluate)
+
+
+def evaluate_seeds(evaluate: EvaluateFn, train_state: TrainState) -> dict[str, jax.Array]:
+    """``evaluate`` of each seed of ``train_state`` (leading seed axis): metrics ``[num_seeds]``.
+
+    A ``vmap`` over the seeds, except with MuJoCo Warp: there the seeds are evaluated one after
+    another (``lax.map``), without their env states (an evaluation starts fresh episodes). Warp's
+    contact buffer is one per batch of envs, shared by the seeds, and the evaluation's loop stops
+    when its episodes have ended: under a ``vmap`` over seeds that loop's condition is per seed, which
+    would give the shared buffer a seed axis that MJX's Warp step rejects.
+    """
+    if getattr(train_state.env, "impl", None) == "warp":
+        return jax.lax.map(evaluate, train_state.replace(env_state=()))
+    return jax.vmap(evaluate)(train_state)
 
 
 class _EarlyCompile:

@@ -793,6 +793,29 @@ def test_warp_overflow_flags_are_counted_per_step_not_printed():
     assert float(jax_env.step(jax_env.reset(jax.random.key(0)), jnp.ones(3)).metrics["physics_overflow"]) == 0.0
 
 
+@pytest.mark.skipif(not warp_available(), reason="warp-lang is not installed (pip install 'jaxpg[warp]')")
+def test_warp_seeds_in_one_program_are_each_evaluated_as_alone():
+    """Several seeds trained in one program (``--seeds``) with MuJoCo Warp: the mean-policy
+    evaluation over the seed axis (``train.compiled_evaluate(..., seeds=True)``) gives each seed the
+    return that evaluating it alone gives. Under a ``vmap`` over seeds the evaluation's loop,
+    whose stopping condition is per seed, gave Warp's per-batch contact buffer a seed axis, and
+    MJX's Warp step raised on it at the run's first evaluation."""
+    from jaxpg import train
+    from jaxpg.algos import npg
+
+    env = envs.make("inverted_pendulum", impl="warp", max_batch=2 * WARP_ENVS)
+    config = npg.Config(num_envs=WARP_ENVS, horizon=8, eval_envs=2, eval_horizon=40, value_batch_size=8)
+    seeds = train.init_seeds(npg.init, [0, 1], env, config)
+    together = train.compiled_evaluate(train.evaluate_state, True)(seeds)
+    alone = [
+        train.compiled_evaluate(train.evaluate_state, False)(npg.init(jax.random.PRNGKey(s), env, config))
+        for s in (0, 1)
+    ]
+    for name, values in together.items():
+        assert values.shape == (2,), name
+        np.testing.assert_allclose(values, [float(a[name]) for a in alone], rtol=1e-6, err_msg=name)
+
+
 def test_importing_without_warp_prints_nothing():
     """MJX prints "Failed to import warp" when imported without warp-lang; jaxpg keeps it quiet."""
     code = (

@@ -535,6 +535,13 @@ def test_record_fn_reads_the_state_after_every_step(pendulum_case, jit):
     assert np.any(np.asarray(cont.dones)) and not np.array_equal(cont.extras["obs"], cont.next_obs)
 
 
+@functools.cache
+def _full_episodic_rollout(env: envs.Env, act: Callable, horizon: int) -> Callable:
+    """The jitted full episodic rollout of ``horizon`` steps, compiled once per case and horizon
+    (the three ``check_every`` values of horizon 40 check against the same program)."""
+    return jax.jit(lambda s, k: rollout_lib.rollout_episodes_from(env, act, None, s, k, horizon))
+
+
 @pytest.mark.parametrize("check_every, horizon", [(1, 40), (7, 40), (40, 40), (2, 3)])
 def test_episode_totals_match_the_full_rollout_and_stop_early(rollout_case, check_every, horizon):
     """``episode_totals_from`` gives each episode's return, length and final task score as the
@@ -550,7 +557,7 @@ def test_episode_totals_match_the_full_rollout_and_stop_early(rollout_case, chec
 
     reset_key, steps_key = jax.random.split(jax.random.key(11))
     state = rollout_lib.reset_batch(env, reset_key, ROLLOUT_ENVS)
-    traj = jax.jit(lambda s, k: rollout_lib.rollout_episodes_from(env, act, None, s, k, horizon))(state, steps_key)
+    traj = _full_episodic_rollout(env, act, horizon)(state, steps_key)
     totals = jax.jit(lambda s, k: rollout_lib.episode_totals_from(env, counted_act, None, s, k, horizon, check_every))(
         state, steps_key
     )

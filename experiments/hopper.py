@@ -34,6 +34,9 @@ examples:
   python experiments/hopper.py --num-envs 256 --profile     # phase timings of one iteration first
   python experiments/hopper.py --preset lyceum --iterations 5 --profile   # LyceumAI's NPG
 
+within 1 M env steps (256 envs x 32 steps x 120 iterations = 0.98 M; a wider initial policy):
+  python experiments/hopper.py --num-envs 256 --preset hopper_1m
+
 larger batches on a GPU (more env steps, fewer seconds per env step):
   python experiments/hopper.py --algo ppo --preset hopper_gpu --iterations 150 --run-dir runs/hopper-ppo
   python experiments/hopper.py --algo npg --preset hopper_gpu --iterations 150 --run-dir runs/hopper-npg

@@ -158,7 +158,7 @@ TABLE: Mapping[tuple[str, str], Preset] = MappingProxyType(
         # Hopper within 1 M env steps (with --iterations 120: 256 envs x 32 steps x 120 = 0.98 M):
         # the `hopper` preset with half the horizon (twice the updates) and a wider initial policy
         # (log-std 1: std 2.7 before clipping), which keeps seeds out of the "dive forward once"
-        # optimum. Chosen over 16 seeds on one GPU among 20 settings (BENCHMARKS.md).
+        # optimum. Chosen over 16 seeds on one GPU among 19 settings (BENCHMARKS.md).
         ("npg", "hopper_1m"): Preset(
             tasks=("hopper",),
             overrides=dict(

@@ -33,11 +33,10 @@ in separate processes (each batch size has one pool of host games). Needs ``pip 
 
 from __future__ import annotations
 
-import sys
 from typing import Any
 
 from jaxpg.algos import a2c, ppo
-from jaxpg.cli import Experiment, main
+from jaxpg.cli import Experiment, exit_process, main
 
 # The seed's network: one hidden layer of 200 ReLU units.
 SEED_NETWORK: dict[str, Any] = dict(policy_hidden=(200,), policy_activation="relu")
@@ -83,4 +82,4 @@ MinPy's comparison on the real game (running reward against wall-clock time, 1 t
 )
 
 if __name__ == "__main__":
-    sys.exit(main(experiment=EXPERIMENT))
+    exit_process(main(experiment=EXPERIMENT))

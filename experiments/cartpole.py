@@ -10,9 +10,7 @@ Every flag: ``python experiments/cartpole.py --help``.
 
 from __future__ import annotations
 
-import sys
-
-from jaxpg.cli import Experiment, main
+from jaxpg.cli import Experiment, exit_process, main
 
 EXPERIMENT = Experiment(
     task="cartpole",
@@ -39,4 +37,4 @@ videos: CartPole is drawn with NumPy (--video-every N, or python -m jaxpg.evalua
 )
 
 if __name__ == "__main__":
-    sys.exit(main(experiment=EXPERIMENT))
+    exit_process(main(experiment=EXPERIMENT))

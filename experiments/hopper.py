@@ -13,10 +13,8 @@ Every flag: ``python experiments/hopper.py --help`` (``--algo ppo --help`` for P
 
 from __future__ import annotations
 
-import sys
-
 from jaxpg.algos import npg
-from jaxpg.cli import Experiment, main
+from jaxpg.cli import Experiment, exit_process, main
 
 EXPERIMENT = Experiment(
     task="hopper",
@@ -50,4 +48,4 @@ then: python -m jaxpg.evaluate RUN_DIR --episodes 10 --gymnasium --video hopper.
 )
 
 if __name__ == "__main__":
-    sys.exit(main(experiment=EXPERIMENT))
+    exit_process(main(experiment=EXPERIMENT))

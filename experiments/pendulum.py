@@ -11,9 +11,7 @@ Every flag: ``python experiments/pendulum.py --help`` (``--algo ppo --help`` for
 
 from __future__ import annotations
 
-import sys
-
-from jaxpg.cli import Experiment, main
+from jaxpg.cli import Experiment, exit_process, main
 
 EXPERIMENT = Experiment(
     task="inverted_pendulum",
@@ -41,4 +39,4 @@ then: python -m jaxpg.evaluate RUN_DIR --episodes 20 --gymnasium --video pendulu
 )
 
 if __name__ == "__main__":
-    sys.exit(main(experiment=EXPERIMENT))
+    exit_process(main(experiment=EXPERIMENT))

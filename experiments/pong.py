@@ -26,10 +26,8 @@ runs on a CPU), not the game. MinPy's comparison of env counts against wall cloc
 
 from __future__ import annotations
 
-import sys
-
 from jaxpg.algos import a2c
-from jaxpg.cli import Experiment, main
+from jaxpg.cli import Experiment, exit_process, main
 
 EXPERIMENT = Experiment(
     task="pong",
@@ -60,4 +58,4 @@ MinPy's comparison (running reward against wall clock for 1 to 256 envs, into po
 )
 
 if __name__ == "__main__":
-    sys.exit(main(experiment=EXPERIMENT))
+    exit_process(main(experiment=EXPERIMENT))

@@ -13,9 +13,9 @@ from __future__ import annotations
 
 from jaxpg.run.command_line import Experiment
 from jaxpg.run.flags import UsageError
-from jaxpg.run.main import main
+from jaxpg.run.main import exit_process, main
 
-__all__ = ["Experiment", "UsageError", "main"]
+__all__ = ["Experiment", "UsageError", "exit_process", "main"]
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    exit_process(main())

@@ -587,3 +587,22 @@ def test_pre_flags_are_read_in_one_pass_as_the_full_parser_reads_them():
     assert {name: getattr(full, name) for name in fields} == {name: getattr(pre, name) for name in fields}
     with pytest.raises(UsageError, match="argument --num-processes: invalid int value: 'x'"):
         pre_flags.parse_pre_flags(["--num-processes", "x"], command_line.Experiment())
+
+
+def test_exit_process_finishes_what_the_interpreter_exit_would(tmp_path):
+    """``exit_process`` (the scripts' last line) ends the process with the given status only after
+    what a normal exit does first: a thread that is not a daemon finishes its write, the ``atexit``
+    handlers run, and output still buffered in ``sys.stdout`` is written."""
+    script = f"""
+import atexit, pathlib, sys, threading, time
+from jaxpg.run.main import exit_process
+out = pathlib.Path({str(tmp_path)!r})
+threading.Thread(target=lambda: (time.sleep(0.5), (out / "thread").write_text("done"))).start()
+atexit.register(lambda: (out / "atexit").write_text("ran"))
+sys.stdout.write("buffered, no newline")
+exit_process(3)
+"""
+    proc = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, cwd=tmp_path)
+    assert proc.returncode == 3, proc.stderr
+    assert proc.stdout == "buffered, no newline"
+    assert (tmp_path / "thread").read_text() == "done" and (tmp_path / "atexit").read_text() == "ran"

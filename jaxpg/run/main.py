@@ -9,8 +9,12 @@ compiled), ``session.execute`` runs it.
 
 from __future__ import annotations
 
+import atexit
+import os
 import sys
+import threading
 from collections.abc import Sequence
+from typing import NoReturn
 
 from jaxpg.run import planning, session, startup
 from jaxpg.run.command_line import DEFAULT_EPILOG, Experiment
@@ -31,3 +35,24 @@ def main(argv: Sequence[str] | None = None, experiment: Experiment | None = None
         print(f"error: cannot put the run directory back in order: {e}", file=sys.stderr)
         return 2
     return session.execute(plan_)
+
+
+def exit_process(status: int) -> NoReturn:
+    """End the process with ``status`` after ``main`` has returned, as the interpreter would but
+    without tearing down its thousands of modules and objects one by one (1.2-1.4 s of a
+    CPU run's exit; the scripts' last line).
+
+    What the interpreter's own exit does first is done here too, in its order: wait for the
+    threads that are not daemons, run the ``atexit`` handlers (JAX's, Orbax's, the run lock's),
+    flush the standard streams. Every file jaxpg writes is closed before ``main`` returns.
+    """
+    for thread in threading.enumerate():
+        if thread is not threading.current_thread() and not thread.daemon:
+            thread.join()
+    atexit._run_exitfuncs()  # noqa: SLF001 - the handlers the interpreter's exit would run
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (OSError, ValueError):  # a closed or broken pipe: nothing more can be written
+            pass
+    os._exit(status)

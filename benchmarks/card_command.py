@@ -49,9 +49,10 @@ training, evaluations, checkpoints), then
 
 and prints, per seed: wall clock, env steps, the last in-run mean-policy return and the mean
 return in Gymnasium's CPU Hopper-v5, then where each run's time went, from the arrival times of
-its output lines (``SPLIT``: start-up, the first block, the rest of training, exit; ``python
-benchmarks/card_command.py kernels`` splits the first block's Warp kernels from XLA's
-compilation). ``--cold`` gives every run empty caches, as on a bare machine: its own XLA
+its output lines and the seconds the run reports (``SPLIT``: start-up, the first block's XLA
+compilation, the wait for MuJoCo Warp's kernels after it, the rest of the first block, the other
+iterations, the evaluations, exit; ``python benchmarks/card_command.py kernels`` times the
+kernel build alone). ``--cold`` gives every run empty caches, as on a bare machine: its own XLA
 compilation cache, MuJoCo Warp kernel cache and CUDA driver compute cache (``CUDA_CACHE_PATH``:
 the driver compiles the PTX it is handed for the GPU and keeps the result there; 34 MB after one
 run on an H100, and with it kept a run with the other two caches empty took 26-35 s less);
@@ -112,24 +113,49 @@ def train_once(seed: int, run_dir: Path, caches: Path, log: Path, extra: list[st
 
 SPLIT = {
     "startup": "imports, planning, the initial state, to the `training:` line",
-    "first_block": "the first block of 10 iterations: XLA compilation with Warp's kernels built beside it",
-    "training": "the other iterations and the evaluation, to the `done in` line",
-    "exit": "the closing report, checkpoints' last writes and the interpreter's exit",
+    "xla_compile": "XLA's compilation of the first block, or its loading from the cache (the `first block:` line)",
+    "kernel_wait": "then waiting for MuJoCo Warp's kernels, built beside the compilation",
+    "first_block": "the rest of the first block: setting up checkpoints, running its iterations",
+    "training": "the other iterations, to the `done in` line, without the evaluations",
+    "evaluation": "the mean-policy evaluations (the `evaluation:` line)",
+    "exit": "the closing report, checkpoints' last writes and the process's exit",
 }
 
 
 def split(stamped: list[tuple[float, str]], wall: float) -> dict[str, float | None]:
-    """Seconds of each part of ``SPLIT`` from the arrival times of the run's output lines: the
-    `training:` line, the first progress line (``[ 10/120]``), the `done in` line and the
-    process's end. ``None`` for a part whose marking line never came."""
+    """Seconds of each part of ``SPLIT``: from the arrival times of the run's output lines (the
+    `training:` line, the first progress line, the `done in` line, the process's end) and the
+    seconds the run reports (the `first block:` and `evaluation:` lines). ``None`` for a part whose
+    line never came; a run that reports no compilation or evaluation counts 0 for them."""
 
     def first(pattern: str) -> float | None:
         return next((t for t, line in stamped if re.match(pattern, line)), None)
 
-    marks = [0.0, first(r"(training|resuming at iteration \d+): "), first(r"\[\s*\d+/\d+\]"), first(r"done in "), wall]
+    def seconds(pattern: str) -> float:
+        match = next((m for _, line in stamped if (m := re.search(pattern, line))), None)
+        return float(match.group(1)) if match else 0.0
+
+    compile_s = seconds(r"^first block: compiled in ([\d.]+) s")
+    wait_s = seconds(r"^first block: .*, then ([\d.]+) s waiting")
+    eval_s = seconds(r"^evaluation: .*?, ([\d.]+) s \(")
+    start, first_line, done = (
+        first(r"(training|resuming at iteration \d+): "),
+        first(r"\[\s*\d+/\d+\]"),
+        first(r"done in "),
+    )
+
+    def span(a: float | None, b: float | None, minus: float = 0.0) -> float | None:
+        return b - a - minus if a is not None and b is not None else None
+
+    whole_first = span(start, first_line)
     return {
-        part: (b - a if a is not None and b is not None else None)
-        for part, a, b in zip(SPLIT, marks[:-1], marks[1:], strict=True)
+        "startup": start,
+        "xla_compile": compile_s if whole_first is not None else None,
+        "kernel_wait": wait_s if whole_first is not None else None,
+        "first_block": span(start, first_line, compile_s + wait_s),
+        "training": span(first_line, done, eval_s),
+        "evaluation": eval_s if done is not None else None,
+        "exit": span(done, wall),
     }
 
 

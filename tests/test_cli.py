@@ -606,3 +606,12 @@ exit_process(3)
     assert proc.returncode == 3, proc.stderr
     assert proc.stdout == "buffered, no newline"
     assert (tmp_path / "thread").read_text() == "done" and (tmp_path / "atexit").read_text() == "ran"
+
+
+def test_the_end_report_times_the_first_block(runs, capsys):
+    """The report after ``done in`` says how long the first block's program took to compile (here
+    with no MuJoCo Warp kernels to wait for, so without that clause)."""
+    assert main.main([*TINY, "--iterations", "2", "--run-dir", str(runs / "first_block")]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    done = next(i for i, line in enumerate(lines) if line.startswith("done in "))
+    assert re.fullmatch(r"first block: compiled in \d+\.\d s", lines[done + 1]), lines[done + 1]

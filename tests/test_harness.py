@@ -42,15 +42,36 @@ def test_the_scripts_with_modes_name_them_when_run_without_one(script):
 
 
 def test_a_run_is_split_by_the_arrival_of_its_output_lines():
-    """card_command.py's split of a run: start-up to the ``training:`` line, the first block to the
-    first progress line, the rest to ``done in``, then the exit; a part whose line never came is
-    ``None``."""
+    """card_command.py's split of a run: start-up to the ``training:`` line; the first block to the
+    first progress line, less the compilation and the kernel wait that its ``first block:`` line
+    reports; the other iterations to ``done in``, less the evaluation its ``evaluation:`` line
+    reports; then the exit. A part whose line never came is ``None``."""
     split = load_script("benchmarks/card_command.py").split
     lines = [(9.8, "training: npg on hopper"), (10.0, "warning: x"), (34.2, "[ 10/120] | steps"), (36.0, "[ 20/120]")]
-    lines += [(60.0, "done in 39.7 s: 0.129 s per iteration"), (60.2, "evaluation: 1 of the mean policy")]
+    lines += [(60.0, "done in 39.7 s: 0.129 s per iteration, 127,000 env steps/s after compilation")]
+    lines += [(60.1, "first block: compiled in 9.5 s, then 2.5 s waiting for MuJoCo Warp's kernels (41 modules built")]
+    lines += [
+        (60.2, "evaluation: 1 of the mean policy (16 episodes each), 1.3 s (3.3% of the training loop's wall clock)")
+    ]
     parts = split(lines, 62.5)
-    assert parts == pytest.approx({"startup": 9.8, "first_block": 24.4, "training": 25.8, "exit": 2.5})
-    assert split([(1.0, "error: no such task")], 2.0) == dict.fromkeys(parts)
+    expected = {"startup": 9.8, "xla_compile": 9.5, "kernel_wait": 2.5, "first_block": 12.4, "training": 24.5}
+    assert parts == pytest.approx({**expected, "evaluation": 1.3, "exit": 2.5})
+    # a CPU run: no kernels, so no wait in its first-block line
+    cpu = split(
+        [(1.0, "training: x"), (5.0, "[ 2/2] |"), (6.0, "done in 5.0 s"), (6.1, "first block: compiled in 3.0 s")], 7.0
+    )
+    assert cpu == pytest.approx(
+        {
+            "startup": 1.0,
+            "xla_compile": 3.0,
+            "kernel_wait": 0.0,
+            "first_block": 1.0,
+            "training": 1.0,
+            "evaluation": 0.0,
+            "exit": 1.0,
+        }
+    )
+    assert split([(1.0, "error: no such task")], 2.0) == {**dict.fromkeys(parts), "startup": None}
 
 
 def test_suite_judges_each_preset_against_its_target():

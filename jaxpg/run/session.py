@@ -26,6 +26,7 @@ import re
 import shlex
 import signal
 import sys
+import time
 from typing import Any
 
 import jax
@@ -161,7 +162,7 @@ def _train(plan_: Plan, ts: Any, wall_offset: float, interrupts: Interrupts) -> 
     # MuJoCo Warp's kernels build on all cores while XLA compiles the first block. Its dry run must
     # not overlap a program that launches them: the initial state's is finished first.
     jax.block_until_ready(ts)
-    kernels = KernelBuild.start(plan_.env)
+    first_block = FirstBlock(KernelBuild.start(plan_.env))
     checkpoints = writer = progress = None
     status = 0
     failure: str | None = None  # the error line, once the run directory is put in order
@@ -191,6 +192,7 @@ def _train(plan_: Plan, ts: Any, wall_offset: float, interrupts: Interrupts) -> 
                 segments.append(min(misaligned, remaining))
             if remaining - sum(segments) > 0:
                 segments.append(remaining - sum(segments))
+            first_block.started = time.perf_counter()  # its compilation is timed from here
             for index, count in enumerate(segments):
                 ts = train.train(
                     update,
@@ -201,7 +203,7 @@ def _train(plan_: Plan, ts: Any, wall_offset: float, interrupts: Interrupts) -> 
                     seeds=run.vmap_seeds,
                     evaluate=evaluate,
                     final_eval=index == len(segments) - 1,  # the run's last iteration is always evaluated
-                    before_first_call=kernels.wait if index == 0 and kernels.modules else None,
+                    before_first_call=first_block if index == 0 else None,
                 )
     except Stop as stop:
         progress.close()
@@ -252,7 +254,7 @@ def _train(plan_: Plan, ts: Any, wall_offset: float, interrupts: Interrupts) -> 
     elif note:
         print(f"the run stopped before its first checkpoint{note}", file=sys.stderr)
     if status == 0 and primary:
-        _report_end(plan_, callbacks.clock)
+        _report_end(plan_, callbacks.clock, first_block)
     processes.barrier("jaxpg: done")  # the processes leave together (JAX's shutdown waits for all)
     return status
 
@@ -262,8 +264,40 @@ def _without_resume_advice(message: str) -> str:
     return re.sub(r"[,;]?\s*(then )?continue with --resume\b.*$", "", message)
 
 
-def _report_end(plan_: Plan, clock: BlockClock) -> None:
-    """The end-of-run report: speed, evaluation share, best checkpoint, how to evaluate."""
+class FirstBlock:
+    """``train``'s ``before_first_call`` for the run's first block: notes when its program is
+    compiled (or loaded from the compilation cache), waits for MuJoCo Warp's kernels
+    (``KernelBuild``, built beside the compilation) and notes when they are ready, for the
+    end-of-run report."""
+
+    def __init__(self, kernels: KernelBuild) -> None:
+        self.kernels = kernels
+        self.started = time.perf_counter()
+        self.compiled: float | None = None
+        self.ready: float | None = None
+
+    def __call__(self) -> None:
+        self.compiled = time.perf_counter()
+        self.kernels.wait()
+        self.ready = time.perf_counter()
+
+    def report(self) -> str | None:
+        """``first block: compiled in X s[, then Y s waiting for MuJoCo Warp's kernels (...)]``, or
+        ``None`` before the first block was compiled."""
+        if self.compiled is None or self.ready is None:
+            return None
+        line = f"first block: compiled in {self.compiled - self.started:.1f} s"
+        if self.kernels.modules and self.kernels.seconds is not None:
+            line += (
+                f", then {self.ready - self.compiled:.1f} s waiting for MuJoCo Warp's kernels "
+                f"({self.kernels.modules} modules built in {self.kernels.seconds:.1f} s beside the compilation)"
+            )
+        return line
+
+
+def _report_end(plan_: Plan, clock: BlockClock, first_block: FirstBlock) -> None:
+    """The end-of-run report: speed, the first block's compilation, evaluation share, best
+    checkpoint, how to evaluate."""
     run, run_dir = plan_.run, plan_.run_dir
     # The first block includes compilation.
     timed = clock.block_times[1:]
@@ -276,6 +310,8 @@ def _report_end(plan_: Plan, clock: BlockClock) -> None:
         show(f"done in {total:.1f} s: {secs / iters:.3f} s per iteration, {rate:,.0f} env steps/s after compilation")
     else:
         show(f"done in {total:.1f} s (including compilation)")
+    if (first := first_block.report()) is not None:
+        show(first)
     if clock.evaluations:
         share = 100 * clock.eval_seconds / max(total, 1e-9)
         show(

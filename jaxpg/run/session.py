@@ -295,7 +295,7 @@ class FirstBlock:
         return line
 
 
-def _report_end(plan_: Plan, clock: BlockClock, first_block: FirstBlock) -> None:
+def _report_end(plan_: Plan, clock: BlockClock, first_block: FirstBlock | None = None) -> None:
     """The end-of-run report: speed, the first block's compilation, evaluation share, best
     checkpoint, how to evaluate."""
     run, run_dir = plan_.run, plan_.run_dir
@@ -310,7 +310,7 @@ def _report_end(plan_: Plan, clock: BlockClock, first_block: FirstBlock) -> None
         show(f"done in {total:.1f} s: {secs / iters:.3f} s per iteration, {rate:,.0f} env steps/s after compilation")
     else:
         show(f"done in {total:.1f} s (including compilation)")
-    if (first := first_block.report()) is not None:
+    if first_block is not None and (first := first_block.report()) is not None:
         show(first)
     if clock.evaluations:
         share = 100 * clock.eval_seconds / max(total, 1e-9)

@@ -128,16 +128,14 @@ def task_kwargs(name: str, fidelity: str, impl: str, batch: int) -> dict:
     """Arguments of ``make_task`` for one configuration."""
     if name == "cartpole":
         return {}
-    kwargs: dict[str, Any] = {"fidelity": fidelity, "impl": impl.removesuffix("_fused")}
-    if impl == "warp_fused":
-        kwargs["warp_fused_frame_skip"] = True
+    kwargs: dict[str, Any] = {"fidelity": fidelity, "impl": impl}
     # MuJoCo Warp's buffers serve the whole batch: the registry sizes them (as envs.make(batch=...)).
     return {**kwargs, **envs.warp_capacity(name, kwargs, batch)}
 
 
 def configurations(args: argparse.Namespace) -> list[tuple[str, str, str]]:
     """(task, fidelity, impl) triples to run; CartPole has neither fidelity nor implementation."""
-    impls = [i for i in args.impl if not i.startswith("warp") or warp_available()]
+    impls = [i for i in args.impl if i != "warp" or warp_available()]
     if len(impls) < len(args.impl):
         print("warp-lang is not installed: skipping impl=warp")
     out = []
@@ -176,20 +174,14 @@ def env_main(argv: Sequence[str]) -> None:
     parser.add_argument("--tasks", nargs="+", default=["hopper"], choices=envs.names())
     parser.add_argument("--batch-sizes", nargs="+", type=int, default=[1024])
     parser.add_argument("--fidelity", nargs="+", default=["fast"], choices=["fast", "gymnasium"])
-    parser.add_argument(
-        "--impl",
-        nargs="+",
-        default=["jax"],
-        choices=["jax", "warp", "warp_fused"],
-        help="warp_fused: MuJoCo Warp with an env step's frame skip in one call (warp_fused_frame_skip)",
-    )
+    parser.add_argument("--impl", nargs="+", default=["jax"], choices=["jax", "warp"])
     parser.add_argument("--variants", nargs="+", default=list(VARIANTS), choices=VARIANTS)
     parser.add_argument("--horizon", type=int, default=100, help="env steps per timed call")
     parser.add_argument("--repeats", type=int, default=5, help="timed calls after a warm-up; the median counts")
     parser.add_argument("--json", metavar="PATH", help="also write the measurements as JSON")
     args = parser.parse_args(argv)
 
-    if any(i.startswith("warp") for i in args.impl) and warp_available():
+    if "warp" in args.impl and warp_available():
         import warp
 
         warp.config.quiet = True  # no line per compiled kernel module

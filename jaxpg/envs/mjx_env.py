@@ -13,7 +13,6 @@ import jax
 import jax.numpy as jnp
 import mujoco
 
-from jaxpg.envs import warp_steps
 from jaxpg.envs.base import Env
 
 ASSETS = Path(__file__).parent / "assets"
@@ -119,10 +118,6 @@ class MjxEnv(Env):
         warning); a smaller one only wastes a little memory and idle GPU threads.
       warp_graph_mode: CUDA-graph capture of the warp kernels: ``"WARP"`` (MJX's GPU default),
         ``"JAX"`` or ``"NONE"``; ``None`` keeps MJX's default.
-      warp_fused_frame_skip: warp only: run the ``frame_skip`` physics steps of an env step in one
-        call into MuJoCo Warp instead of one call each (``jaxpg.envs.warp_steps``; the same
-        numbers, bit for bit). Each call costs a Python callback on the host, which bounds the
-        step rate of small batches on a GPU. Off by default until measured there.
     """
 
     def __init__(
@@ -137,7 +132,6 @@ class MjxEnv(Env):
         max_batch: int = 8192,
         warp_graph_mode: str | None = None,
         total_mass: float | None = None,
-        warp_fused_frame_skip: bool = False,
     ):
         impl = impl or default_impl()
         if impl not in ("jax", "warp"):
@@ -147,7 +141,6 @@ class MjxEnv(Env):
         self.fidelity = fidelity
         self.impl = impl
         self.frame_skip = frame_skip
-        self._fused_step = warp_steps.repeated_step(frame_skip) if impl == "warp" and warp_fused_frame_skip else None
         self.max_episode_steps = max_episode_steps
         self.mj_model = load_model(xml_file, fidelity, total_mass)
         self.dt = float(self.mj_model.opt.timestep) * frame_skip
@@ -196,8 +189,6 @@ class MjxEnv(Env):
         data = data.replace(ctrl=ctrl.astype(data.ctrl.dtype))
         if self.impl == "warp":
             data = data.replace(_impl=data._impl.replace(overflow=jnp.zeros_like(data._impl.overflow)))
-        if self._fused_step is not None:
-            return self._fused_step(self.mjx_model, data)
         return jax.lax.fori_loop(0, self.frame_skip, lambda _, d: mjx.step(self.mjx_model, d), data)
 
     def _physics_overflow(self, data: Any) -> jax.Array:

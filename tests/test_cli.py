@@ -405,6 +405,20 @@ def test_config_flags_parse_into_config(runs, monkeypatch):
     assert plan.config.horizon == 16 and plan.config.kl_delta == 0.1
 
 
+def test_a_preset_sets_its_iterations_unless_the_flag_does(runs, monkeypatch):
+    """A preset made for a step budget (``hopper_1m``: 120 iterations of 8192 samples) runs that many
+    iterations from the command line without ``--iterations``; the flag still wins, and a preset
+    without its own count leaves the command's default."""
+    monkeypatch.chdir(runs)
+    experiment = command_line.Experiment()
+    assert experiment.iterations != 120
+    base = ["--env", "hopper", "--impl", "jax", "--run-dir", "planned"]
+    assert planning.plan([*base, "--preset", "hopper_1m"], experiment).run.iterations == 120
+    assert planning.plan([*base, "--preset", "hopper_1m", "--iterations", "7"], experiment).run.iterations == 7
+    assert planning.plan([*base, "--preset", "hopper"], experiment).run.iterations == experiment.iterations
+    assert not (runs / "planned").exists()
+
+
 def test_profile(runs, capsys):
     from jaxpg.algos import ppo
     from jaxpg.run import profiling

@@ -94,6 +94,42 @@ EXPECTED = {
         ),
         ("hopper",),
     ),
+    ("npg", "walker2d_1m"): (
+        dict(
+            num_envs=256,
+            horizon=32,
+            kl_delta=0.07,
+            normalize_observations=True,
+            log_std_init=0.75,
+            value_hidden=(128, 128),
+            value_epochs=10,
+            value_minibatches=16,
+            value_epoch_samples=16384,
+            fisher_samples=16384,
+            normalize_value_targets=True,
+            eval_envs=16,
+            eval_every=120,
+        ),
+        ("walker2d",),
+    ),
+    ("npg", "half_cheetah_1m"): (
+        dict(
+            num_envs=256,
+            horizon=32,
+            kl_delta=0.15,
+            normalize_observations=True,
+            log_std_init=-0.5,
+            value_hidden=(128, 128),
+            value_epochs=10,
+            value_minibatches=16,
+            value_epoch_samples=16384,
+            fisher_samples=16384,
+            normalize_value_targets=True,
+            eval_envs=16,
+            eval_every=120,
+        ),
+        ("half_cheetah",),
+    ),
     ("npg", "pendulum_cpu"): (
         dict(
             num_envs=32,
@@ -177,7 +213,7 @@ EXPECTED = {
 
 # What every algorithm's presets were called, in the order its module listed them.
 EXPECTED_NAMES = {
-    "npg": ["pendulum_cpu", "hopper", "hopper_1m", "hopper_gpu", "lyceum"],
+    "npg": ["pendulum_cpu", "hopper", "hopper_1m", "walker2d_1m", "half_cheetah_1m", "hopper_gpu", "lyceum"],
     "trpo": ["lyceum"],
     "reinforce": ["gymnasium_tutorial", "kokoyi"],
     "reinforce_points": [],
@@ -252,7 +288,7 @@ def test_lookup_refuses_unknown_names_and_other_tasks():
     assert algos.preset_names("npg", "hopper") == ["hopper", "hopper_1m", "hopper_gpu", "lyceum"]
     with pytest.raises(ValueError, match="ppo's preset 'atari' was made for atari_pong, pong, not hopper"):
         algos.preset("ppo", "atari", "hopper")
-    with pytest.raises(ValueError, match="unknown preset 'nope' for npg; known presets: hopper, hopper_1m, hopper_gpu"):
+    with pytest.raises(ValueError, match="unknown preset .nope. for npg; known presets: half_cheetah_1m, hopper, "):
         algos.preset("npg", "nope")
     with pytest.raises(ValueError, match="unknown algorithm 'sac'"):
         algos.preset("sac", "hopper")

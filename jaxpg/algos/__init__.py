@@ -55,6 +55,13 @@ def preset(algo: str, name: str, task: str | None = None) -> dict[str, Any]:
     return dict(row.overrides)
 
 
+def preset_iterations(algo: str, name: str) -> int | None:
+    """How many iterations a run of ``algo``'s preset ``name`` takes by default on the command line
+    (``None``: the command's own default; also for an unknown preset, which ``preset`` refuses)."""
+    row = presets.TABLE.get((algo, name))
+    return None if row is None else row.iterations
+
+
 def preset_names(algo: str, task: str | None = None) -> list[str]:
     """The presets of ``algo`` (those that suit ``task`` when given), sorted."""
     _check_known(algo)

@@ -240,7 +240,11 @@ def build_parser(experiment: Experiment, algo: str, config_cls: type | None, con
         metavar="SEED",
         help="several seeds, trained together in one vmapped program",
     )
-    run.add_argument("--iterations", type=_positive, help=f"total iterations (default: {experiment.iterations})")
+    run.add_argument(
+        "--iterations",
+        type=_positive,
+        help=f"total iterations (default: {experiment.iterations}, or the preset's own, e.g. 120 for the *_1m presets)",
+    )
     run.add_argument("--run-dir", help="run directory (default: runs/<task>-<algo>-<date>-<time>)")
     run.add_argument(
         "--resume",

@@ -128,7 +128,10 @@ def plan_fresh(args: argparse.Namespace, experiment: Experiment, module: Any, al
     log_every = experiment.log_every if args.log_every is None else args.log_every
     if log_every < 1:
         raise UsageError(f"--log-every must be >= 1, got {log_every}")
-    iterations = experiment.iterations if args.iterations is None else args.iterations
+    iterations = args.iterations
+    if iterations is None:
+        by_preset = algos.preset_iterations(algo, args.preset) if args.preset is not None else None
+        iterations = experiment.iterations if by_preset is None else by_preset
     if iterations < 1:
         # It would leave a run directory without a checkpoint: nothing to resume or evaluate.
         raise UsageError(f"--iterations must be >= 1 for a new run, got {iterations}")

@@ -239,7 +239,12 @@ def train(
     # the block's outputs are, so the second block reuses the first block's compilation.
     train_state = own_buffers(train_state)
     start = int(np.max(jax.device_get(train_state.iteration)))
+    # MuJoCo Warp captures its physics step into CUDA graphs while a program runs, and an XLA
+    # compilation on another thread during a capture breaks it (CUDA error 901 or 904, which ends
+    # the run): with Warp, nothing compiles while a program may run.
+    warp = getattr(train_state.env, "impl", None) == "warp"
     evaluator: Any = None
+    compiled_sizes: set[int] = set()
     done = 0
     try:
         while done < num_iterations:
@@ -248,8 +253,16 @@ def train(
             chunks, evaluations, position = [], {}, first
             for size in _calls(first, n, eval_every):
                 block = compiled_block(update, size, seeds)
-                if before_first_call is not None:
+                if evaluator is None and (eval_every or final_eval) and warp:
+                    evaluator = early_evaluator(evaluate, seeds, train_state)  # compiles beside the block
+                if size not in compiled_sizes and (warp or before_first_call is not None):
+                    if warp:
+                        jax.block_until_ready(train_state)
                     block.lower(train_state).compile()  # the call below runs this very program
+                    if evaluator is not None and warp:
+                        evaluator.wait()
+                compiled_sizes.add(size)
+                if before_first_call is not None:
                     before_first_call()
                     before_first_call = None
                 train_state, chunk = block(train_state)

@@ -824,6 +824,62 @@ def test_warp_seeds_in_one_program_are_each_evaluated_as_alone():
         np.testing.assert_allclose(values, [float(a[name]) for a in alone], rtol=1e-6, err_msg=name)
 
 
+@pytest.mark.skipif(not warp_available(), reason="warp-lang is not installed (pip install 'jaxpg[warp]')")
+def test_warp_training_compiles_nothing_while_a_program_runs(monkeypatch):
+    """With MuJoCo Warp, ``train.train`` compiles no program while another may be running: Warp
+    captures its physics step into CUDA graphs during a run, and an XLA compilation on another
+    thread meanwhile breaks the capture (on a GPU: CUDA error 901 or 904, which ended runs that
+    shared a GPU). So the evaluation's program, compiled on a background thread, is ready before the
+    first block runs, and a block of a new size (here the last, shorter one) compiles only after
+    the blocks before it have finished. The order of events is recorded around ``train``'s calls."""
+    from jaxpg import train
+    from jaxpg.algos import npg
+
+    events: list[str] = []
+    original_block, original_compile = train.compiled_block, train._EarlyCompile._compile
+
+    class RecordedBlock:
+        """A compiled block that records its compilation and its calls."""
+
+        def __init__(self, block, size):
+            self.block, self.size = block, size
+
+        def lower(self, *args):
+            lowered = self.block.lower(*args)
+            return type("Lowered", (), {"compile": lambda _: self.compile(lowered)})()
+
+        def compile(self, lowered):
+            events.append(f"compile {self.size}")
+            return lowered.compile()
+
+        def __call__(self, *args):
+            events.append(f"run {self.size}")
+            return self.block(*args)
+
+    def recorded_compile(self, specs):
+        original_compile(self, specs)
+        events.append("evaluation compiled")
+
+    def recorded_ready(x):
+        events.append("ready")
+        return original_ready(x)
+
+    original_ready = jax.block_until_ready
+    monkeypatch.setattr(
+        train, "compiled_block", lambda update, size, seeds: RecordedBlock(original_block(update, size, seeds), size)
+    )
+    monkeypatch.setattr(train._EarlyCompile, "_compile", recorded_compile)
+    monkeypatch.setattr(jax, "block_until_ready", recorded_ready)
+    env = envs.make("inverted_pendulum", impl="warp", max_batch=2 * WARP_ENVS)
+    config = npg.Config(num_envs=WARP_ENVS, horizon=8, eval_envs=2, eval_horizon=40, value_batch_size=8, eval_every=100)
+    state = npg.init(jax.random.PRNGKey(0), env, config)
+    train.train(npg.update, state, 3, block_size=2, final_eval=True)
+    runs = [i for i, e in enumerate(events) if e.startswith("run")]
+    assert [events[i] for i in runs] == ["run 2", "run 1"], events
+    assert events.index("evaluation compiled") < runs[0], events
+    assert events.index("compile 1") > events.index("ready", runs[0]), events
+
+
 def test_importing_without_warp_prints_nothing():
     """MJX prints "Failed to import warp" when imported without warp-lang; jaxpg keeps it quiet."""
     code = (

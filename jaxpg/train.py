@@ -224,9 +224,10 @@ def train(
       eval_every: evaluate after every iteration whose 1-based count is a multiple of this
         (default: ``config.eval_every``; evaluation is off when ``config.eval_envs`` is 0).
       final_eval: also evaluate after the last of the ``num_iterations``.
-      before_first_call: called once, after the first block's program is compiled and before it
-        runs (e.g. ``jaxpg.envs.warp_kernels.KernelBuild.wait``: MuJoCo Warp's kernels, built
-        on other threads while XLA compiled, must be ready before a program launches them).
+      before_first_call: called once, after the first block's program is compiled (with MuJoCo
+        Warp, the evaluation's program too) and before it runs (e.g.
+        ``jaxpg.envs.warp_kernels.KernelBuild.wait``: MuJoCo Warp's kernels, built on other
+        threads while XLA compiled, must be ready before a program launches them).
     Returns the final ``TrainState``.
     """
     config = train_state.config

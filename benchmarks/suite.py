@@ -8,7 +8,7 @@ Two modes (``python benchmarks/suite.py MODE --help`` for each):
   plot  mean-policy return against wall clock and against env steps, one panel per task, the
         seeds of each preset as a band, from ``run --json`` files.
 
-    python benchmarks/suite.py run --runs walker2d:ppo:walker2d_fast ant:ppo:ant_fast --seeds 0 1 2 \\
+    python benchmarks/suite.py run --runs walker2d:npg:walker2d_1m half_cheetah:npg:half_cheetah_1m --seeds 0 1 2 \\
         --json suite.json
     python benchmarks/suite.py plot suite.json --out docs/suite.png
 """
@@ -58,7 +58,7 @@ each run its own empty ones. A preset whose name ends in ``_1m`` is judged as sa
 (at most 1 M env steps, against the best published figure); one ending in ``_fast`` against the
 fast target and its time limit.
 
-    python benchmarks/suite.py run --runs hopper:npg:hopper walker2d:ppo:walker2d_fast --seeds 0 1 2
+    python benchmarks/suite.py run --runs hopper:npg:hopper walker2d:npg:walker2d_1m --seeds 0 1 2
 """
 
 PLOT_DOC = """Mean-policy return against wall clock and against env steps, one column per task.

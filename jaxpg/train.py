@@ -244,6 +244,7 @@ def train(
     # compilation on another thread during a capture breaks it (CUDA error 901 or 904, which ends
     # the run): with Warp, nothing compiles while a program may run.
     warp = getattr(train_state.env, "impl", None) == "warp"
+    evaluates = bool(eval_every or final_eval)
     evaluator: Any = None
     compiled_sizes: set[int] = set()
     done = 0
@@ -254,21 +255,21 @@ def train(
             chunks, evaluations, position = [], {}, first
             for size in _calls(first, n, eval_every):
                 block = compiled_block(update, size, seeds)
-                if evaluator is None and (eval_every or final_eval) and warp:
-                    evaluator = early_evaluator(evaluate, seeds, train_state)  # compiles beside the block
+                if evaluates and evaluator is None and warp:
+                    evaluator = early_evaluator(evaluate, seeds, train_state)  # compiled beside the block
                 if size not in compiled_sizes and (warp or before_first_call is not None):
                     if warp:
                         jax.block_until_ready(train_state)
                     block.lower(train_state).compile()  # the call below runs this very program
-                    if evaluator is not None and warp:
+                    if evaluator is not None:
                         evaluator.wait()
                 compiled_sizes.add(size)
                 if before_first_call is not None:
                     before_first_call()
                     before_first_call = None
                 train_state, chunk = block(train_state)
-                if evaluator is None and (eval_every or final_eval):
-                    evaluator = early_evaluator(evaluate, seeds, train_state)
+                if evaluates and evaluator is None:
+                    evaluator = early_evaluator(evaluate, seeds, train_state)  # compiled while the block runs
                 chunks.append(chunk)
                 position += size
                 is_last = done + n == num_iterations and position == first + n

@@ -29,10 +29,13 @@ import numpy as np
 
 from jaxpg.algos import core
 from jaxpg.algos.core import TrainState
+from jaxpg.envs import compile_options
 
 UpdateFn = Callable[[TrainState], tuple[TrainState, dict[str, jax.Array]]]
 Callback = Callable[[TrainState, dict[str, np.ndarray], int], None]
 EvaluateFn = Callable[[TrainState], dict[str, jax.Array]]
+# XLA compile options, (name, value) pairs: see jaxpg.envs.compile_options.
+CompileOptions = tuple[tuple[str, Any], ...]
 
 EVAL_METRICS = ("return_mean_policy", "episode_length_mean_policy", "task_score_mean_policy")
 # Folded into the training key to seed evaluations: they never consume or change training's draws.
@@ -55,14 +58,16 @@ def scan_updates(update: UpdateFn, train_state: TrainState, num_iterations: int)
 
 
 @functools.lru_cache(maxsize=32)
-def compiled_block(update: UpdateFn, block_size: int, seeds: bool) -> Callable:
+def compiled_block(update: UpdateFn, block_size: int, seeds: bool, options: CompileOptions = ()) -> Callable:
     """The jitted ``train_state -> (train_state, metrics)`` for one block (cached per update/size).
 
     With ``seeds`` the block is ``vmap``-ed over the leading seed axis and metrics come back as
-    ``[block_size, num_seeds]``. The input state's buffers are donated.
+    ``[block_size, num_seeds]``. The input state's buffers are donated. ``options``: XLA compile
+    options, those of the env's programs (``compile_options.compiler_options(env)``).
     """
     step = jax.vmap(update) if seeds else update
-    return jax.jit(functools.partial(scan_updates, step, num_iterations=block_size), donate_argnums=0)
+    block = functools.partial(scan_updates, step, num_iterations=block_size)
+    return compile_options.jit(block, None, options, donate_argnums=0)
 
 
 @jax.jit
@@ -91,9 +96,10 @@ def evaluate_state(train_state: TrainState) -> dict[str, jax.Array]:
 
 
 @functools.lru_cache(maxsize=32)
-def compiled_evaluate(evaluate: EvaluateFn, seeds: bool) -> Callable:
-    """The jitted ``evaluate`` (over the leading seed axis with ``seeds``: see ``evaluate_seeds``)."""
-    return jax.jit(functools.partial(evaluate_seeds, evaluate) if seeds else evaluate)
+def compiled_evaluate(evaluate: EvaluateFn, seeds: bool, options: CompileOptions = ()) -> Callable:
+    """The jitted ``evaluate`` (over the leading seed axis with ``seeds``: see ``evaluate_seeds``),
+    compiled with the XLA compile ``options`` (as ``compiled_block``'s)."""
+    return compile_options.jit(functools.partial(evaluate_seeds, evaluate) if seeds else evaluate, None, options)
 
 
 def evaluate_seeds(evaluate: EvaluateFn, train_state: TrainState) -> dict[str, jax.Array]:
@@ -157,7 +163,8 @@ def early_evaluator(evaluate: EvaluateFn, seeds: bool, example: TrainState) -> C
     reuses the program). Calling the result waits for the compilation."""
     specs = jax.tree.map(lambda x: jax.ShapeDtypeStruct(x.shape, x.dtype, sharding=x.sharding), example)
     leaves, treedef = jax.tree.flatten(specs)
-    return _early_compile(compiled_evaluate(evaluate, seeds), tuple(leaves), treedef)
+    options = compile_options.compiler_options(example.env)
+    return _early_compile(compiled_evaluate(evaluate, seeds, options), tuple(leaves), treedef)
 
 
 def _calls(first: int, n: int, eval_every: int) -> list[int]:
@@ -254,7 +261,7 @@ def train(
             first = start + done
             chunks, evaluations, position = [], {}, first
             for size in _calls(first, n, eval_every):
-                block = compiled_block(update, size, seeds)
+                block = compiled_block(update, size, seeds, compile_options.compiler_options(train_state.env))
                 if evaluates and evaluator is None and warp:
                     evaluator = early_evaluator(evaluate, seeds, train_state)  # compiled beside the block
                 if size not in compiled_sizes and (warp or before_first_call is not None):

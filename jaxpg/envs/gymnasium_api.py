@@ -50,7 +50,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from jaxpg import envs as envs_lib
-from jaxpg.envs import gymnasium_worker
+from jaxpg.envs import compile_options, gymnasium_worker
 from jaxpg.envs.gymnasium_spaces import (  # the version check runs first
     DATA_INFO,
     GYMNASIUM_IDS,
@@ -94,14 +94,14 @@ def _single_env(task: str, make_items: tuple) -> tuple[envs_lib.Env, Callable, C
     """The env and its jitted ``reset``/``step``, shared by every ``JaxpgEnv`` of the same task and
     arguments (so a second env, e.g. a checker's or an evaluation env, compiles nothing)."""
     env = envs_lib.make_shared(task, **dict(make_items))
-    return env, jax.jit(env.reset), jax.jit(env.step)
+    return env, compile_options.jit(env.reset, env), compile_options.jit(env.step, env)
 
 
 @functools.lru_cache(maxsize=32)
 def _set_state_fn(env: envs_lib.Env) -> Callable:
     """Jitted ``(qpos, qvel) -> mjx.Data`` of ``env``'s MJX task, with derived quantities."""
     task = env.unwrapped
-    return jax.jit(lambda qpos, qvel: task.physics_state(qpos, qvel, forward=True))
+    return compile_options.jit(lambda qpos, qvel: task.physics_state(qpos, qvel, forward=True), task)
 
 
 def serve(read_fd: int, write_fd: int) -> None:

@@ -18,6 +18,7 @@ from gymnasium.vector import AutoresetMode
 from gymnasium.vector.utils import batch_space
 
 from jaxpg import envs as envs_lib
+from jaxpg.envs import compile_options
 from jaxpg.envs.gymnasium_spaces import (
     GYMNASIUM_IDS,
     INFO_KEYS,
@@ -70,8 +71,8 @@ def _vector_env(
 ) -> tuple[envs_lib.Env, Callable, Callable]:
     """The env and the jitted batched ``reset``/``step`` of ``JaxpgVectorEnv``, shared likewise."""
     env = envs_lib.make_shared(task, batch=num_envs, **dict(make_items))
-    step = jax.jit(jax.vmap(functools.partial(_vector_step, env, task, mode)))
-    return env, jax.jit(jax.vmap(env.reset)), step
+    step = compile_options.jit(jax.vmap(functools.partial(_vector_step, env, task, mode)), env)
+    return env, compile_options.jit(jax.vmap(env.reset), env), step
 
 
 def _batched_info(values: dict[str, np.ndarray], keys: tuple[str, ...], mask: np.ndarray) -> dict[str, Any]:

@@ -118,7 +118,13 @@ class MjxEnv(Env):
         warning); a smaller one only wastes a little memory and idle GPU threads.
       warp_graph_mode: CUDA-graph capture of the warp kernels: ``"WARP"`` (MJX's GPU default),
         ``"JAX"`` or ``"NONE"``; ``None`` keeps MJX's default.
+
+    ``cpu_fusion_emitters``: false for a task whose kinematic chain is so deep that XLA:CPU's
+    fusion emitters make its step exponentially slow; its programs are then compiled with the
+    legacy emitters on the CPU (``jaxpg.envs.compile_options``).
     """
+
+    cpu_fusion_emitters: bool = True
 
     def __init__(
         self,

@@ -11,6 +11,7 @@ from typing import Any
 import jax
 
 from jaxpg import train
+from jaxpg.envs import compile_options
 from jaxpg.run.config_io import RunConfig
 
 
@@ -41,8 +42,8 @@ def _compiled_init(module: Any, env: Any, config: Any, seeds: tuple[int, ...]) -
     """Jitted ``init`` (several seeds: ``train.init_seeds``), cached so that runs in one process
     share the compiled program."""
     if len(seeds) > 1:
-        return jax.jit(lambda: train.init_seeds(module.init, seeds, env, config))
-    return jax.jit(lambda key: module.init(key, env, config))
+        return compile_options.jit(lambda: train.init_seeds(module.init, seeds, env, config), env)
+    return compile_options.jit(lambda key: module.init(key, env, config), env)
 
 
 def initial_state(module: Any, env: Any, config: Any, seeds: Sequence[int]) -> Any:

@@ -15,6 +15,7 @@ import numpy as np
 from jaxpg import rollout as rollout_lib
 from jaxpg import video as video_lib
 from jaxpg.algos.core import make_act
+from jaxpg.envs import compile_options
 
 
 class Episodes:
@@ -68,7 +69,7 @@ def _rollout_impl(env: Any, policy: Any, num_episodes: int, horizon: int, determ
             "task_score": rollout_lib.last_valid(traj, traj.metrics["task_score"].astype(jnp.float32)),
         }
 
-    return jax.jit(run)
+    return compile_options.jit(run, env)
 
 
 def play_episodes(

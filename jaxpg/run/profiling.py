@@ -22,6 +22,7 @@ import jax
 
 from jaxpg import algos
 from jaxpg.algos.core import TrainState
+from jaxpg.envs import compile_options
 
 
 def declares_phases(module: ModuleType) -> bool:
@@ -48,7 +49,7 @@ def profile_phases(algo: str, ts: TrainState) -> tuple[TrainState, dict[str, flo
         timings: dict[str, float] = {}
 
         def timed(name: str, phase: Callable[..., Any], *args: Any) -> Any:
-            fn = jitted.setdefault(name, jax.jit(phase))
+            fn = jitted.setdefault(name, compile_options.jit(phase, ts.env))
             start = time.perf_counter()
             out = jax.block_until_ready(fn(*args))
             timings[name] = time.perf_counter() - start

@@ -187,6 +187,98 @@ EXPECTED = {
         ),
         ("hopper",),
     ),
+    ("ppo", "walker2d_fast"): (
+        dict(
+            num_envs=8192,
+            horizon=32,
+            num_minibatches=8,
+            num_epochs=4,
+            lr=0.0003,
+            max_grad_norm=0.0,
+            entropy_coef=0.001,
+            gamma=0.99,
+            gae_lambda=0.95,
+            reward_scaling=10.0,
+            normalize_observations=True,
+            policy_hidden=(32, 32, 32, 32),
+            policy_activation="swish",
+            value_hidden=(256, 256, 256, 256, 256),
+            value_activation="swish",
+            network_init="orthogonal",
+            eval_envs=128,
+            eval_every=20,
+        ),
+        ("walker2d",),
+    ),
+    ("ppo", "half_cheetah_fast"): (
+        dict(
+            num_envs=8192,
+            horizon=32,
+            num_minibatches=8,
+            num_epochs=4,
+            lr=0.0003,
+            max_grad_norm=0.0,
+            entropy_coef=0.0,
+            gamma=0.99,
+            gae_lambda=0.95,
+            reward_scaling=1.0,
+            normalize_observations=True,
+            policy_hidden=(32, 32, 32, 32),
+            policy_activation="swish",
+            value_hidden=(256, 256, 256, 256, 256),
+            value_activation="swish",
+            network_init="orthogonal",
+            eval_envs=128,
+            eval_every=20,
+        ),
+        ("half_cheetah",),
+    ),
+    ("ppo", "ant_fast"): (
+        dict(
+            num_envs=4096,
+            horizon=80,
+            num_minibatches=32,
+            num_epochs=4,
+            lr=0.0003,
+            max_grad_norm=0.0,
+            entropy_coef=0.01,
+            gamma=0.97,
+            gae_lambda=0.95,
+            reward_scaling=10.0,
+            normalize_observations=True,
+            policy_hidden=(32, 32, 32, 32),
+            policy_activation="swish",
+            value_hidden=(256, 256, 256, 256, 256),
+            value_activation="swish",
+            network_init="orthogonal",
+            eval_envs=128,
+            eval_every=20,
+        ),
+        ("ant",),
+    ),
+    ("ppo", "humanoid_fast"): (
+        dict(
+            num_envs=2048,
+            horizon=160,
+            num_minibatches=32,
+            num_epochs=8,
+            lr=0.0003,
+            max_grad_norm=0.0,
+            entropy_coef=0.001,
+            gamma=0.97,
+            gae_lambda=0.95,
+            reward_scaling=0.1,
+            normalize_observations=True,
+            policy_hidden=(32, 32, 32, 32),
+            policy_activation="swish",
+            value_hidden=(256, 256, 256, 256, 256),
+            value_activation="swish",
+            network_init="orthogonal",
+            eval_envs=128,
+            eval_every=20,
+        ),
+        ("humanoid",),
+    ),
     ("vpg", "lightning"): (
         dict(
             sampling="continuing",
@@ -219,7 +311,28 @@ EXPECTED_NAMES = {
     "reinforce_points": [],
     "vpg": ["lightning"],
     "a2c": ["pong", "minpy", "cartpole", "atari"],
-    "ppo": ["brax_hopper", "brax_hopper_short", "pendulum", "atari", "hopper_gpu"],
+    "ppo": [
+        "brax_hopper",
+        "brax_hopper_short",
+        "pendulum",
+        "atari",
+        "hopper_gpu",
+        "walker2d_fast",
+        "half_cheetah_fast",
+        "ant_fast",
+        "humanoid_fast",
+    ],
+}
+
+# The iterations a command-line run of a preset takes by default (presets that set them).
+EXPECTED_ITERATIONS = {
+    ("npg", "hopper_1m"): 120,
+    ("npg", "walker2d_1m"): 120,
+    ("npg", "half_cheetah_1m"): 120,
+    ("ppo", "walker2d_fast"): 660,
+    ("ppo", "half_cheetah_fast"): 560,
+    ("ppo", "ant_fast"): 510,
+    ("ppo", "humanoid_fast"): 250,
 }
 
 # Tasks an any-task preset is checked against.
@@ -241,6 +354,14 @@ def test_key_presets_keep_their_values(key):
         assert type(value) is type(expected)  # 1 stays an int, 1.0 a float
     assert algos.preset(algo, name) == overrides
     assert dict(algos.get(algo).PRESETS[name]) == overrides
+
+
+def test_presets_keep_their_iteration_counts():
+    """A preset's iterations are part of what it was measured with (the *_1m presets stay within
+    1 M env steps by them); every other preset leaves the command's default."""
+    assert {
+        key: row.iterations for key, row in presets.TABLE.items() if row.iterations is not None
+    } == EXPECTED_ITERATIONS
 
 
 def test_every_algorithm_keeps_its_preset_names():

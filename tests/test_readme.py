@@ -199,13 +199,15 @@ def plan_command(command: str, run_dir: Path) -> Plan:
 
 def planned_values(planned: Plan) -> dict:
     """Everything a flag or the README can name, by its flag's name (``num_envs`` for
-    ``--num-envs``): the run's settings, the algorithm's config, the task's keyword arguments, the
-    ``minutes`` of ``--minutes``, the env's ``observation_size`` and the ``M env steps`` trained."""
+    ``--num-envs``; ``env``, the task, for ``--env``): the run's settings, the algorithm's config,
+    the task's keyword arguments, the ``minutes`` of ``--minutes``, the env's ``observation_size``
+    and the ``M env steps`` trained."""
     run = planned.run
     config = planned.config
     values = {**run.env_kwargs, **dataclasses.asdict(config)}
     values.update(
         task=run.task,
+        env=run.task,
         algo=run.algo,
         preset=run.preset,
         iterations=run.iterations,

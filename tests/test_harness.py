@@ -82,7 +82,9 @@ def test_suite_judges_each_preset_against_its_target():
     assert suite.judge("ant", "ant_fast", [4100.0, 4200.0, 3900.0], [200.0] * 3, [5e7] * 3).startswith("met")
     assert "too slow" in suite.judge("ant", "ant_fast", [4100.0], [400.0], [5e7])
     assert suite.judge("humanoid", "humanoid_fast", [4000.0], [500.0], [5e7]).startswith("missed by 1000")
-    assert suite.judge("swimmer", "swimmer_fast", [300.0], [60.0], [1e7]) == "no target"
+    assert suite.judge("swimmer", "swimmer_fast", [300.0], [60.0], [1e7]).startswith("missed by 65.70")
+    assert suite.judge("reacher", "reacher_fast", [-2.5, -2.4, -3.0], [60.0] * 3, [1e7] * 3).startswith("met")
+    assert suite.judge("humanoid_standup", "humanoid_standup_fast", [1e5], [60.0], [1e7]) == "no target"
     assert suite.judge("ant", "ant_fast", [], [60.0], [1e7]) == "no score"
 
 

@@ -21,7 +21,8 @@ import shutil
 import statistics
 import sys
 import tempfile
-from collections.abc import Sequence
+import threading
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import harness
@@ -61,11 +62,15 @@ Each run is exactly ``python -m jaxpg.cli --env TASK --algo ALGO --preset PRESET
 evaluations, checkpoints); its final mean policy is then replayed for ``--episodes`` episodes in
 Gymnasium's own env (``python -m jaxpg.evaluate DIR --gymnasium``, on the CPU, beside the next
 run). The caches (XLA, MuJoCo Warp, CUDA driver) are shared by all runs unless ``--cold`` gives
-each run its own empty ones. A preset whose name ends in ``_1m`` is judged as sample-efficient
-(at most 1 M env steps, against the best published figure); one ending in ``_fast`` against the
-fast target and its time limit.
+each run its own empty ones; ``--warmup`` fills them first, so that every timed run is warm. On a
+host of several GPUs, ``--gpus 0 1 2 3`` runs a process on each GPU at a time, side by side. A
+preset whose name ends in ``_1m`` is judged as sample-efficient (at most 1 M env steps, against
+the best published figure); one ending in ``_fast`` against the fast target and its time limit
+(Swimmer, Reacher, Pusher: the best published return found).
 
     python benchmarks/suite.py run --runs hopper:npg:hopper walker2d:npg:walker2d_1m --seeds 0 1 2
+    python benchmarks/suite.py run --runs walker2d:ppo:walker2d_fast humanoid:ppo:humanoid_fast \\
+        --seeds 0 1 2 --warmup --gpus 0 1 2 3
 """
 
 PLOT_DOC = """Mean-policy return against wall clock and against env steps, one column per task.
@@ -107,10 +112,18 @@ def judge(task: str, preset: str, scores: list[float], walls: list[float], steps
 
 
 def train_and_time(
-    task: str, algo: str, preset: str, seeds: list[int], out: Path, caches: Path, extra: list[str]
+    task: str,
+    algo: str,
+    preset: str,
+    seeds: list[int],
+    out: Path,
+    caches: Path,
+    extra: list[str],
+    gpu: int | None = None,
 ) -> list[dict]:
-    """One run as a fresh process, training ``seeds`` (several: together in one vmapped program);
-    one row per seed (without the Gymnasium score)."""
+    """One run as a fresh process, training ``seeds`` (several: together in one vmapped program),
+    on GPU number ``gpu`` alone when given (``CUDA_VISIBLE_DEVICES``); one row per seed (without
+    the Gymnasium score)."""
     name = f"{task}-{algo}-{preset}-seed{'-'.join(map(str, seeds))}"
     run_dir = out / name
     shutil.rmtree(run_dir, ignore_errors=True)
@@ -118,6 +131,7 @@ def train_and_time(
         "JAXPG_COMPILATION_CACHE": str(caches / "xla"),
         "WARP_CACHE_PATH": str(caches / "warp"),
         "CUDA_CACHE_PATH": str(caches / "cuda"),
+        **({} if gpu is None else {"CUDA_VISIBLE_DEVICES": str(gpu)}),
     }
     command = [sys.executable, "-m", "jaxpg.cli", "--env", task, "--algo", algo, "--preset", preset]
     command += ["--seeds" if len(seeds) > 1 else "--seed", *map(str, seeds), "--run-dir", str(run_dir), *extra]
@@ -145,6 +159,32 @@ def train_and_time(
             }
         )
     return out_rows
+
+
+def on_gpus(jobs: Sequence, gpus: Sequence[int | None], work: Callable[[object, int | None], None]) -> None:
+    """``work(job, gpu)`` for every job, one job at a time per entry of ``gpus`` (each GPU runs
+    one process at a time, the GPUs side by side), jobs taken in order; an exception in a job is
+    raised once all have ended."""
+    queue, lock, errors = list(jobs), threading.Lock(), []
+
+    def worker(gpu: int | None) -> None:
+        while True:
+            with lock:
+                if not queue:
+                    return
+                job = queue.pop(0)
+            try:
+                work(job, gpu)
+            except Exception as error:  # noqa: BLE001 - re-raised below, after the other jobs
+                errors.append(error)
+
+    threads = [threading.Thread(target=worker, args=(gpu,)) for gpu in gpus]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
+    if errors:
+        raise errors[0]
 
 
 def summary(rows: list[dict]) -> list[dict]:
@@ -185,30 +225,67 @@ def run_main(argv: Sequence[str]) -> None:
         help="train each TASK:ALGO:PRESET's seeds together in one process (one vmapped program: to compare "
         "settings over many seeds; its wall clock is the whole batch's, not one seed's)",
     )
+    parser.add_argument(
+        "--gpus",
+        nargs="+",
+        type=int,
+        default=None,
+        help="run processes side by side, one on each of these GPUs at a time (CUDA_VISIBLE_DEVICES); "
+        "default: one process at a time on every GPU",
+    )
+    parser.add_argument(
+        "--warmup",
+        action="store_true",
+        help="first run each TASK:ALGO:PRESET for a few seconds of training (compiling the programs and "
+        "kernels the timed runs use), so that every timed run finds warm caches",
+    )
     parser.add_argument("--out", default=None, help="where runs and logs go (default: a temporary directory)")
     parser.add_argument("--json", default=None)
     parser.add_argument("--extra", nargs=argparse.REMAINDER, default=[], help="flags added to every run")
     args = parser.parse_args(argv)
+    if args.cold and args.warmup:
+        parser.error("--cold gives each run empty caches; --warmup fills them: choose one")
 
     out = Path(args.out or tempfile.mkdtemp(prefix="suite-"))
     out.mkdir(parents=True, exist_ok=True)
-    rows, pending = [], []
-    for task, algo, preset in args.runs:
-        for seeds in [args.seeds] if args.vmap_seeds else [[seed] for seed in args.seeds]:
-            caches = out / (f"caches-{task}-{preset}-{seeds[0]}" if args.cold else "caches")
-            if args.cold:
-                shutil.rmtree(caches, ignore_errors=True)
-            for row in train_and_time(task, algo, preset, seeds, out, caches, args.extra):
+    gpus = args.gpus or [None]
+    if args.warmup:  # a few seconds of training: the first block's and the evaluation's programs
+        warm = out / "warmup"
+        warm.mkdir(exist_ok=True)
+        on_gpus(
+            args.runs,
+            gpus,
+            lambda run, gpu: train_and_time(
+                *run, args.seeds[:1], warm, out / "caches", [*args.extra, "--minutes", "0.05"], gpu
+            ),
+        )
+    jobs = [
+        (run, seeds) for run in args.runs for seeds in ([args.seeds] if args.vmap_seeds else [[s] for s in args.seeds])
+    ]
+    rows, pending, lock = [], [], threading.Lock()
+
+    def train_job(job: tuple, gpu: int | None) -> None:
+        (task, algo, preset), seeds = job
+        caches = out / (f"caches-{task}-{preset}-{seeds[0]}" if args.cold else "caches")
+        if args.cold:
+            shutil.rmtree(caches, ignore_errors=True)
+        for row in train_and_time(task, algo, preset, seeds, out, caches, args.extra, gpu):
+            log = out / f"{task}-{algo}-{preset}-seed{row['seed']}-gymnasium.log"
+            replay = None
+            if args.episodes > 0:
+                replay = harness.gymnasium_replay(Path(row["run_dir"]), log, args.episodes, train_seed=row["seed"])
+            with lock:
                 rows.append(row)
-                log = out / f"{task}-{algo}-{preset}-seed{row['seed']}-gymnasium.log"
-                if args.episodes > 0:
-                    replay = harness.gymnasium_replay(Path(row["run_dir"]), log, args.episodes, train_seed=row["seed"])
+                if replay is not None:
                     pending.append((row, log, replay))
                 print(
-                    f"  {task} {algo}:{preset} seed {row['seed']}: {row['wall_s']:.1f} s, {row['env_steps']:,.0f} "
-                    f"env steps, in-run mean policy {row['in_run_mean_policy']}, exit {row['status']}",
+                    f"  {task} {algo}:{preset} seed {row['seed']}{'' if gpu is None else f' (GPU {gpu})'}: "
+                    f"{row['wall_s']:.1f} s, {row['env_steps']:,.0f} env steps, in-run mean policy "
+                    f"{row['in_run_mean_policy']}, exit {row['status']}",
                     flush=True,
                 )
+
+    on_gpus(jobs, gpus, train_job)
     for row, log, process in pending:
         process.wait()
         row["gymnasium_return"], row["gymnasium_std"] = harness.gymnasium_score(log)

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import subprocess
 import sys
+import threading
+import time
 
 import pytest
 from script_loader import ROOT, load_script
@@ -86,6 +88,36 @@ def test_suite_judges_each_preset_against_its_target():
     assert suite.judge("reacher", "reacher_fast", [-2.5, -2.4, -3.0], [60.0] * 3, [1e7] * 3).startswith("met")
     assert suite.judge("humanoid_standup", "humanoid_standup_fast", [1e5], [60.0], [1e7]) == "no target"
     assert suite.judge("ant", "ant_fast", [], [60.0], [1e7]) == "no score"
+
+
+def test_suite_runs_one_job_at_a_time_on_each_gpu():
+    """``suite.py run --gpus``: every job runs once, on one GPU at a time, the GPUs side by side; a
+    failed job is raised after the others ended."""
+    on_gpus = load_script("benchmarks/suite.py").on_gpus
+    busy, seen, overlaps, lock = set(), [], [], threading.Lock()
+
+    def work(job, gpu):
+        with lock:
+            overlaps.append(gpu in busy)
+            busy.add(gpu)
+        time.sleep(0.01)
+        with lock:
+            busy.discard(gpu)
+            seen.append((job, gpu))
+
+    on_gpus(range(9), [0, 1, 2], work)
+    assert sorted(job for job, _ in seen) == list(range(9)) and not any(overlaps)
+    assert {gpu for _, gpu in seen} == {0, 1, 2}
+
+    def fail_on_three(job, gpu):
+        seen.append((job, gpu))
+        if job == 3:
+            raise RuntimeError("job 3")
+
+    seen.clear()
+    with pytest.raises(RuntimeError, match="job 3"):
+        on_gpus(range(6), [None, None], fail_on_three)
+    assert sorted(job for job, _ in seen) == list(range(6))
 
 
 def test_suite_band_holds_each_seed_last_value():

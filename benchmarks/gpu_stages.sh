@@ -17,6 +17,9 @@
 #   bash benchmarks/gpu_stages.sh trace    # jax.profiler trace of the card's block; phases at 65536 envs
 #   bash benchmarks/gpu_stages.sh ttr      # time to a Hopper return of 3000, NPG and PPO, 3 seeds each
 #   bash benchmarks/gpu_stages.sh env      # raw env throughput table, then Pong figures
+#   bash benchmarks/gpu_stages.sh suite_env  # the MuJoCo suite's raw and env throughput, 4096 and 16384 envs
+#   bash benchmarks/gpu_stages.sh suite_fast "RUN ..."  # TASK:ppo:PRESET runs, seeds 0-2 (SEEDS), caches warmed
+#                                              # first, one process per GPU (GPUS, default 0 1 2 3), Gymnasium scores
 #   bash benchmarks/gpu_stages.sh gym      # the README's GPU training commands, then Gymnasium evaluation
 #   bash benchmarks/gpu_stages.sh scaling  # NPG over 1, 2, ... GPUs at a fixed batch per GPU
 #   bash benchmarks/gpu_stages.sh extra S  # 2 GPUs: Pong A2C for S seconds on GPU 1 while GPU 0 tests
@@ -159,8 +162,18 @@ atari_envs)  # SECONDS N ...: PPO's Atari recipe with N games, one process and J
       | grep -v "A.L.E\|Stella" | tee "$OUT/ppo-envs-$n.log" | tail -4
   done
   ;;
+suite_env)
+  timeout 570 $py benchmarks/throughput.py env --tasks ${TASKS:-reacher humanoid_standup walker2d} --fidelity fast \
+    --impl warp --batch-sizes 4096 16384 --variants raw env --horizon 200 --repeats 5 --json "$OUT/suite_env.json" \
+    2>&1 | tee "$OUT/suite_env.log" | grep "^|"
+  ;;
+suite_fast)
+  timeout 590 $py benchmarks/suite.py run --runs ${2:?TASK:ALGO:PRESET runs} --seeds ${SEEDS:-0 1 2} --episodes 10 \
+    --warmup --gpus ${GPUS:-0 1 2 3} --out /tmp/suite_fast --json "$OUT/suite_fast.json" 2>&1 \
+    | tee "$OUT/suite_fast.log" | grep -v "^WARN"
+  ;;
 *)
-  echo "usage: bash benchmarks/gpu_stages.sh card|sweep|sweep8|sweep1m|ratio|ablation|ablation_check|order_check|trace|ttr|env|gym|scaling|extra|atari|atari_envs" >&2
+  echo "usage: bash benchmarks/gpu_stages.sh card|sweep|sweep8|sweep1m|ratio|ablation|ablation_check|order_check|trace|ttr|env|suite_env|suite_fast|gym|scaling|extra|atari|atari_envs" >&2
   exit 2
   ;;
 esac

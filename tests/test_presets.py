@@ -411,6 +411,10 @@ def test_lookup_refuses_unknown_names_and_other_tasks():
         algos.preset("ppo", "atari", "hopper")
     with pytest.raises(ValueError, match="unknown preset .nope. for npg; known presets: half_cheetah_1m, hopper, "):
         algos.preset("npg", "nope")
+    with pytest.raises(
+        ValueError, match=r"unknown preset 'walker2d_fast' for npg \('walker2d_fast' is a preset of ppo: --algo ppo\)"
+    ):
+        algos.preset("npg", "walker2d_fast", "walker2d")
     with pytest.raises(ValueError, match="unknown algorithm 'sac'"):
         algos.preset("sac", "hopper")
     with pytest.raises(ValueError, match="unknown algorithm 'sac'"):

@@ -49,7 +49,9 @@ def preset(algo: str, name: str, task: str | None = None) -> dict[str, Any]:
     row = presets.TABLE.get((algo, name))
     if row is None:
         known = ", ".join(preset_names(algo)) or "none"
-        raise ValueError(f"unknown preset {name!r} for {algo}; known presets: {known}")
+        others = sorted(a for (a, n) in presets.TABLE if n == name)
+        hint = f" ({name!r} is a preset of {' and '.join(others)}: --algo {others[0]})" if others else ""
+        raise ValueError(f"unknown preset {name!r} for {algo}{hint}; known presets: {known}")
     if task is not None and not row.suits(task):
         raise ValueError(f"{algo}'s preset {name!r} was made for {', '.join(row.tasks)}, not {task}")
     return dict(row.overrides)

@@ -1,0 +1,125 @@
+"""The named settings that several rows of the preset table (``jaxpg.algos.presets``) share:
+plain read-only ``Config`` overrides, each with where it comes from."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from types import MappingProxyType
+from typing import Any
+
+# LyceumAI's NaturalPolicyGradient on HopperV2 (Summers et al., L4DC 2020): its sampling, networks
+# and value fit, which its NPG and TRPO presets share.
+LYCEUM_SETTINGS: Mapping[str, Any] = MappingProxyType(
+    dict(
+        sampling="episodic",
+        num_envs=11,
+        horizon=1000,
+        sample_budget=10240,
+        gamma=0.995,
+        gae_lambda=0.97,
+        policy="gaussian",
+        policy_hidden=(32, 32),
+        policy_activation="tanh",
+        network_init="glorot_uniform",
+        log_std_init=0.0,
+        value_hidden=(128, 128),
+        value_activation="relu",
+        value_lr=1e-3,
+        value_epochs=3,
+        value_batch_size=64,
+        value_target="returns",
+        normalize_observations=False,
+    )
+)
+
+# The networks of the Atari presets of A2C and PPO: the Nature network (three convolutions, then
+# 512 ReLU units) in front of the policy and, separately, of the value function, initialised
+# orthogonally; no mean-policy evaluation in the run (a game to 21 points is thousands of steps).
+ATARI_NETWORKS: Mapping[str, Any] = MappingProxyType(
+    dict(
+        conv_torso="nature",
+        policy_hidden=(512,),
+        policy_activation="relu",
+        value_hidden=(512,),
+        value_activation="relu",
+        network_init="orthogonal",
+        eval_envs=0,
+    )
+)
+
+# MinPy's parallel A2C: n actors in lock-step, t_max 5, RMSprop, entropy bonus.
+A2C_MINPY: Mapping[str, Any] = MappingProxyType(
+    dict(
+        num_envs=16,
+        horizon=5,
+        optimizer="rmsprop",
+        lr=7e-4,
+        rmsprop_decay=0.99,
+        eps=1e-5,
+        gamma=0.99,
+        gae_lambda=1.0,
+        entropy_coef=0.01,
+        value_coef=0.5,
+        max_grad_norm=0.5,
+    )
+)
+
+# Brax's PPO on MJX Hopper (the reference run in BENCHMARKS.md): 2048 envs, unrolls of 20 steps, 32
+# minibatches x 4 epochs, lr 3e-4, entropy 1e-3, gamma 0.99, reward scaling 10, observation
+# normalisation, no gradient clipping; horizon 160 holds Brax's samples per update (327,680) and
+# minibatch size (10,240). How each preset was chosen: docs/algorithms.md, "How the presets were
+# chosen".
+PPO_BRAX_HOPPER: Mapping[str, Any] = MappingProxyType(
+    dict(
+        num_envs=2048,
+        horizon=160,
+        num_minibatches=32,
+        num_epochs=4,
+        lr=3e-4,
+        max_grad_norm=0.0,
+        entropy_coef=1e-3,
+        gamma=0.99,
+        gae_lambda=0.95,
+        reward_scaling=10.0,
+        normalize_observations=True,
+        policy_hidden=(32, 32, 32, 32),
+        policy_activation="swish",
+        value_hidden=(256, 256, 256, 256, 256),
+        value_activation="swish",
+        network_init="orthogonal",
+        eval_envs=128,
+        eval_every=10,
+    )
+)
+
+# PPO at large batch on one GPU: brax_hopper's networks and losses with 8192 envs x 32 steps in 8
+# minibatches of 32,768 (hopper_gpu; the `*_fast` presets of Walker2d and HalfCheetah), the mean
+# policy evaluated every 20 iterations.
+PPO_LARGE_BATCH: Mapping[str, Any] = MappingProxyType(
+    {**PPO_BRAX_HOPPER, "num_envs": 8192, "horizon": 32, "num_minibatches": 8, "eval_every": 20}
+)
+
+# NPG on Hopper from the command line (the `hopper` preset), which `hopper_1m` varies.
+NPG_HOPPER: Mapping[str, Any] = MappingProxyType(
+    dict(
+        num_envs=256,
+        horizon=64,
+        kl_delta=0.07,
+        normalize_observations=True,
+        log_std_init=0.0,
+        value_hidden=(128, 128),
+        value_epochs=10,
+        value_minibatches=16,
+        value_epoch_samples=16384,
+        fisher_samples=16384,
+        normalize_value_targets=True,
+        eval_envs=16,
+        eval_every=120,
+    )
+)
+
+# NPG within 1 M env steps (120 iterations of 256 envs x 32 steps = 0.98 M): the
+# `hopper` preset with half the horizon (twice the updates) and a wider initial policy (log-std 1:
+# std 2.7 before clipping), which keeps Hopper's seeds out of the "dive forward once" optimum. The
+# `*_1m` presets of the other tasks change its initial log-std (and step size).
+NPG_1M: Mapping[str, Any] = MappingProxyType({**NPG_HOPPER, "horizon": 32, "log_std_init": 1.0})

@@ -40,8 +40,9 @@ ALLOWED_ALGOS_IMPORTS = {
     "jaxpg.algos.natural_gradient": {"core"},
     "jaxpg.algos.actor_critic": {"core"},
 }
-# Plain data any algorithm module may read: the presets table (its rows are their PRESETS).
-DATA_MODULES = {"presets"}
+# Plain data any algorithm module may read: the presets table (its rows are their PRESETS) and the
+# settings its rows share.
+DATA_MODULES = {"presets", "preset_settings"}
 
 
 def maybe_jit(fn, use_jit):
@@ -79,7 +80,8 @@ def test_reinforce_imports_only_the_core():
 
 
 def test_the_presets_import_no_algorithm():
-    assert algos_imports("jaxpg.algos.presets") == set()
+    assert algos_imports("jaxpg.algos.presets") == {"preset_settings"}
+    assert algos_imports("jaxpg.algos.preset_settings") == set()
 
 
 def test_the_core_imports_no_algorithm():

@@ -251,6 +251,7 @@ def train(
     # compilation on another thread during a capture breaks it (CUDA error 901 or 904, which ends
     # the run): with Warp, nothing compiles while a program may run.
     warp = getattr(train_state.env, "impl", None) == "warp"
+    options = compile_options.compiler_options(train_state.env)  # the same for every block
     evaluates = bool(eval_every or final_eval)
     evaluator: Any = None
     compiled_sizes: set[int] = set()
@@ -261,7 +262,7 @@ def train(
             first = start + done
             chunks, evaluations, position = [], {}, first
             for size in _calls(first, n, eval_every):
-                block = compiled_block(update, size, seeds, compile_options.compiler_options(train_state.env))
+                block = compiled_block(update, size, seeds, options)
                 if evaluates and evaluator is None and warp:
                     evaluator = early_evaluator(evaluate, seeds, train_state)  # compiled beside the block
                 if size not in compiled_sizes and (warp or before_first_call is not None):

@@ -20,6 +20,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import statistics
 import subprocess
 import sys
 import time
@@ -53,10 +54,14 @@ variants of the same task:
   task  the bare task's ``step``: physics plus observation, reward, termination, time limit and the
         non-finite guard;
   env   what a sampler steps: ``jaxpg.envs.make``'s wrappers (``ClipAction``, ``EpisodeStats``)
-        and ``AutoReset`` on top, which computes a fresh reset state at every step.
+        and ``AutoReset`` on top, which computes a fresh reset state at every step;
+  env_all  ``env`` with the reset selecting every field of the physics data (MJX's ``Data.where``),
+        not only those the next step reads (``MjxEnv.select_physics``).
 
 ``env / raw`` is the fraction of the simulation's speed that jaxpg's env keeps. Drawing the random
-actions is part of every variant.
+actions is part of every variant. All variants of a task and batch size are compiled first, then
+timed in turn, one call each per round with the order rotating from round to round, so that a
+drift of the machine's speed during the measurement falls on all of them alike.
 
     python benchmarks/throughput.py env --tasks hopper inverted_pendulum --batch-sizes 1024 4096 \\
         --fidelity fast gymnasium --impl jax warp --horizon 100 --json env.json
@@ -64,7 +69,7 @@ actions is part of every variant.
 On the CPU, with tiny sizes: ``--tasks cartpole inverted_pendulum --batch-sizes 4 --horizon 10``.
 """
 
-VARIANTS = ("raw", "task", "env")
+VARIANTS = ("raw", "task", "env", "env_all")
 
 
 def random_actions(env: envs.Env, key: jax.Array, batch: int) -> jax.Array:
@@ -87,6 +92,8 @@ def make_runner(variant: str, name: str, kwargs: dict, batch: int, horizon: int)
             step_one = task.dynamics
     else:
         env = task if variant == "task" else envs.AutoReset(envs.make(name, **kwargs))
+        if variant == "env_all" and isinstance(task, MjxEnv):
+            env.unwrapped.select_physics = lambda pick_new, new, old: old.where(pick_new, new)
         init_one, step_one = env.reset, env.step
 
     def init(key: jax.Array) -> Any:
@@ -102,26 +109,33 @@ def make_runner(variant: str, name: str, kwargs: dict, batch: int, horizon: int)
     return jax.jit(init), jax.jit(run)
 
 
-def env_measure(variant: str, name: str, kwargs: dict, batch: int, horizon: int, repeats: int) -> dict:
-    """Compile time and env steps/s (median over ``repeats`` timed calls) of one variant."""
-    init, run = make_runner(variant, name, kwargs, batch, horizon)
-    carry = jax.block_until_ready(init(jax.random.key(0)))
+def env_measure(variants: Sequence[str], name: str, kwargs: dict, batch: int, horizon: int, repeats: int) -> dict:
+    """``{variant: {compile_s, steps_per_s, finite}}``: each variant's compile time and env steps/s
+    (median over ``repeats`` rounds, each timing every variant once, in rotating order)."""
     keys = jax.random.split(jax.random.key(1), repeats + 2)
-    start = time.perf_counter()
-    compiled = run.lower(carry, keys[-1]).compile()
-    compile_s = time.perf_counter() - start
-    chain = [carry]
-
-    def call(i: int) -> Any:  # call 0 warms up; each call continues from the last one's states
-        chain.append(compiled(chain[-1], keys[i]))
-        return chain[-1]
-
-    _, seconds, _ = harness.time_calls(call, repeats)
-    carry = chain[-1]
-    finite = all(
-        bool(jnp.all(jnp.isfinite(x))) for x in jax.tree.leaves(carry) if jnp.issubdtype(x.dtype, jnp.floating)
-    )
-    return {"compile_s": compile_s, "steps_per_s": batch * horizon / seconds, "finite": finite}
+    compiled, chains, compile_s = {}, {}, {}
+    for variant in variants:
+        init, run = make_runner(variant, name, kwargs, batch, horizon)
+        carry = jax.block_until_ready(init(jax.random.key(0)))
+        start = time.perf_counter()
+        compiled[variant] = run.lower(carry, keys[-1]).compile()
+        compile_s[variant] = time.perf_counter() - start
+        chains[variant] = [jax.block_until_ready(compiled[variant](carry, keys[0]))]  # warm-up call
+    seconds: dict[str, list[float]] = {v: [] for v in variants}
+    for i in range(1, repeats + 1):
+        for variant in variants[i % len(variants) :] + variants[: i % len(variants)]:
+            start = time.perf_counter()
+            chains[variant].append(jax.block_until_ready(compiled[variant](chains[variant][-1], keys[i])))
+            seconds[variant].append(time.perf_counter() - start)
+    results = {}
+    for variant in variants:
+        floats = [x for x in jax.tree.leaves(chains[variant][-1]) if jnp.issubdtype(x.dtype, jnp.floating)]
+        results[variant] = {
+            "compile_s": compile_s[variant],
+            "steps_per_s": batch * horizon / statistics.median(seconds[variant]),
+            "finite": all(bool(jnp.all(jnp.isfinite(x))) for x in floats),
+        }
+    return results
 
 
 def task_kwargs(name: str, fidelity: str, impl: str, batch: int) -> dict:
@@ -156,7 +170,7 @@ def env_table(rows: list[dict]) -> str:
         "envs",
         *(f"{v} steps/s" for v in VARIANTS),
         "env / raw",
-        "compile raw / task / env (s)",
+        "compile " + " / ".join(VARIANTS) + " (s)",
     ]
     lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     for row in rows:
@@ -190,9 +204,8 @@ def env_main(argv: Sequence[str]) -> None:
     for name, fidelity, impl in configurations(args):
         for batch in args.batch_sizes:
             kwargs = task_kwargs(name, fidelity, impl, batch)
-            results = {}
-            for variant in args.variants:
-                results[variant] = r = env_measure(variant, name, kwargs, batch, args.horizon, args.repeats)
+            results = env_measure(args.variants, name, kwargs, batch, args.horizon, args.repeats)
+            for variant, r in results.items():
                 print(
                     f"{name} {fidelity} {impl} envs={batch} {variant}: {harness.rate(r['steps_per_s'])} env steps/s, "
                     f"compile {r['compile_s']:.1f} s, finite={r['finite']}",

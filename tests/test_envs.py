@@ -12,6 +12,7 @@ of ``test_gymnasium_parity`` and prints its findings as JSON.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import functools
 import inspect
 import json
@@ -35,7 +36,13 @@ import jaxpg.envs as envs
 from jaxpg import rollout as rollout_lib
 from jaxpg.envs import AutoReset
 from jaxpg.envs.cartpole import CartPoleData
-from jaxpg.envs.mjx_env import FAST_LS_ITERATIONS, FAST_SOLVER_ITERATIONS, MjxEnv, warp_available
+from jaxpg.envs.mjx_env import (
+    FAST_LS_ITERATIONS,
+    FAST_SOLVER_ITERATIONS,
+    INTEGRATION_STATE,
+    MjxEnv,
+    warp_available,
+)
 
 # The MuJoCo tasks and the ids of the Gymnasium envs they reproduce (the package's map, checked
 # against Gymnasium's registry by test_every_gymnasium_counterpart_is_in_gymnasiums_registry).
@@ -105,13 +112,32 @@ def test_every_gymnasium_counterpart_is_in_gymnasiums_registry():
 # "fast" fidelity: same observation and reward functions as Gymnasium's, from the same MuJoCo data
 
 
+def poison_unselected(env: MjxEnv, data: mjx.Data) -> mjx.Data:
+    """``data`` with NaN in every float field, public or MJX's own (``_impl``), that
+    ``env.select_physics`` does not select: what a task may not read before its physics step."""
+    kept = set(INTEGRATION_STATE + env.derived_fields_read)
+
+    def poisoned(part: object) -> dict:
+        fields = [f.name for f in dataclasses.fields(part) if f.name != "_impl" and f.name not in kept]
+        values = {name: getattr(part, name) for name in fields}
+        return {
+            name: jnp.full_like(v, jnp.nan)
+            for name, v in values.items()
+            if isinstance(v, jax.Array | np.ndarray) and jnp.issubdtype(v.dtype, jnp.floating)
+        }
+
+    return data.replace(**poisoned(data), _impl=data._impl.replace(**poisoned(data._impl)))
+
+
 @pytest.mark.parametrize("task", list(GYM_IDS))
 def test_fast_fidelity_observation_and_reward_match_gymnasium(task):
     """In ``fidelity="fast"`` jaxpg's physics differs from Gymnasium's (Euler, short solve) but what
     it reads from the physics must not: Gymnasium's env, switched to the same solver settings,
     resets and steps on the CPU, jaxpg's reset and step are fed the resulting ``MjData`` in place
     of their own physics, and obs, reward and ``terminated`` must be those of Gymnasium, exactly
-    after the float32 cast (computed in float64, as Gymnasium does)."""
+    after the float32 cast (computed in float64, as Gymnasium does). Each step gets its state with
+    NaN in every derived field an automatic reset does not select (``poison_unselected``), so a
+    task that reads one before its physics step without declaring it fails here."""
     env = envs.make_task(task, fidelity="fast", impl="jax")
     gym_env = make_gymnasium(task).unwrapped
     model = gym_env.model
@@ -136,7 +162,7 @@ def test_fast_fidelity_observation_and_reward_match_gymnasium(task):
             obs, reward, terminated, _, info = gym_env.step(action)
             after = mjx.put_data(model, gym_env.data)
             env.physics_step = lambda data, ctrl, after=after: after
-            state = env.step(state, jnp.asarray(action))
+            state = env.step(state.replace(data=poison_unselected(env, state.data)), jnp.asarray(action))
             np.testing.assert_array_equal(np.asarray(state.obs), obs.astype(np.float32))
             assert np.float32(state.reward) == np.float32(reward)
             assert bool(state.terminated) == terminated
@@ -714,6 +740,32 @@ def test_clip_action_clips_to_the_task_range(pendulum_case):
     assert not np.array_equal(np.asarray(inside.obs), np.asarray(edge.obs))
 
 
+def test_auto_reset_selecting_the_integration_state_gives_the_trajectory_of_selecting_all():
+    """An MJX task's automatic reset selects only what the next step reads (``select_physics``):
+    Hopper (contacts, a warm-started solver) with an episode limit of 3 steps gives, over 8 steps
+    of 2 envs and 2 resets each, exactly the observations, rewards and ends of MJX's own selection
+    of every field (``Data.where``)."""
+    action_key = jax.random.key(3)
+
+    def trajectory(select_all: bool) -> list[np.ndarray]:
+        env = envs.make("hopper", impl="jax", max_episode_steps=3)
+        if select_all:
+            env.unwrapped.select_physics = lambda pick_new, new, old: old.where(pick_new, new)
+        auto = AutoReset(env)
+        step = jax.jit(jax.vmap(auto.step))
+        state = jax.jit(jax.vmap(auto.reset))(jax.random.split(jax.random.key(0), 2))
+        outputs = []
+        for key in jax.random.split(action_key, 8):
+            state = step(state, jax.random.uniform(key, (2, env.action_size), minval=-1, maxval=1))
+            outputs += [np.asarray(state.obs), np.asarray(state.reward), np.asarray(state.done)]
+        return outputs
+
+    selected, everything = trajectory(False), trajectory(True)
+    assert sum(int(done.sum()) for done in selected[2::3]) == 2 * 2  # steps 3 and 6 of both envs
+    for mine, theirs in zip(selected, everything, strict=True):
+        np.testing.assert_array_equal(mine, theirs)
+
+
 def test_nonfinite_state_terminates_and_auto_resets(pendulum_case):
     """A NaN velocity ends the episode as ``terminated`` with a finite observation, zero reward and
     ``metrics["nonfinite"] == 1``; ``AutoReset`` then starts a fresh, finite episode."""
@@ -796,6 +848,35 @@ def test_warp_ant_computes_contact_forces():
     np.testing.assert_array_equal(np.abs(forces["warp"]).max(axis=2) > 0, touching)
     np.testing.assert_allclose(forces["warp"], forces["jax"], atol=1e-2)
     np.testing.assert_allclose(costs["warp"], costs["jax"], atol=1e-4)
+
+
+@pytest.mark.parametrize("impl", ["jax", "warp"])
+def test_humanoid_reset_state_matches_mujocos_forward_pass(impl):
+    """HumanoidStandup's reset state (lying on the floor, in contact) has what MuJoCo's forward pass
+    gives at its ``qpos``/``qvel`` (Gymnasium's reset: ``set_state`` runs ``mj_forward``) in every
+    field the observation, the centre of mass and Gymnasium's ``info`` read: ``xipos``,
+    ``cinert``, ``cvel``, ``ten_length``, ``ten_velocity``; the contact forces ``cfrc_ext`` stay
+    zero, as ``mj_forward`` leaves them. Float32 kinematics against MuJoCo's float64: 1e-5 of
+    each quantity's scale."""
+    if impl == "warp":
+        if not warp_available():
+            pytest.skip("warp-lang is not installed (pip install 'jaxpg[warp]')")
+        import warp
+
+        warp.config.quiet = True
+    env = envs.make_task("humanoid_standup", impl=impl, max_batch=WARP_ENVS)
+    states = jax.jit(jax.vmap(env.reset))(jax.random.split(jax.random.key(0), WARP_ENVS))
+    assert np.all(np.asarray(states.obs)[:, -78:] == 0)  # cfrc_ext[1:]
+    model, data = env.mj_model, mujoco.MjData(env.mj_model)
+    for i in range(WARP_ENVS):
+        data.qpos, data.qvel = np.asarray(states.data.qpos[i]), np.asarray(states.data.qvel[i])
+        mujoco.mj_forward(model, data)
+        assert data.ncon > 0 and np.abs(data.ten_velocity).max() > 0
+        for name in ("xipos", "cinert", "cvel", "ten_length", "ten_velocity"):
+            part = states.data if hasattr(states.data, name) else states.data._impl  # MJX keeps some in _impl
+            theirs = getattr(data, name)
+            mine = np.asarray(getattr(part, name)[i]).reshape(theirs.shape)
+            np.testing.assert_allclose(mine, theirs, atol=1e-5 * max(1.0, np.abs(theirs).max()), err_msg=name)
 
 
 @pytest.mark.skipif(not warp_available(), reason="warp-lang is not installed (pip install 'jaxpg[warp]')")

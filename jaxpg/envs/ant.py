@@ -81,6 +81,7 @@ TORSO = 1  # body index of the torso (Gymnasium's ``main_body``)
 class Ant(MjxEnv):
     """MJX Ant; see the module docstring for the task definition."""
 
+    derived_fields_read = ("xpos",)
     task_score_name = "forward_distance"
 
     def __init__(

@@ -60,6 +60,11 @@ class State:
         return jnp.logical_or(self.terminated, self.truncated)
 
 
+def expand_like(pick: jax.Array, leaf: jax.Array) -> jax.Array:
+    """``pick`` with trailing axes of size 1, to broadcast against ``leaf`` (batch axes first)."""
+    return jnp.reshape(pick, jnp.shape(pick) + (1,) * (jnp.ndim(leaf) - jnp.ndim(pick)))
+
+
 def _snake_case(name: str) -> str:
     """``"InvertedPendulum"`` -> ``"inverted_pendulum"``."""
     return "".join("_" + c.lower() if c.isupper() and i else c.lower() for i, c in enumerate(name))
@@ -223,6 +228,16 @@ class Env(abc.ABC):
             metrics=metrics,
             info={**state.info, "step": steps},
         )
+
+    def select_physics(self, pick_new: jax.Array, new: Any, old: Any) -> Any:
+        """The physics state ``new`` where ``pick_new`` is true, else ``old``: how an automatic reset
+        puts a new episode's state in place of the one that ended.
+
+        ``pick_new``: a ``[]`` bool for one env (inside ``vmap``) or the batch's leading shape of
+        the physics state's leaves. This default selects every leaf; MJX tasks select less
+        (``MjxEnv.select_physics``).
+        """
+        return jax.tree.map(lambda n, o: jnp.where(expand_like(pick_new, o), n, o), new, old)
 
     def _valid_action(self, action: jax.Array) -> jax.Array:
         """``[]`` bool: a discrete ``action`` is in ``[0, action_size)``; continuous ones always are

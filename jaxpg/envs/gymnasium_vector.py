@@ -6,7 +6,6 @@
 from __future__ import annotations
 
 import functools
-import sys
 from collections.abc import Callable
 from typing import Any
 
@@ -31,14 +30,10 @@ from jaxpg.envs.gymnasium_spaces import (
 )
 
 
-def _select(pick_new: jax.Array, new: envs_lib.State, old: envs_lib.State) -> envs_lib.State:
-    """``new`` where the scalar ``pick_new`` (one env, inside ``vmap``) else ``old``."""
-    mjx = sys.modules.get("mujoco.mjx")
-    if mjx is not None and isinstance(old.data, mjx.Data):
-        # MJX's own selection: with MuJoCo Warp the contact buffer is shared by the batch.
-        data = old.data.where(pick_new, new.data)
-    else:
-        data = jax.tree.map(lambda n, o: jnp.where(pick_new, n, o), new.data, old.data)
+def _select(env: envs_lib.Env, pick_new: jax.Array, new: envs_lib.State, old: envs_lib.State) -> envs_lib.State:
+    """``new`` where the scalar ``pick_new`` (one env, inside ``vmap``) else ``old``; the physics
+    state as ``env``'s automatic reset selects it."""
+    data = env.select_physics(pick_new, new.data, old.data)
     rest = jax.tree.map(lambda n, o: jnp.where(pick_new, n, o), new.replace(data=None), old.replace(data=None))
     return rest.replace(data=data)
 
@@ -55,11 +50,11 @@ def _vector_step(
     stepped = stepped.replace(truncated=stepped.truncated | limit_hit)
     if mode == AutoresetMode.NEXT_STEP:
         restart = state.terminated | state.truncated  # the last step ended an episode
-        new = _select(restart, env.reset(state.info["rng"]), stepped)
+        new = _select(env, restart, env.reset(state.info["rng"]), stepped)
         out = {"obs": new.obs, "reward": new.reward, "terminated": new.terminated, "truncated": new.truncated}
         return new, {**out, "info": info_arrays(task, new), "reset": restart}
     done = stepped.terminated | stepped.truncated
-    new = _select(done, env.reset(stepped.info["rng"]), stepped)
+    new = _select(env, done, env.reset(stepped.info["rng"]), stepped)
     out = {"obs": new.obs, "reward": stepped.reward, "terminated": stepped.terminated, "truncated": stepped.truncated}
     finals = {"final_obs": stepped.obs, "final_info": info_arrays(task, stepped)}
     return new, {**out, "info": info_arrays(task, new), "reset": done, **finals}

@@ -21,7 +21,7 @@ raises for warp, so a missing ``cfrc_ext`` cannot pass silently). On one H100 (f
 4096 envs x 50 random steps; ``docs/benchmarks_archive.md``) the contact forces' mean norm in
 the observation was 434.4 with MuJoCo Warp against 433.5 with the jax implementation.
 At reset the observation is that of Gymnasium's reset (a forward pass at the reset state, no
-control, ``cfrc_ext`` zero), from the kinematic passes alone (``physics_state``).
+control, ``cfrc_ext`` zero), from the kinematic and velocity passes alone (``physics_state``).
 
 Metrics: Gymnasium's ``info`` terms ``reward_survive``, ``reward_forward``, ``reward_ctrl``,
 ``reward_contact`` (costs negative), ``x_position``, ``y_position`` (the torso's, ``qpos[0:2]``),
@@ -116,21 +116,50 @@ class HumanoidBase(MjxEnv):
         return data
 
     def physics_state(self, qpos: jax.Array, qvel: jax.Array, forward: bool = False) -> Any:
-        """``MjxEnv.physics_state``, where ``forward`` brings up to date what the observation and the
-        centre of mass read (``xipos``, ``cinert``, ``cvel``): with MJX's jax impl by the kinematic
-        passes alone (no collision or constraint solve, which a full forward pass would compile into
-        every program that resets); the actuator and contact forces stay zero, as after Gymnasium's
-        reset (no control, ``cfrc_ext`` not computed).
+        """``MjxEnv.physics_state``, where ``forward`` brings up to date what the observation, the
+        centre of mass and Gymnasium's ``info`` read (``xipos``, ``cinert``, ``cvel``, the tendons'
+        lengths and velocities) by the kinematic and velocity passes alone: no collision or
+        constraint solve, which a full forward pass would add to every automatic reset (with MuJoCo
+        Warp a fifth of a physics step of this frame skip). The actuator and contact forces stay
+        zero, as after Gymnasium's reset (no control, ``cfrc_ext`` not computed).
 
         MJX's kinematics writes the torso's quaternion back into ``qpos`` normalised, which MuJoCo's
         does not: Gymnasium's reset state and observation keep the noisy quaternion (MuJoCo normalises
         it when it integrates, as MJX does in every step), so ``qpos`` stays as given."""
-        data = super().physics_state(qpos, qvel, forward=forward and self.impl != "jax")
-        if forward and self.impl == "jax":
+        data = super().physics_state(qpos, qvel)
+        if forward:
             # (tendon: its fields too, in the dtypes a step gives them, so that reset and step states match)
-            for stage in (mjx.kinematics, mjx.com_pos, mjx.com_vel, mjx.tendon):
+            for stage in (mjx.kinematics, mjx.com_pos, mjx.tendon):
                 data = stage(self.mjx_model, data)
+            data = self.velocity_pass(data)
         return data.replace(qpos=qpos.astype(data.qpos.dtype))
+
+    def velocity_pass(self, data: Any) -> Any:
+        """``data`` with the bodies' velocities ``cvel [nbody, 6]`` and the tendons' velocities
+        ``ten_velocity [ntendon]`` of MuJoCo's velocity pass (``mj_comVel``, ``mj_fwdVelocity``),
+        from the motion axes ``cdof`` and tendon Jacobian ``ten_J`` of the position passes: each
+        body moves as its parent plus its own joints, ``cvel[b] = cvel[parent(b)] + sum over b's
+        dofs of cdof[j] * qvel[j]``, and ``ten_velocity = ten_J qvel``. (MJX's ``com_vel`` has no
+        MuJoCo Warp implementation, and neither implementation's ``tendon`` computes the tendons'
+        velocities, which Gymnasium's ``info`` reports.)"""
+        m = self.mj_model
+        per_dof = data.cdof * data.qvel[:, None]
+        cvel = [jnp.zeros(6, data.cvel.dtype)]
+        for body in range(1, m.nbody):  # parents come first in MuJoCo's body order
+            own = per_dof[m.body_dofadr[body] : m.body_dofadr[body] + m.body_dofnum[body]].sum(0)
+            cvel.append(cvel[m.body_parentid[body]] + own)
+        ten_jacobian = data._impl.ten_J
+        if ten_jacobian.shape == (m.ntendon, m.nv):
+            ten_velocity = ten_jacobian @ data.qvel
+        else:  # MuJoCo's sparse layout: tendon t's entries at ten_J_rowadr[t] + (0 .. ten_J_rownnz[t])
+            entries = np.concatenate(
+                [adr + np.arange(n) for adr, n in zip(m.ten_J_rowadr, m.ten_J_rownnz, strict=True)]
+            )
+            rows = np.repeat(np.arange(m.ntendon), m.ten_J_rownnz)
+            products = ten_jacobian[entries] * data.qvel[m.ten_J_colind[entries]]
+            ten_velocity = jax.ops.segment_sum(products, rows, m.ntendon)
+        data = data.replace(cvel=jnp.stack(cvel))
+        return data.replace(_impl=data._impl.replace(ten_velocity=ten_velocity.astype(data._impl.ten_velocity.dtype)))
 
     def reset_state(self, key: jax.Array) -> Any:
         """The physics state of a reset (``forward``, see ``physics_state``): uniform noise of
@@ -165,6 +194,7 @@ class HumanoidBase(MjxEnv):
 class Humanoid(HumanoidBase):
     """MJX Humanoid; see the module docstring for the task definition."""
 
+    derived_fields_read = ("xipos", "ten_length", "ten_velocity")
     task_score_name = "forward_distance"
 
     def __init__(

@@ -49,6 +49,7 @@ from jaxpg.envs.mjx_env import Fidelity, Impl
 class HumanoidStandup(HumanoidBase):
     """MJX HumanoidStandup; see the module docstring for the task definition."""
 
+    derived_fields_read = ("ten_length", "ten_velocity")
     task_score_name = "torso_height"
 
     def __init__(

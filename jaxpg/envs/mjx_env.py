@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import functools
 import importlib.util
 import io
@@ -13,7 +14,7 @@ import jax
 import jax.numpy as jnp
 import mujoco
 
-from jaxpg.envs.base import Env
+from jaxpg.envs.base import Env, expand_like
 
 ASSETS = Path(__file__).parent / "assets"
 
@@ -25,6 +26,25 @@ Impl = Literal["jax", "warp"]
 # Hopper at 16384 envs: 1.66 M against 117 k env steps/s).
 FAST_SOLVER_ITERATIONS = 4
 FAST_LS_ITERATIONS = 8
+
+# MuJoCo's integration state (``mjSTATE_INTEGRATION``): every field of the physics data that a
+# physics step reads. It recomputes all others from these (``mj_step`` starts with ``mj_forward``).
+INTEGRATION_STATE = (
+    "time",
+    "qpos",
+    "qvel",
+    "act",
+    "history",
+    "qacc_warmstart",
+    "plugin_state",
+    "ctrl",
+    "qfrc_applied",
+    "xfrc_applied",
+    "eq_active",
+    "mocap_pos",
+    "mocap_quat",
+    "userdata",
+)
 
 
 @functools.cache
@@ -122,9 +142,14 @@ class MjxEnv(Env):
     ``cpu_fusion_emitters``: false for a task whose kinematic chain is so deep that XLA:CPU's
     fusion emitters make its step exponentially slow; its programs are then compiled with the
     legacy emitters on the CPU (``jaxpg.envs.compile_options``).
+
+    ``derived_fields_read``: the derived fields (``xpos``, ``ten_length`` ...) a task reads before
+    its physics step or reports in Gymnasium's ``info``; an automatic reset selects them with the
+    integration state (``select_physics``).
     """
 
     cpu_fusion_emitters: bool = True
+    derived_fields_read: tuple[str, ...] = ()
 
     def __init__(
         self,
@@ -165,6 +190,7 @@ class MjxEnv(Env):
         if impl == "warp":
             make_kwargs = {"naconmax": naconmax * max_batch, "njmax": njmax}
         self._data0 = mjx.make_data(self.mj_model, impl=impl, **make_kwargs)
+        self._public_fields = frozenset(f.name for f in dataclasses.fields(self._data0) if f.name != "_impl")
         self.init_qpos = jnp.asarray(self.mj_model.qpos0, jnp.float32)
         self.init_qvel = jnp.zeros(self.mj_model.nv, jnp.float32)
         self.nq, self.nv = self.mj_model.nq, self.mj_model.nv
@@ -196,6 +222,27 @@ class MjxEnv(Env):
         if self.impl == "warp":
             data = data.replace(_impl=data._impl.replace(overflow=jnp.zeros_like(data._impl.overflow)))
         return jax.lax.fori_loop(0, self.frame_skip, lambda _, d: mjx.step(self.mjx_model, d), data)
+
+    def select_physics(self, pick_new: jax.Array, new: Any, old: Any) -> Any:
+        """The ``mjx.Data`` ``new`` where ``pick_new`` (as ``Env.select_physics``), else ``old``,
+        in the fields a step reads: ``INTEGRATION_STATE`` and the task's ``derived_fields_read``.
+
+        The other derived fields (about 150 arrays per env with MuJoCo Warp) keep ``old``'s values
+        until the next physics step recomputes them, so after an automatic reset ``data.xpos`` and
+        the like describe the ended episode's last state for one step; observations, rewards and
+        ``info`` are unaffected. Selecting every field cost Reacher, the suite's cheapest physics
+        step, a sixth of its raw stepping rate (BENCHMARKS.md). MJX keeps MuJoCo Warp's contact
+        buffer, shared by the batch, in ``_impl``; it is never selected.
+        """
+
+        def field(data: Any, name: str) -> jax.Array:
+            return getattr(data if name in self._public_fields else data._impl, name)
+
+        names = INTEGRATION_STATE + self.derived_fields_read
+        chosen = {n: jnp.where(expand_like(pick_new, field(old, n)), field(new, n), field(old, n)) for n in names}
+        data = old.replace(**{n: v for n, v in chosen.items() if n in self._public_fields})
+        private = {n: v for n, v in chosen.items() if n not in self._public_fields}
+        return data.replace(_impl=data._impl.replace(**private)) if private else data
 
     def _physics_overflow(self, data: Any) -> jax.Array:
         """``[]`` float32: 1 when MuJoCo Warp flagged an overflow in the last ``physics_step`` (its

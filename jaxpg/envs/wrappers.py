@@ -7,7 +7,6 @@ built by ``jaxpg.envs.make``, is ``EpisodeStats(ClipAction(task))``; the continu
 
 from __future__ import annotations
 
-import sys
 from typing import Any
 
 import jax
@@ -46,6 +45,9 @@ class Wrapper(Env):
 
     def step(self, state: State, action: jax.Array) -> State:
         return self.env.step(state, action)
+
+    def select_physics(self, pick_new: jax.Array, new: Any, old: Any) -> Any:
+        return self.env.select_physics(pick_new, new, old)
 
     @property
     def unwrapped(self) -> Env:
@@ -121,7 +123,9 @@ class AutoReset(Wrapper):
     The returned state at an episode end carries the *new* episode's first observation in ``obs``,
     while ``info["final_obs"]`` keeps the observation the ended episode finished in (equal to
     ``obs`` at all other steps): truncated episodes bootstrap their value from it.
-    ``reward``, ``terminated``, ``truncated`` and ``metrics`` stay those of the step taken.
+    ``reward``, ``terminated``, ``truncated`` and ``metrics`` stay those of the step taken. The task
+    selects the physics state (``Env.select_physics``): an MJX task takes only what its next step
+    reads from the new episode's state.
     """
 
     def reset(self, key: jax.Array) -> State:
@@ -137,13 +141,7 @@ class AutoReset(Wrapper):
         def pick(new: jax.Array, old: jax.Array) -> jax.Array:
             return jnp.where(jnp.reshape(done, done.shape + (1,) * (old.ndim - done.ndim)), new, old)
 
-        mjx = sys.modules.get("mujoco.mjx")  # no MJX data without MJX imported
-        if mjx is not None and isinstance(stepped.data, mjx.Data):
-            # With the warp implementation, the contact buffer is one for the whole batch: it must
-            # not be selected per env (jax.tree.map over it leaks a tracer out of MJX's vmap rule).
-            data = stepped.data.where(done, fresh.data)
-        else:
-            data = jax.tree.map(pick, fresh.data, stepped.data)
+        data = self.env.select_physics(done, fresh.data, stepped.data)
         obs = pick(fresh.obs, stepped.obs)
         info = jax.tree.map(pick, fresh.info, stepped.info)
         return stepped.replace(data=data, obs=obs, info={**info, "final_obs": stepped.obs})

@@ -230,9 +230,9 @@ class MjxEnv(Env):
         The other derived fields (about 150 arrays per env with MuJoCo Warp) keep ``old``'s values
         until the next physics step recomputes them, so after an automatic reset ``data.xpos`` and
         the like describe the ended episode's last state for one step; observations, rewards and
-        ``info`` are unaffected. Selecting every field cost Reacher, the suite's cheapest physics
-        step, a sixth of its raw stepping rate (BENCHMARKS.md). MJX keeps MuJoCo Warp's contact
-        buffer, shared by the batch, in ``_impl``; it is never selected.
+        ``info`` are unaffected. Selecting every field (MJX's ``Data.where``) made Reacher, the
+        suite's cheapest physics step, 4-8 % slower (BENCHMARKS.md). MJX keeps MuJoCo Warp's
+        contact buffer, shared by the batch, in ``_impl``; it is never selected.
         """
 
         def field(data: Any, name: str) -> jax.Array:

@@ -18,8 +18,9 @@
 #   bash benchmarks/gpu_stages.sh ttr      # time to a Hopper return of 3000, NPG and PPO, 3 seeds each
 #   bash benchmarks/gpu_stages.sh env      # raw env throughput table, then Pong figures
 #   bash benchmarks/gpu_stages.sh suite_env  # the MuJoCo suite's raw and env throughput, 4096 and 16384 envs
-#   bash benchmarks/gpu_stages.sh suite_fast "RUN ..."  # TASK:ppo:PRESET runs, seeds 0-2 (SEEDS), caches warmed
-#                                              # first, one process per GPU (GPUS, default 0 1 2 3), Gymnasium scores
+#   bash benchmarks/gpu_stages.sh suite_fast "RUN ..."  # TASK:ppo:PRESET runs: seed 0 on a bare machine (empty
+#                                              # caches), then seeds 0-2 (SEEDS) warm with its caches, one process
+#                                              # per GPU (GPUS, default 0 1 2 3), Gymnasium scores; LIMIT seconds
 #   bash benchmarks/gpu_stages.sh gym      # the README's GPU training commands, then Gymnasium evaluation
 #   bash benchmarks/gpu_stages.sh scaling  # NPG over 1, 2, ... GPUs at a fixed batch per GPU
 #   bash benchmarks/gpu_stages.sh extra S  # 2 GPUs: Pong A2C for S seconds on GPU 1 while GPU 0 tests
@@ -168,8 +169,8 @@ suite_env)
     2>&1 | tee "$OUT/suite_env.log" | grep "^|"
   ;;
 suite_fast)
-  timeout 590 $py benchmarks/suite.py run --runs ${2:?TASK:ALGO:PRESET runs} --seeds ${SEEDS:-0 1 2} --episodes 10 \
-    --warmup --gpus ${GPUS:-0 1 2 3} --out /tmp/suite_fast --json "$OUT/suite_fast.json" 2>&1 \
+  timeout ${LIMIT:-590} $py benchmarks/suite.py run --runs ${2:?TASK:ALGO:PRESET runs} --seeds ${SEEDS:-0 1 2} \
+    --episodes 10 --bare-first --gpus ${GPUS:-0 1 2 3} --out /tmp/suite_fast --json "$OUT/suite_fast.json" 2>&1 \
     | tee "$OUT/suite_fast.log" | grep -v "^WARN"
   ;;
 *)

@@ -62,7 +62,9 @@ Each run is exactly ``python -m jaxpg.cli --env TASK --algo ALGO --preset PRESET
 evaluations, checkpoints); its final mean policy is then replayed for ``--episodes`` episodes in
 Gymnasium's own env (``python -m jaxpg.evaluate DIR --gymnasium``, on the CPU, beside the next
 run). The caches (XLA, MuJoCo Warp, CUDA driver) are shared by all runs unless ``--cold`` gives
-each run its own empty ones; ``--warmup`` fills them first, so that every timed run is warm. On a
+each run its own empty ones; ``--warmup`` fills them first, so that every timed run is warm;
+``--bare-first`` first runs each TASK:ALGO:PRESET's first seed in full with empty caches of its
+own (a "bare" row: the fresh-machine time), whose filled caches the timed runs then use. On a
 host of several GPUs, ``--gpus 0 1 2 3`` runs a process on each GPU at a time, side by side. A
 preset whose name ends in ``_1m`` is judged as sample-efficient (at most 1 M env steps, against
 the best published figure); one ending in ``_fast`` against the fast target and its time limit
@@ -70,7 +72,7 @@ the best published figure); one ending in ``_fast`` against the fast target and 
 
     python benchmarks/suite.py run --runs hopper:npg:hopper walker2d:npg:walker2d_1m --seeds 0 1 2
     python benchmarks/suite.py run --runs walker2d:ppo:walker2d_fast humanoid:ppo:humanoid_fast \\
-        --seeds 0 1 2 --warmup --gpus 0 1 2 3
+        --seeds 0 1 2 --bare-first --gpus 0 1 2 3
 """
 
 PLOT_DOC = """Mean-policy return against wall clock and against env steps, one column per task.
@@ -191,14 +193,14 @@ def summary(rows: list[dict]) -> list[dict]:
     """One row per TASK:ALGO:PRESET: its seeds' scores, medians and verdict."""
     groups: dict[tuple[str, str, str], list[dict]] = {}
     for row in rows:
-        groups.setdefault((row["task"], row["algo"], row["preset"]), []).append(row)
+        groups.setdefault((row["task"], row["algo"], row["preset"], row.get("caches", "")), []).append(row)
     out = []
-    for (task, algo, preset), runs in groups.items():
+    for (task, algo, preset, caches), runs in groups.items():
         scores = [r["gymnasium_return"] for r in runs if r.get("gymnasium_return") is not None]
         walls, steps = [r["wall_s"] for r in runs], [r["env_steps"] for r in runs]
         out.append(
             {
-                "run": f"{task}:{algo}:{preset}",
+                "run": f"{task}:{algo}:{preset}" + (f" ({caches})" if caches else ""),
                 "seeds": len(runs),
                 "scores": scores,
                 "in_run": [r["in_run_mean_policy"] for r in runs if r.get("in_run_mean_policy") is not None],
@@ -239,12 +241,20 @@ def run_main(argv: Sequence[str]) -> None:
         help="first run each TASK:ALGO:PRESET for a few seconds of training (compiling the programs and "
         "kernels the timed runs use), so that every timed run finds warm caches",
     )
+    parser.add_argument(
+        "--bare-first",
+        action="store_true",
+        help="first run each TASK:ALGO:PRESET's first seed with empty caches of its own (reported apart, as "
+        "'bare'), then every seed with the caches it filled (as 'warm')",
+    )
     parser.add_argument("--out", default=None, help="where runs and logs go (default: a temporary directory)")
     parser.add_argument("--json", default=None)
     parser.add_argument("--extra", nargs=argparse.REMAINDER, default=[], help="flags added to every run")
     args = parser.parse_args(argv)
-    if args.cold and args.warmup:
-        parser.error("--cold gives each run empty caches; --warmup fills them: choose one")
+    if sum((args.cold, args.warmup, args.bare_first)) > 1:
+        parser.error("--cold, --warmup and --bare-first each set the runs' caches: choose one")
+    if args.bare_first and args.vmap_seeds:
+        parser.error("--bare-first times single seeds: it does not combine with --vmap-seeds")
 
     out = Path(args.out or tempfile.mkdtemp(prefix="suite-"))
     out.mkdir(parents=True, exist_ok=True)
@@ -259,18 +269,24 @@ def run_main(argv: Sequence[str]) -> None:
                 *run, args.seeds[:1], warm, out / "caches", [*args.extra, "--minutes", "0.05"], gpu
             ),
         )
-    jobs = [
-        (run, seeds) for run in args.runs for seeds in ([args.seeds] if args.vmap_seeds else [[s] for s in args.seeds])
-    ]
+    label = "warm" if args.bare_first else ""  # "": the caches are as --cold or --warmup set them
+    per_process = [args.seeds] if args.vmap_seeds else [[s] for s in args.seeds]
+    jobs = [(run, seeds, label) for run in args.runs for seeds in per_process]
     rows, pending, lock = [], [], threading.Lock()
 
     def train_job(job: tuple, gpu: int | None) -> None:
-        (task, algo, preset), seeds = job
-        caches = out / (f"caches-{task}-{preset}-{seeds[0]}" if args.cold else "caches")
-        if args.cold:
+        (task, algo, preset), seeds, label = job
+        if args.cold or label == "bare":
+            caches = out / f"caches-{task}-{preset}-{seeds[0]}"
             shutil.rmtree(caches, ignore_errors=True)
-        for row in train_and_time(task, algo, preset, seeds, out, caches, args.extra, gpu):
-            log = out / f"{task}-{algo}-{preset}-seed{row['seed']}-gymnasium.log"
+        elif args.bare_first:
+            caches = out / f"caches-{task}-{preset}-{args.seeds[0]}"  # those its bare run filled
+        else:
+            caches = out / "caches"
+        place = out / label if label == "bare" else out
+        for row in train_and_time(task, algo, preset, seeds, place, caches, args.extra, gpu):
+            row["caches"] = label
+            log = place / f"{task}-{algo}-{preset}-seed{row['seed']}-gymnasium.log"
             replay = None
             if args.episodes > 0:
                 replay = harness.gymnasium_replay(Path(row["run_dir"]), log, args.episodes, train_seed=row["seed"])
@@ -285,6 +301,9 @@ def run_main(argv: Sequence[str]) -> None:
                     flush=True,
                 )
 
+    if args.bare_first:
+        (out / "bare").mkdir(exist_ok=True)
+        on_gpus([(run, args.seeds[:1], "bare") for run in args.runs], gpus, train_job)
     on_gpus(jobs, gpus, train_job)
     for row, log, process in pending:
         process.wait()

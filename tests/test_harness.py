@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import subprocess
 import sys
 import threading
@@ -118,6 +119,37 @@ def test_suite_runs_one_job_at_a_time_on_each_gpu():
     with pytest.raises(RuntimeError, match="job 3"):
         on_gpus(range(6), [None, None], fail_on_three)
     assert sorted(job for job, _ in seen) == list(range(6))
+
+
+def test_suite_bare_first_times_one_bare_run_then_every_seed_with_its_caches(tmp_path, monkeypatch, capsys):
+    """``suite.py run --bare-first``: each preset's first seed runs first with empty caches of its
+    own (a "bare" row), then every seed runs with the caches that run filled ("warm" rows); the
+    table reports the two apart. ``--bare-first`` with ``--cold`` or ``--warmup`` is refused."""
+    suite = load_script("benchmarks/suite.py")
+    calls = []
+
+    def fake_train(task, algo, preset, seeds, place, caches, extra, gpu=None):
+        calls.append((seeds, place.name, caches.name, caches.exists()))
+        caches.mkdir(parents=True, exist_ok=True)  # what a run leaves behind
+        row = {"task": task, "algo": algo, "preset": preset, "seed": seeds[0], "wall_s": 1.0, "env_steps": 10.0}
+        return [{**row, "in_run_mean_policy": 5.0, "status": 0, "run_dir": str(place / "run")}]
+
+    monkeypatch.setattr(suite, "train_and_time", fake_train)
+    (tmp_path / "caches-hopper-hopper-0").mkdir()  # a stale cache the bare run must not find
+    args = ["--runs", "hopper:npg:hopper", "--seeds", "0", "1", "--episodes", "0", "--out", str(tmp_path)]
+    suite.run_main([*args, "--bare-first", "--json", str(tmp_path / "out.json")])
+    assert calls == [
+        ([0], "bare", "caches-hopper-hopper-0", False),
+        ([0], tmp_path.name, "caches-hopper-hopper-0", True),
+        ([1], tmp_path.name, "caches-hopper-hopper-0", True),
+    ]
+    runs = [group["run"] for group in json.loads((tmp_path / "out.json").read_text())["meta"]["summary"]]
+    assert runs == ["hopper:npg:hopper (bare)", "hopper:npg:hopper (warm)"]
+    for other in ("--cold", "--warmup"):
+        with pytest.raises(SystemExit) as error:
+            suite.run_main([*args, "--bare-first", other])
+        assert error.value.code == 2
+    assert "choose one" in capsys.readouterr().err
 
 
 def test_suite_band_holds_each_seed_last_value():

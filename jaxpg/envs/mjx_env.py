@@ -238,8 +238,10 @@ class MjxEnv(Env):
         def field(data: Any, name: str) -> jax.Array:
             return getattr(data if name in self._public_fields else data._impl, name)
 
-        names = INTEGRATION_STATE + self.derived_fields_read
-        chosen = {n: jnp.where(expand_like(pick_new, field(old, n)), field(new, n), field(old, n)) for n in names}
+        chosen = {}
+        for name in INTEGRATION_STATE + self.derived_fields_read:
+            kept = field(old, name)
+            chosen[name] = jnp.where(expand_like(pick_new, kept), field(new, name), kept)
         data = old.replace(**{n: v for n, v in chosen.items() if n in self._public_fields})
         private = {n: v for n, v in chosen.items() if n not in self._public_fields}
         return data.replace(_impl=data._impl.replace(**private)) if private else data

@@ -12,7 +12,7 @@ from typing import Any
 import jax
 import jax.numpy as jnp
 
-from jaxpg.envs.base import Env, State, check_action
+from jaxpg.envs.base import Env, State, check_action, expand_like
 
 
 class Wrapper(Env):
@@ -139,7 +139,7 @@ class AutoReset(Wrapper):
         fresh = self.env.reset(stepped.info["rng"])
 
         def pick(new: jax.Array, old: jax.Array) -> jax.Array:
-            return jnp.where(jnp.reshape(done, done.shape + (1,) * (old.ndim - done.ndim)), new, old)
+            return jnp.where(expand_like(done, old), new, old)
 
         data = self.env.select_physics(done, fresh.data, stepped.data)
         obs = pick(fresh.obs, stepped.obs)

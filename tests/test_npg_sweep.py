@@ -127,3 +127,30 @@ def test_kl_bound_follows_kl_delta():
     assert float(npg.kl_bound(config, jnp.float32(0.5))) == pytest.approx(0.2)
     off = dataclasses.replace(CONFIG, max_update_kl=0.0)
     assert float(npg.kl_bound(off, jnp.float32(3.0))) == 3.0
+
+
+def test_annealed_kl_delta_steps_with_the_linear_decay_then_stops(initial):
+    """``anneal_kl_iterations = N``: the iteration that starts with ``t`` iterations done steps with
+    ``kl_delta * (1 - t / N)`` (``update_with_kl_delta`` at that value, compared as far as float32
+    allows, as above), and from iteration ``N`` on the policy does not move."""
+    annealing = 4
+    config = dataclasses.replace(CONFIG, kl_delta=0.1, anneal_kl_iterations=annealing)
+    schedule = [float(npg.kl_delta_at(config, jnp.int32(t))) for t in range(6)]
+    np.testing.assert_allclose(schedule, [0.1, 0.075, 0.05, 0.025, 0.0, 0.0], rtol=1e-6, atol=0)
+    assert npg.kl_delta_at(CONFIG, jnp.int32(3)) == CONFIG.kl_delta  # no annealing: constant
+    with pytest.raises(ValueError, match="anneal_kl_iterations"):
+        dataclasses.replace(CONFIG, anneal_kl_iterations=-1).validate(envs.make("cartpole"))
+
+    annealed_update = jax.jit(npg.update)
+    for done, delta in ((2, 0.05), (annealing, 0.0)):
+        ts = initial.replace(config=config, iteration=jnp.int32(done))
+        new, metrics = annealed_update(ts)
+        ref_state, ref_metrics = jax.jit(npg.update_with_kl_delta)(ts, jnp.float32(delta))
+        batched = lambda tree: jax.tree.map(lambda x: np.asarray(x)[None], tree)  # noqa: E731
+        assert_first_iteration_close(batched(metrics), batched(ref_metrics))
+        if delta == 0.0:
+            assert float(metrics["kl"]) == 0.0 and float(metrics["step_length"]) == 0.0
+            assert distance(new.params, ts.params) == 0.0
+        else:
+            assert float(metrics["kl"]) > 0.0
+            assert distance(new.params, ref_state.params) < 0.1 * distance(ref_state.params, ts.params)

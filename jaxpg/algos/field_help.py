@@ -65,6 +65,7 @@ FIELD_HELP: dict[str, str] = {
     "eps": "optimizer epsilon",
     "adam_eps": "Adam's epsilon",
     "max_grad_norm": "clip the global gradient norm to this (0: no clipping)",
+    "anneal_kl_iterations": "anneal NPG's kl_delta linearly to 0 over this many iterations (0: constant)",
     "anneal_lr_iterations": "anneal the learning rate linearly to 0 over this many iterations (0: constant)",
     "return_normalization": "how returns are standardised before the gradient: per episode, per batch or not",
     "entropy_coef": "weight of the entropy bonus",

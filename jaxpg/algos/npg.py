@@ -48,11 +48,13 @@ class Config(natural_gradient.NaturalGradientConfig):
 
     ``kl_delta`` is the normalised step's delta: the step is scaled so that the quadratic model
     of its mean KL, ``0.5 * step' F step``, is ``kl_delta / 2``; its measured KL may reach
-    ``kl_delta`` (``kl_bound``). The other fields are those of ``NaturalGradientConfig`` (GAE,
-    value fit, Fisher solve) and ``core.BaseConfig``.
+    ``kl_delta`` (``kl_bound``). ``anneal_kl_iterations`` > 0 anneals it linearly to 0 over that
+    many iterations (``kl_delta_at``), as PPO anneals its learning rate. The other fields are those
+    of ``NaturalGradientConfig`` (GAE, value fit, Fisher solve) and ``core.BaseConfig``.
     """
 
     kl_delta: float = 0.05
+    anneal_kl_iterations: int = 0
 
     OLD_FIELD_NAMES: ClassVar[dict[str, str | None]] = {
         **natural_gradient.NaturalGradientConfig.OLD_FIELD_NAMES,
@@ -63,6 +65,8 @@ class Config(natural_gradient.NaturalGradientConfig):
         super().validate(env)
         if not self.kl_delta > 0:
             raise ValueError(f"kl_delta must be > 0, got {self.kl_delta}")
+        if self.anneal_kl_iterations < 0:
+            raise ValueError(f"anneal_kl_iterations must be >= 0 (0: constant), got {self.anneal_kl_iterations}")
 
 
 # Named Config overrides: a read-only view of this algorithm's rows of ``presets.TABLE``.
@@ -149,6 +153,16 @@ def scale_by_natural_gradient(kl_delta: jax.Array | float, cg_iters: int) -> opt
         return unravel(solve.step_size * solve.direction), solve
 
     return optax.GradientTransformationExtraArgs(init, update)
+
+
+def kl_delta_at(config: Config, iteration: jax.Array) -> jax.Array | float:
+    """The normalised step's delta at ``iteration`` (``[]``, iterations completed):
+    ``config.kl_delta``, or with ``anneal_kl_iterations = N > 0`` the linear decay
+    ``kl_delta * (1 - iteration / N)``, which is 0 from iteration ``N`` on (no step)."""
+    if not config.anneal_kl_iterations:
+        return config.kl_delta
+    remaining = 1.0 - iteration.astype(jnp.float32) / config.anneal_kl_iterations
+    return config.kl_delta * jnp.clip(remaining, 0.0, 1.0)
 
 
 BACKTRACKS = 6  # halvings of the natural step tried when it overshoots its KL bound
@@ -246,13 +260,15 @@ def update_using(
     """One NPG iteration whose advantages and value targets come from ``advantage_fn``
     (``update`` is ``update_using(ts, core.gae_advantages)``; ``make_update`` binds another
     estimator), stepping with ``kl_delta`` when given (``update_with_kl_delta``), else with
-    ``config.kl_delta``; each of ``PHASES`` run by ``run_phase``."""
+    ``kl_delta_at(config, ts.iteration)``; each of ``PHASES`` run by ``run_phase``."""
     old = ts
     ts, traj, key = run_phase("sampling", core.phase_sample, ts)
     value_key, _ = jax.random.split(key)
     advantages = functools.partial(core.phase_advantages, advantage_fn=advantage_fn)
     batch = run_phase("advantages", advantages, ts, traj)
     grads = run_phase("gradient", natural_gradient.policy_gradient, ts, batch)
+    if kl_delta is None and ts.config.anneal_kl_iterations:
+        kl_delta = kl_delta_at(ts.config, old.iteration)
     delta = ts.config.kl_delta if kl_delta is None else kl_delta
     solve = run_phase("natural_step", phase_natural_step, ts, batch, grads, delta)
     bound = kl_bound(ts.config, kl_delta)

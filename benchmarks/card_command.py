@@ -11,11 +11,14 @@ Four modes (``python benchmarks/card_command.py MODE --help`` for each):
                at first execution against all host cores while XLA compiles;
   capture      step MuJoCo Warp's physics with and without an XLA compilation on another
                thread: does Warp's CUDA-graph capture survive it?
+  startup      in fresh processes, JAX's backend start and `import mujoco.mjx` one after the
+               other, and the import on a thread while the backend starts: does overlapping help?
 
     python benchmarks/card_command.py card --seeds 0 1 2 --modes cold warm --json card.json
     python benchmarks/card_command.py determinism --settings default deterministic jax --runs 3
     python benchmarks/card_command.py kernels --builds serial parallel
     python benchmarks/card_command.py capture --seconds 60
+    python benchmarks/card_command.py startup --repeats 3
 """
 
 from __future__ import annotations
@@ -518,7 +521,64 @@ def capture_main(argv: Sequence[str]) -> None:
     )
 
 
-MODES = {"card": card_main, "determinism": determinism_main, "kernels": kernels_main, "capture": capture_main}
+# ========================================================================================== startup
+
+# Each snippet runs in a fresh process and prints its seconds as JSON: ``import jax``, JAX's
+# backend start (``jax.devices()``) and ``import mujoco.mjx`` (MuJoCo Warp's modules included),
+# in turn or with the import on a thread while the backend starts.
+STARTUP_SNIPPETS = {
+    "in turn": """
+import json, time
+t0 = time.perf_counter(); import jax
+t1 = time.perf_counter(); jax.devices()
+t2 = time.perf_counter(); import mujoco.mjx
+t3 = time.perf_counter()
+print(json.dumps({"import jax": t1 - t0, "backend": t2 - t1, "import mjx": t3 - t2, "total": t3 - t0}))
+""",
+    "import on a thread": """
+import json, threading, time
+t0 = time.perf_counter(); import jax
+t1 = time.perf_counter()
+thread = threading.Thread(target=__import__, args=("mujoco.mjx",)); thread.start(); jax.devices()
+t2 = time.perf_counter(); thread.join()
+t3 = time.perf_counter()
+print(json.dumps({"import jax": t1 - t0, "backend": t2 - t1, "import mjx": t3 - t2, "total": t3 - t0}))
+""",
+}
+
+
+def startup_main(argv: Sequence[str]) -> None:
+    parser = argparse.ArgumentParser(
+        prog="card_command.py startup",
+        description="Fresh-process start-up: JAX's backend and `import mujoco.mjx`, in turn or overlapped "
+        "(`import mjx` is then what is left of the import after the backend started).",
+    )
+    parser.add_argument("--repeats", type=int, default=3, help="processes per order, alternating (default: 3)")
+    parser.add_argument("--json", default=None)
+    args = parser.parse_args(argv)
+    rows = []
+    for repeat in range(args.repeats):
+        for order, code in STARTUP_SNIPPETS.items():
+            done = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True)
+            if done.returncode != 0:
+                raise SystemExit(f"error: the {order} snippet failed: {done.stderr.strip().splitlines()[-1:]}")
+            rows.append({"order": order, "repeat": repeat, **json.loads(done.stdout.strip().splitlines()[-1])})
+    harness.write_json(args.json, rows, argv=list(argv))
+    print(f"\n{harness.describe()}")
+    parts = ("import jax", "backend", "import mjx", "total")
+    print(harness.table(rows, [("order", lambda r: r["order"])] + [(p, lambda r, p=p: f"{r[p]:.2f}") for p in parts]))
+    for order in STARTUP_SNIPPETS:
+        totals = [r["total"] for r in rows if r["order"] == order]
+        print(f"{order}: median {statistics.median(totals):.2f} s over {len(totals)} processes")
+
+
+MODES = {
+    "card": card_main,
+    "determinism": determinism_main,
+    "kernels": kernels_main,
+    "capture": capture_main,
+    "startup": startup_main,
+}
 
 
 if __name__ == "__main__":

@@ -61,7 +61,10 @@ return in Gymnasium's CPU Hopper-v5, then where each run's time went, from the a
 its output lines and the seconds the run reports (``SPLIT``: start-up, the first block's XLA
 compilation, the wait for MuJoCo Warp's kernels after it, the rest of the first block, the other
 iterations, the evaluations, exit; ``python benchmarks/card_command.py kernels`` times the
-kernel build alone). ``--cold`` gives every run empty caches, as on a bare machine: its own XLA
+kernel build alone), and the start-up's own parts from the run's ``start-up:`` line
+(``STARTUP_PARTS``: imports, the env, the initial state, the run directory).
+
+``--cold`` gives every run empty caches, as on a bare machine: its own XLA
 compilation cache, MuJoCo Warp kernel cache and CUDA driver compute cache (``CUDA_CACHE_PATH``:
 the driver compiles the PTX it is handed for the GPU and keeps the result there; 34 MB after one
 run on an H100, and with it kept a run with the other two caches empty took 26-35 s less);
@@ -116,6 +119,7 @@ def train_once(seed: int, run_dir: Path, caches: Path, log: Path, extra: list[st
         "evaluations": len(evaluated),
         "eval_s": sum(r.get("eval_seconds") or 0.0 for r in rows),
         "split_s": split(stamped, wall),
+        "startup_s": startup_parts(stamped),
         "log_tail": log.read_text().splitlines()[-6:],
     }
 
@@ -165,6 +169,35 @@ def split(stamped: list[tuple[float, str]], wall: float) -> dict[str, float | No
         "training": span(first_line, done, eval_s),
         "evaluation": eval_s if done is not None else None,
         "exit": span(done, wall),
+    }
+
+
+STARTUP_PARTS = {
+    "imports": "Python, jax, jaxpg and mujoco.mjx with MuJoCo Warp (the run's `start-up:` line)",
+    "env": "planning and building the env, without the MJX import",
+    "initial_state": "the initial training state",
+    "run_dir": "the run directory and the rest, to the first block",
+}
+
+
+def startup_parts(stamped: list[tuple[float, str]]) -> dict[str, float] | None:
+    """``STARTUP_PARTS`` from the run's ``start-up:`` line (``None`` without one, or without the
+    process's seconds before ``main``)."""
+    line = next((line for _, line in stamped if line.startswith("start-up: ")), None)
+    pattern = (
+        r"start-up: [\d.]+ s to the first block: ([\d.]+) s to the command's start \(Python, jax, jaxpg"
+        r"(?: \(([\d.]+) s of it importing mujoco\.mjx\))?\), ([\d.]+) s planning and building the env"
+        r"(?: \(([\d.]+) s of it importing mujoco\.mjx\))?, ([\d.]+) s the initial state, ([\d.]+) s the run"
+    )
+    match = re.match(pattern, line or "")
+    if match is None:
+        return None
+    before, _, planning, mjx_in_planning, state, rest = (float(x) if x else 0.0 for x in match.groups())
+    return {
+        "imports": before + mjx_in_planning,
+        "env": planning - mjx_in_planning,
+        "initial_state": state,
+        "run_dir": rest,
     }
 
 
@@ -230,6 +263,13 @@ def card_main(argv: Sequence[str]) -> None:
         print(
             f"| {row['mode']} | {row['seed']} | " + " | ".join("-" if c is None else f"{c:.1f}" for c in cells) + " |"
         )
+    print("\nthe start-up (s): " + "; ".join(f"{part}: {what}" for part, what in STARTUP_PARTS.items()))
+    print("| mode | seed | " + " | ".join(STARTUP_PARTS) + " |")
+    print("|---|---|" + "---|" * len(STARTUP_PARTS))
+    for row in rows:
+        parts = row["startup_s"] or {}
+        cells = ["-" if part not in parts else f"{parts[part]:.1f}" for part in STARTUP_PARTS]
+        print(f"| {row['mode']} | {row['seed']} | " + " | ".join(cells) + " |")
     for mode in args.modes:
         walls = [r["wall_s"] for r in rows if r["mode"] == mode]
         gyms = [r["gymnasium_return"] or float("nan") for r in rows if r["mode"] == mode]

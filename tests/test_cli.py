@@ -629,3 +629,36 @@ def test_the_end_report_times_the_first_block(runs, capsys):
     lines = capsys.readouterr().out.splitlines()
     done = next(i for i, line in enumerate(lines) if line.startswith("done in "))
     assert re.fullmatch(r"first block: compiled in \d+\.\d s", lines[done + 1]), lines[done + 1]
+    # then where the start-up went: pytest's process was not started for this command, so its age
+    # is left out; MJX is imported while planning if no earlier test of this process imported it
+    startup = r"start-up: (\d+\.\d) s to the first block: (\d+\.\d) s planning and building the env"
+    startup += r"(?: \(\d+\.\d s of it importing mujoco\.mjx\))?, "
+    startup += r"(\d+\.\d) s the initial state, (\d+\.\d) s the run directory and the rest"
+    match = re.fullmatch(startup, lines[done + 2])
+    assert match, lines[done + 2]
+    total, *parts = map(float, match.groups())
+    assert abs(sum(parts) - total) <= 0.2  # each part rounded to 0.1 s
+
+
+def test_startup_report_splits_the_seconds_to_the_first_block():
+    """``StartupTimes.report``: the process's seconds before ``main``, then planning (with the MJX
+    import inside it when it happened there), the initial state and the rest, summing to the total."""
+    from jaxpg.run import startup_times
+
+    times = startup_times.StartupTimes(before_main=2.0, main=100.0, planned=104.0, state_ready=104.5)
+    assert times.report(105.5) is not None
+    original = startup_times.mjx_import_span
+    try:
+        startup_times.mjx_import_span = lambda: (100.5, 103.3)
+        assert times.report(105.5) == (
+            "start-up: 7.5 s to the first block: 2.0 s to the command's start (Python, jax, jaxpg), 4.0 s planning "
+            "and building the env (2.8 s of it importing mujoco.mjx), 0.5 s the initial state, 1.0 s the run "
+            "directory and the rest"
+        )
+        startup_times.mjx_import_span = lambda: (0.5, 1.7)  # imported before main
+        assert "jaxpg (1.2 s of it importing mujoco.mjx))" in times.report(105.5)
+    finally:
+        startup_times.mjx_import_span = original
+    assert startup_times.StartupTimes(before_main=None, main=1.0).report(2.0) is None  # not planned yet
+    since = startup_times.seconds_since_process_start()
+    assert since is None or 0.0 <= since < 3600.0

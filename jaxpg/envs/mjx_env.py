@@ -7,6 +7,7 @@ import dataclasses
 import functools
 import importlib.util
 import io
+import time
 from pathlib import Path
 from typing import Any, Literal
 
@@ -70,7 +71,10 @@ def _import_mjx() -> Any:
     return mjx
 
 
+_mjx_import_started = time.perf_counter()
 mjx = _import_mjx()
+# ``time.perf_counter()`` around the import, for the end-of-run report (``jaxpg.run.startup_times``).
+MJX_IMPORT_SPAN = (_mjx_import_started, time.perf_counter())
 
 
 def default_impl() -> Impl:

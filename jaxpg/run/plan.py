@@ -13,6 +13,7 @@ import jax
 from jaxpg import train
 from jaxpg.envs import compile_options
 from jaxpg.run.config_io import RunConfig
+from jaxpg.run.startup_times import StartupTimes
 
 
 @dataclasses.dataclass
@@ -35,6 +36,8 @@ class Plan:
     command: list[str] = dataclasses.field(default_factory=list)
     # Stop (checkpoint written, status 0) once this many seconds have passed since the first block.
     time_limit_s: float | None = None
+    # Where the command's start-up went, for the end-of-run report (None: not timed).
+    startup: StartupTimes | None = None
 
 
 @functools.lru_cache(maxsize=16)

@@ -96,6 +96,8 @@ def execute(plan_: Plan) -> int:
                 ts = plan_.state
                 if ts is None:
                     ts = initial_state(plan_.module, plan_.env, plan_.config, run.seeds)
+                if plan_.startup is not None:
+                    plan_.startup.state_ready = time.perf_counter()
         except KeyboardInterrupt:
             name = signal.Signals(interrupts.requested or signal.SIGINT).name
             print(f"\n{name}: stopped before training started; nothing was written", file=sys.stderr)
@@ -312,6 +314,8 @@ def _report_end(plan_: Plan, clock: BlockClock, first_block: FirstBlock | None =
         show(f"done in {total:.1f} s (including compilation)")
     if first_block is not None and (first := first_block.report()) is not None:
         show(first)
+        if plan_.startup is not None and (started := plan_.startup.report(first_block.started)) is not None:
+            show(started)
     if clock.evaluations:
         share = 100 * clock.eval_seconds / max(total, 1e-9)
         show(

@@ -1,0 +1,82 @@
+"""Where a command's start-up went, for the end-of-run report's ``start-up:`` line: the seconds
+from the process's start to its first training block, split at the points the command passes
+(``StartupTimes``)."""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import sys
+import time
+
+
+def seconds_since_process_start() -> float | None:
+    """Seconds since this process started, from Linux's ``/proc`` (10 ms resolution); ``None``
+    where there is no ``/proc``."""
+    try:
+        with open("/proc/self/stat") as stat, open("/proc/uptime") as uptime:
+            # Fields after the command name, which may hold spaces: the 22nd field (start time,
+            # in clock ticks since boot) is the 20th after it.
+            start_ticks = int(stat.read().rsplit(")", 1)[1].split()[19])
+            since_boot = float(uptime.read().split()[0])
+        return max(since_boot - start_ticks / os.sysconf("SC_CLK_TCK"), 0.0)
+    except (OSError, ValueError, IndexError):
+        return None
+
+
+def mjx_import_span() -> tuple[float, float] | None:
+    """``(start, end)``, the ``time.perf_counter()`` readings around this process's ``import
+    mujoco.mjx`` (``jaxpg.envs.mjx_env`` takes them), or ``None`` when no MJX task was made."""
+    mjx_env = sys.modules.get("jaxpg.envs.mjx_env")
+    return getattr(mjx_env, "MJX_IMPORT_SPAN", None)
+
+
+@dataclasses.dataclass
+class StartupTimes:
+    """``time.perf_counter()`` readings a command takes on its way to training.
+
+    Attributes:
+      before_main: seconds from the process's start to ``main`` (the interpreter, ``jax``,
+        ``jaxpg``), ``None`` where ``/proc`` cannot tell.
+      main: when ``main`` started.
+      planned: when the plan was checked (the env built, MJX imported on the way).
+      state_ready: when the initial training state was built.
+    """
+
+    before_main: float | None
+    main: float
+    planned: float | None = None
+    state_ready: float | None = None
+
+    @classmethod
+    def start(cls) -> StartupTimes:
+        """The readings of a command that starts now. ``before_main`` only when the process was
+        started for it: its ``__main__`` is a script or ``python -m jaxpg.cli``, not an installed
+        tool that calls ``main`` later (pytest, a notebook's kernel), whose age says nothing."""
+        entry = getattr(sys.modules.get("__main__"), "__file__", None) or ""
+        for_this = not any(part in entry for part in ("site-packages", "dist-packages"))
+        return cls(before_main=seconds_since_process_start() if for_this else None, main=time.perf_counter())
+
+    def report(self, first_block: float) -> str | None:
+        """``start-up: T s to the first block: ...`` up to ``first_block`` (a ``perf_counter``
+        reading), or ``None`` before the plan and the state were ready."""
+        if self.planned is None or self.state_ready is None:
+            return None
+        before = self.before_main or 0.0
+        total = before + first_block - self.main
+        span = mjx_import_span()
+        mjx = None if span is None else span[1] - span[0]
+        in_planning = span is not None and self.main <= span[0] <= self.planned
+
+        def of_it(part_s: float, here: bool) -> str:
+            return f" ({mjx:.1f} s of it importing mujoco.mjx)" if here and mjx is not None and mjx <= part_s else ""
+
+        parts = []
+        if self.before_main is not None:
+            before_mjx = of_it(before, span is not None and span[1] <= self.main)
+            parts.append(f"{before:.1f} s to the command's start (Python, jax, jaxpg{before_mjx})")
+        planning = self.planned - self.main
+        parts.append(f"{planning:.1f} s planning and building the env{of_it(planning, in_planning)}")
+        parts.append(f"{self.state_ready - self.planned:.1f} s the initial state")
+        parts.append(f"{first_block - self.state_ready:.1f} s the run directory and the rest")
+        return f"start-up: {total:.1f} s to the first block: " + ", ".join(parts)

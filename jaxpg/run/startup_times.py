@@ -51,10 +51,14 @@ class StartupTimes:
     @classmethod
     def start(cls) -> StartupTimes:
         """The readings of a command that starts now. ``before_main`` only when the process was
-        started for it: its ``__main__`` is a script or ``python -m jaxpg.cli``, not an installed
-        tool that calls ``main`` later (pytest, a notebook's kernel), whose age says nothing."""
-        entry = getattr(sys.modules.get("__main__"), "__file__", None) or ""
-        for_this = not any(part in entry for part in ("site-packages", "dist-packages"))
+        started for it: its ``__main__`` is ``python -m jaxpg.cli`` or a script file, not an
+        installed tool that calls ``main`` later (pytest) or a notebook's kernel, whose age says
+        nothing."""
+        entry = sys.modules.get("__main__")
+        spec_name = getattr(getattr(entry, "__spec__", None), "name", "") or ""
+        path = getattr(entry, "__file__", None) or ""
+        script = bool(path) and not any(part in path for part in ("site-packages", "dist-packages"))
+        for_this = spec_name.startswith("jaxpg.") or script
         return cls(before_main=seconds_since_process_start() if for_this else None, main=time.perf_counter())
 
     def report(self, first_block: float) -> str | None:

@@ -3,6 +3,7 @@
 # MuJoCo Warp installed (docs/gpus.md) or on PYTHONPATH with the checkout:
 #
 #   bash benchmarks/gpu_stages.sh card     # `python experiments/hopper.py --num-envs 256`, 3 seeds, cold and warm
+#                                              # (SEEDS, MODES; EXTRA: flags added, e.g. "--preset hopper_1m")
 #   bash benchmarks/gpu_stages.sh sweep    # NPG settings at 256 envs, 3 seeds vmapped, to 2 M env steps
 #   bash benchmarks/gpu_stages.sh sweep8   # settings around the default, 8 seeds vmapped, to 1.97 M env steps
 #   bash benchmarks/gpu_stages.sh ratio [FIELD=VALUE ...]  # train(+eval)/raw of the card's defaults
@@ -41,8 +42,9 @@ nvidia-smi --query-gpu=name,memory.total,driver_version --format=csv,noheader > 
 
 case "${1:-}" in
 card)
-  timeout 570 $py benchmarks/card_command.py card --seeds 0 1 2 --modes cold warm --out /tmp/card \
-    --json "$OUT/card.json" 2>&1 | tee "$OUT/card.log" | grep -v "^WARN"
+  # SEEDS (default 0 1 2), MODES (default cold warm), EXTRA: flags added to the card's (e.g. --preset hopper_1m)
+  timeout 570 $py benchmarks/card_command.py card --seeds ${SEEDS:-0 1 2} --modes ${MODES:-cold warm} --out /tmp/card \
+    --json "$OUT/card.json" ${EXTRA:+--extra $EXTRA} 2>&1 | tee "$OUT/card.log" | grep -v "^WARN"
   ;;
 sweep)
   timeout 570 $py benchmarks/time_to_return.py sweep --impl warp --settings base step07 step07vep10 s10vep10 \

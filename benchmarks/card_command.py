@@ -603,6 +603,7 @@ def sample():
             if frame is not None:
                 stack = [f"{f.filename}:{f.name}" for f in traceback.extract_stack(frame)[::-1]]
                 out.write(f"{time.perf_counter() - start:.2f}\t" + ";".join(stack[:60]) + "\n")
+                out.flush()  # the run ends with os._exit, which flushes nothing
             time.sleep(0.05)
 threading.Thread(target=sample, daemon=True).start()
 sys.argv = ["experiments/hopper.py", *sys.argv[3:]]

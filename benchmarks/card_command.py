@@ -592,7 +592,7 @@ print(json.dumps({"import jax": t1 - t0, "backend": t2 - t1, "import mjx": t3 - 
 
 # Runs the card's command (its flags after the first two arguments) while a thread writes the main
 # thread's stack, innermost frame first, every 50 ms to the file named by the first argument.
-SAMPLER = """
+SAMPLER = r"""
 import os, runpy, sys, threading, time, traceback
 path, main_thread, start = sys.argv[1], threading.get_ident(), time.perf_counter()
 seconds = float(sys.argv[2])

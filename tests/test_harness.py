@@ -98,6 +98,21 @@ def test_the_startup_line_splits_into_imports_env_state_and_run_dir():
     assert parts([(30.0, no_age)]) is None
 
 
+def test_a_stack_sample_is_an_import_or_its_innermost_jaxpg_frame():
+    """card_command.py startup --sample names each sample of the main thread (innermost frame
+    first): an import in progress, else the innermost frame of jaxpg, else the innermost frame."""
+    activity = load_script("benchmarks/card_command.py").sampled_activity
+    jaxpg_frames = (
+        "/x/site-packages/jax/_src/api.py:device_put;/repo/jaxpg/envs/mjx_env.py:__init__;/repo/jaxpg/run/main.py:main"
+    )
+    assert activity(jaxpg_frames) == "mjx_env.py:__init__"
+    assert (
+        activity("/x/mjx/io.py:<module>;<frozen importlib._bootstrap>:_find_and_load;/repo/jaxpg/run/main.py:main")
+        == "import"
+    )
+    assert activity("/usr/lib/python3.12/threading.py:wait;<string>:<module>") == "threading.py:wait"
+
+
 def test_suite_judges_each_preset_against_its_target():
     suite = load_script("benchmarks/suite.py")
     assert suite.judge("walker2d", "walker2d_1m", [3900.0, 3800.0, 4000.0], [90.0] * 3, [1e6] * 3).startswith("met")

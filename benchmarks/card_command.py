@@ -173,7 +173,7 @@ def split(stamped: list[tuple[float, str]], wall: float) -> dict[str, float | No
 
 
 STARTUP_PARTS = {
-    "imports": "Python, jax, jaxpg and mujoco.mjx with MuJoCo Warp (the run's `start-up:` line)",
+    "imports": "before planning (Python, jax, jaxpg, JAX's backend) and mujoco.mjx with MuJoCo Warp",
     "env": "planning and building the env, without the MJX import",
     "initial_state": "the initial training state",
     "run_dir": "the run directory and the rest, to the first block",
@@ -182,11 +182,11 @@ STARTUP_PARTS = {
 
 def startup_parts(stamped: list[tuple[float, str]]) -> dict[str, float] | None:
     """``STARTUP_PARTS`` from the run's ``start-up:`` line (``None`` without one, or without the
-    process's seconds before ``main``)."""
+    process's seconds before planning)."""
     line = next((line for _, line in stamped if line.startswith("start-up: ")), None)
     pattern = (
-        r"start-up: [\d.]+ s to the first block: ([\d.]+) s to the command's start \(Python, jax, jaxpg"
-        r"(?: \(([\d.]+) s of it importing mujoco\.mjx\))?\), ([\d.]+) s planning and building the env"
+        r"start-up: [\d.]+ s to the first block: ([\d.]+) s before planning"
+        r"(?: \(([\d.]+) s of it importing mujoco\.mjx\))?, ([\d.]+) s planning and building the env"
         r"(?: \(([\d.]+) s of it importing mujoco\.mjx\))?, ([\d.]+) s the initial state, ([\d.]+) s the run"
     )
     match = re.match(pattern, line or "")

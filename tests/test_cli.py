@@ -641,24 +641,24 @@ def test_the_end_report_times_the_first_block(runs, capsys):
 
 
 def test_startup_report_splits_the_seconds_to_the_first_block():
-    """``StartupTimes.report``: the process's seconds before ``main``, then planning (with the MJX
+    """``StartupTimes.report``: the process's seconds before planning, then planning (with the MJX
     import inside it when it happened there), the initial state and the rest, summing to the total."""
     from jaxpg.run import startup_times
 
-    times = startup_times.StartupTimes(before_main=2.0, main=100.0, planned=104.0, state_ready=104.5)
+    times = startup_times.StartupTimes(before_planning=2.0, planning=100.0, planned=104.0, state_ready=104.5)
     assert times.report(105.5) is not None
     original = startup_times.mjx_import_span
     try:
         startup_times.mjx_import_span = lambda: (100.5, 103.3)
         assert times.report(105.5) == (
-            "start-up: 7.5 s to the first block: 2.0 s to the command's start (Python, jax, jaxpg), 4.0 s planning "
+            "start-up: 7.5 s to the first block: 2.0 s before planning, 4.0 s planning "
             "and building the env (2.8 s of it importing mujoco.mjx), 0.5 s the initial state, 1.0 s the run "
             "directory and the rest"
         )
         startup_times.mjx_import_span = lambda: (0.5, 1.7)  # imported before main
-        assert "jaxpg (1.2 s of it importing mujoco.mjx))" in times.report(105.5)
+        assert "2.0 s before planning (1.2 s of it importing mujoco.mjx), 4.0 s planning" in times.report(105.5)
     finally:
         startup_times.mjx_import_span = original
-    assert startup_times.StartupTimes(before_main=None, main=1.0).report(2.0) is None  # not planned yet
+    assert startup_times.StartupTimes(before_planning=None, planning=1.0).report(2.0) is None  # not planned yet
     since = startup_times.seconds_since_process_start()
     assert since is None or 0.0 <= since < 3600.0

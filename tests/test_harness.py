@@ -78,19 +78,18 @@ def test_a_run_is_split_by_the_arrival_of_its_output_lines():
 
 
 def test_the_startup_line_splits_into_imports_env_state_and_run_dir():
-    """card_command.py reads the run's ``start-up:`` line: imports are the seconds before ``main``
+    """card_command.py reads the run's ``start-up:`` line: imports are the seconds before planning
     plus the MJX import inside planning, the env is the rest of planning."""
     parts = load_script("benchmarks/card_command.py").startup_parts
     line = (
-        "start-up: 7.4 s to the first block: 2.1 s to the command's start (Python, jax, jaxpg), 4.1 s planning "
-        "and building the env (2.8 s of it importing mujoco.mjx), 0.4 s the initial state, 0.8 s the run "
-        "directory and the rest"
+        "start-up: 7.4 s to the first block: 2.1 s before planning, 4.1 s planning and building the env "
+        "(2.8 s of it importing mujoco.mjx), 0.4 s the initial state, 0.8 s the run directory and the rest"
     )
     got = parts([(1.0, "training: x"), (30.0, line)])
     assert got == pytest.approx({"imports": 4.9, "env": 1.3, "initial_state": 0.4, "run_dir": 0.8})
     before = line.replace(
-        "jaxpg), 4.1 s planning and building the env (2.8 s of it importing mujoco.mjx)",
-        "jaxpg (2.8 s of it importing mujoco.mjx)), 4.1 s planning and building the env",
+        "before planning, 4.1 s planning and building the env (2.8 s of it importing mujoco.mjx)",
+        "before planning (2.8 s of it importing mujoco.mjx), 4.1 s planning and building the env",
     )
     assert parts([(30.0, before)]) == pytest.approx({"imports": 2.1, "env": 4.1, "initial_state": 0.4, "run_dir": 0.8})
     assert parts([(1.0, "training: x")]) is None

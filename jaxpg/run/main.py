@@ -13,24 +13,20 @@ import atexit
 import os
 import sys
 import threading
-import time
 from collections.abc import Sequence
 from typing import NoReturn
 
 from jaxpg.run import planning, session, startup
 from jaxpg.run.command_line import DEFAULT_EPILOG, Experiment
-from jaxpg.run.startup_times import StartupTimes
 
 
 def main(argv: Sequence[str] | None = None, experiment: Experiment | None = None) -> int:
     """Entry point of ``python -m jaxpg.cli`` and the experiment scripts; returns the exit status."""
-    times = StartupTimes.start()
     experiment = experiment or Experiment(prog="python -m jaxpg.cli", epilog=DEFAULT_EPILOG)
     argv = list(sys.argv[1:] if argv is None else argv)
     try:
         pre = startup.start(argv, experiment)
         plan_ = planning.plan(argv, experiment, pre)
-        plan_.startup, times.planned = times, time.perf_counter()
     except ValueError as e:  # UsageError, RunDirError, CheckpointError, Config.validate, DistributedError
         message = str(e).strip().splitlines()
         print(f"error: {message[0] if message else type(e).__name__}", file=sys.stderr)

@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import datetime
+import time
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -27,6 +28,7 @@ from jaxpg.run.flags import UsageError
 from jaxpg.run.memory import check_memory
 from jaxpg.run.plan import Plan
 from jaxpg.run.pre_flags import PreFlags, parse_pre_flags
+from jaxpg.run.startup_times import StartupTimes
 
 
 def _check_task(task: str, experiment: Experiment) -> None:
@@ -224,6 +226,7 @@ def _field_default(field: dataclasses.Field) -> Any:
 def plan(argv: Sequence[str], experiment: Experiment, pre: PreFlags | None = None) -> Plan:
     """Parse and check everything; raises ``UsageError``/``ValueError`` with one line. ``pre``:
     the flags of ``argv`` already read before the full parse (read here when not given)."""
+    times = StartupTimes.start()
     pre = parse_pre_flags(argv, experiment) if pre is None else pre
     resume_run = None
     if pre.resume is not None:
@@ -252,4 +255,6 @@ def plan(argv: Sequence[str], experiment: Experiment, pre: PreFlags | None = Non
     result.profile = bool(args.profile)
     result.progress = args.progress
     result.command = list(argv)
+    times.planned = time.perf_counter()
+    result.startup = times
     return result

@@ -36,21 +36,21 @@ class StartupTimes:
     """``time.perf_counter()`` readings a command takes on its way to training.
 
     Attributes:
-      before_main: seconds from the process's start to ``main`` (the interpreter, ``jax``,
-        ``jaxpg``), ``None`` where ``/proc`` cannot tell.
-      main: when ``main`` started.
+      before_planning: seconds from the process's start to planning (the interpreter, ``jax``,
+        ``jaxpg``, JAX's backend), ``None`` where ``/proc`` cannot tell.
+      planning: when planning started.
       planned: when the plan was checked (the env built, MJX imported on the way).
       state_ready: when the initial training state was built.
     """
 
-    before_main: float | None
-    main: float
+    before_planning: float | None
+    planning: float
     planned: float | None = None
     state_ready: float | None = None
 
     @classmethod
     def start(cls) -> StartupTimes:
-        """The readings of a command that starts now. ``before_main`` only when the process was
+        """The readings of a command that starts planning now. ``before_planning`` only when the process was
         started for it: its ``__main__`` is ``python -m jaxpg.cli`` or a script file, not an
         installed tool that calls ``main`` later (pytest) or a notebook's kernel, whose age says
         nothing."""
@@ -59,27 +59,29 @@ class StartupTimes:
         path = getattr(entry, "__file__", None) or ""
         script = bool(path) and not any(part in path for part in ("site-packages", "dist-packages"))
         for_this = spec_name.startswith("jaxpg.") or script
-        return cls(before_main=seconds_since_process_start() if for_this else None, main=time.perf_counter())
+        return cls(before_planning=seconds_since_process_start() if for_this else None, planning=time.perf_counter())
 
     def report(self, first_block: float) -> str | None:
         """``start-up: T s to the first block: ...`` up to ``first_block`` (a ``perf_counter``
-        reading), or ``None`` before the plan and the state were ready."""
+        reading): the seconds before planning (the interpreter, ``jax``, ``jaxpg``, JAX's backend),
+        planning with the env (and the MJX import where it happened), the initial state and the
+        rest; ``None`` before the plan and the state were ready."""
         if self.planned is None or self.state_ready is None:
             return None
-        before = self.before_main or 0.0
-        total = before + first_block - self.main
+        before = self.before_planning or 0.0
+        total = before + first_block - self.planning
         span = mjx_import_span()
         mjx = None if span is None else span[1] - span[0]
-        in_planning = span is not None and self.main <= span[0] <= self.planned
+        in_planning = span is not None and self.planning <= span[0] <= self.planned
 
         def of_it(part_s: float, here: bool) -> str:
             return f" ({mjx:.1f} s of it importing mujoco.mjx)" if here and mjx is not None and mjx <= part_s else ""
 
         parts = []
-        if self.before_main is not None:
-            before_mjx = of_it(before, span is not None and span[1] <= self.main)
-            parts.append(f"{before:.1f} s to the command's start (Python, jax, jaxpg{before_mjx})")
-        planning = self.planned - self.main
+        if self.before_planning is not None:
+            before_mjx = of_it(before, span is not None and span[1] <= self.planning)
+            parts.append(f"{before:.1f} s before planning{before_mjx}")
+        planning = self.planned - self.planning
         parts.append(f"{planning:.1f} s planning and building the env{of_it(planning, in_planning)}")
         parts.append(f"{self.state_ready - self.planned:.1f} s the initial state")
         parts.append(f"{first_block - self.state_ready:.1f} s the run directory and the rest")

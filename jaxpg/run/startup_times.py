@@ -50,10 +50,10 @@ class StartupTimes:
 
     @classmethod
     def start(cls) -> StartupTimes:
-        """The readings of a command that starts planning now. ``before_planning`` only when the process was
-        started for it: its ``__main__`` is ``python -m jaxpg.cli`` or a script file, not an
-        installed tool that calls ``main`` later (pytest) or a notebook's kernel, whose age says
-        nothing."""
+        """The readings of a command that starts planning now. ``before_planning`` only when the
+        process was started for it: its ``__main__`` is ``python -m jaxpg.cli`` or a script file,
+        not an installed tool that calls ``main`` later (pytest) or a notebook's kernel, whose age
+        says nothing."""
         entry = sys.modules.get("__main__")
         spec_name = getattr(getattr(entry, "__spec__", None), "name", "") or ""
         path = getattr(entry, "__file__", None) or ""
@@ -71,18 +71,17 @@ class StartupTimes:
         before = self.before_planning or 0.0
         total = before + first_block - self.planning
         span = mjx_import_span()
-        mjx = None if span is None else span[1] - span[0]
-        in_planning = span is not None and self.planning <= span[0] <= self.planned
 
-        def of_it(part_s: float, here: bool) -> str:
-            return f" ({mjx:.1f} s of it importing mujoco.mjx)" if here and mjx is not None and mjx <= part_s else ""
+        mjx_before = span is not None and span[1] <= self.planning
+        mjx_planning = span is not None and self.planning <= span[0] <= self.planned
+
+        def importing_mjx(inside: bool) -> str:  # only called with span set when inside
+            return f" ({span[1] - span[0]:.1f} s of it importing mujoco.mjx)" if inside else ""
 
         parts = []
         if self.before_planning is not None:
-            before_mjx = of_it(before, span is not None and span[1] <= self.planning)
-            parts.append(f"{before:.1f} s before planning{before_mjx}")
-        planning = self.planned - self.planning
-        parts.append(f"{planning:.1f} s planning and building the env{of_it(planning, in_planning)}")
+            parts.append(f"{before:.1f} s before planning{importing_mjx(mjx_before)}")
+        parts.append(f"{self.planned - self.planning:.1f} s planning and building the env{importing_mjx(mjx_planning)}")
         parts.append(f"{self.state_ready - self.planned:.1f} s the initial state")
         parts.append(f"{first_block - self.state_ready:.1f} s the run directory and the rest")
         return f"start-up: {total:.1f} s to the first block: " + ", ".join(parts)

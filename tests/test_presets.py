@@ -12,6 +12,7 @@ import pytest
 
 from jaxpg import algos, envs
 from jaxpg.algos import presets
+from jaxpg.run.config_io import RunConfig
 
 LYCEUM = dict(
     sampling="episodic",
@@ -206,7 +207,7 @@ EXPECTED = {
             value_activation="swish",
             network_init="orthogonal",
             eval_envs=128,
-            eval_every=20,
+            eval_every=60,
         ),
         ("walker2d",),
     ),
@@ -229,7 +230,7 @@ EXPECTED = {
             value_activation="swish",
             network_init="orthogonal",
             eval_envs=128,
-            eval_every=20,
+            eval_every=60,
         ),
         ("half_cheetah",),
     ),
@@ -252,7 +253,7 @@ EXPECTED = {
             value_activation="swish",
             network_init="orthogonal",
             eval_envs=128,
-            eval_every=20,
+            eval_every=60,
         ),
         ("ant",),
     ),
@@ -275,7 +276,7 @@ EXPECTED = {
             value_activation="swish",
             network_init="orthogonal",
             eval_envs=128,
-            eval_every=20,
+            eval_every=30,
         ),
         ("humanoid",),
     ),
@@ -298,7 +299,7 @@ EXPECTED = {
             value_activation="swish",
             network_init="orthogonal",
             eval_envs=128,
-            eval_every=20,
+            eval_every=30,
         ),
         ("swimmer",),
     ),
@@ -321,7 +322,7 @@ EXPECTED = {
             value_activation="swish",
             network_init="orthogonal",
             eval_envs=128,
-            eval_every=20,
+            eval_every=60,
         ),
         ("reacher",),
     ),
@@ -344,7 +345,7 @@ EXPECTED = {
             value_activation="swish",
             network_init="orthogonal",
             eval_envs=128,
-            eval_every=20,
+            eval_every=30,
         ),
         ("pusher",),
     ),
@@ -405,9 +406,9 @@ EXPECTED_ITERATIONS = {
     ("ppo", "half_cheetah_fast"): 560,
     ("ppo", "ant_fast"): 620,
     ("ppo", "humanoid_fast"): 250,
-    ("ppo", "swimmer_fast"): 610,
-    ("ppo", "reacher_fast"): 1400,
-    ("ppo", "pusher_fast"): 520,
+    ("ppo", "swimmer_fast"): 250,
+    ("ppo", "reacher_fast"): 600,
+    ("ppo", "pusher_fast"): 260,
 }
 
 # Tasks an any-task preset is checked against.
@@ -494,3 +495,15 @@ def test_lookup_refuses_unknown_names_and_other_tasks():
         algos.preset("sac", "hopper")
     with pytest.raises(ValueError, match="unknown algorithm 'sac'"):
         algos.preset_names("sac")
+
+
+@pytest.mark.parametrize("key", [k for k in EXPECTED_ITERATIONS if k[1].endswith("_fast")], ids="/".join)
+def test_fast_presets_evaluate_about_ten_times_in_blocks_of_ten(key):
+    """A fast preset pays for each evaluation in wall clock (every 20 iterations cost 32-38 % of
+    the training loop), so it evaluates 8-12 times a run; its evaluations fall on the command
+    line's blocks of 10 iterations (no extra, shorter compiled block)."""
+    row = presets.TABLE[key]
+    every = row.overrides["eval_every"]
+    assert 8 <= row.iterations // every + (row.iterations % every > 0) <= 12
+    run = RunConfig(task=row.tasks[0], algo=key[0], config=dict(row.overrides), seeds=[0], iterations=row.iterations)
+    assert run.block_size == 10

@@ -64,11 +64,14 @@ Gymnasium's own env (``python -m jaxpg.evaluate DIR --gymnasium``, on the CPU, b
 run). The caches (XLA, MuJoCo Warp, CUDA driver) are shared by all runs unless ``--cold`` gives
 each run its own empty ones; ``--warmup`` fills them first, so that every timed run is warm;
 ``--bare-first`` first runs each TASK:ALGO:PRESET's first seed in full with empty caches of its
-own (a "bare" row: the fresh-machine time), whose filled caches the timed runs then use. On a
-host of several GPUs, ``--gpus 0 1 2 3`` runs a process on each GPU at a time, side by side. A
-preset whose name ends in ``_1m`` is judged as sample-efficient (at most 1 M env steps, against
-the best published figure); one ending in ``_fast`` against the fast target and its time limit
-(Swimmer, Reacher, Pusher: the best published return found).
+own (a "bare" row: the fresh-machine time), whose filled caches its timed runs then use; the runs
+go preset by preset, so a session cut short keeps whole presets. On a host of several GPUs,
+``--gpus 0 1 2 3`` runs a process on each GPU at a time, side by side (a free GPU takes the next
+bare run while a preset's warm runs wait for theirs). The JSON is written after every run (with
+``"partial": true`` and the Gymnasium scores of the replays that have ended), and in full at the
+end. A preset whose name ends in ``_1m`` is judged as sample-efficient (at most 1 M env steps,
+against the best published figure); one ending in ``_fast`` against the fast target and its time
+limit (Swimmer, Reacher, Pusher: the best published return found).
 
     python benchmarks/suite.py run --runs hopper:npg:hopper walker2d:npg:walker2d_1m --seeds 0 1 2
     python benchmarks/suite.py run --runs walker2d:ppo:walker2d_fast humanoid:ppo:humanoid_fast \\
@@ -163,22 +166,34 @@ def train_and_time(
     return out_rows
 
 
-def on_gpus(jobs: Sequence, gpus: Sequence[int | None], work: Callable[[object, int | None], None]) -> None:
+def on_gpus(
+    jobs: Sequence,
+    gpus: Sequence[int | None],
+    work: Callable[[object, int | None], None],
+    ready: Callable[[object], bool] = lambda job: True,
+) -> None:
     """``work(job, gpu)`` for every job, one job at a time per entry of ``gpus`` (each GPU runs
-    one process at a time, the GPUs side by side), jobs taken in order; an exception in a job is
-    raised once all have ended."""
-    queue, lock, errors = list(jobs), threading.Lock(), []
+    one process at a time, the GPUs side by side). A free GPU takes the first job in order that is
+    ``ready`` (checked again whenever a job ends; a job that is not ready waits, e.g. for the run
+    that fills its caches); an exception in a job is raised once all have ended."""
+    queue, errors = list(jobs), []
+    changed = threading.Condition()
 
     def worker(gpu: int | None) -> None:
         while True:
-            with lock:
+            with changed:
+                while queue and not any(ready(job) for job in queue):
+                    changed.wait()
                 if not queue:
                     return
-                job = queue.pop(0)
+                job = queue.pop(next(i for i, job in enumerate(queue) if ready(job)))
             try:
                 work(job, gpu)
             except Exception as error:  # noqa: BLE001 - re-raised below, after the other jobs
                 errors.append(error)
+            finally:
+                with changed:
+                    changed.notify_all()
 
     threads = [threading.Thread(target=worker, args=(gpu,)) for gpu in gpus]
     for thread in threads:
@@ -244,8 +259,8 @@ def run_main(argv: Sequence[str]) -> None:
     parser.add_argument(
         "--bare-first",
         action="store_true",
-        help="first run each TASK:ALGO:PRESET's first seed with empty caches of its own (reported apart, as "
-        "'bare'), then every seed with the caches it filled (as 'warm')",
+        help="run each TASK:ALGO:PRESET's first seed with empty caches of its own (reported apart, as "
+        "'bare'), then every seed with the caches it filled (as 'warm'), preset by preset",
     )
     parser.add_argument("--out", default=None, help="where runs and logs go (default: a temporary directory)")
     parser.add_argument("--json", default=None)
@@ -271,10 +286,35 @@ def run_main(argv: Sequence[str]) -> None:
         )
     label = "warm" if args.bare_first else ""  # "": the caches are as --cold or --warmup set them
     per_process = [args.seeds] if args.vmap_seeds else [[s] for s in args.seeds]
-    jobs = [(run, seeds, label) for run in args.runs for seeds in per_process]
-    rows, pending, lock = [], [], threading.Lock()
+    jobs = []
+    for run in args.runs:  # with --bare-first, each run's bare job first, its warm jobs once it has ended
+        jobs += [(run, args.seeds[:1], "bare")] if args.bare_first else []
+        jobs += [(run, seeds, label) for seeds in per_process]
+    rows, pending, lock, bare_ended = [], [], threading.Lock(), set()
+
+    def scored(wait: bool) -> None:
+        """Fill in the Gymnasium scores of the replays that have ended (``wait``: of all)."""
+        for row, log, process in pending:
+            if "gymnasium_return" in row:
+                continue
+            if wait:
+                process.wait()
+            if process.poll() is not None:
+                row["gymnasium_return"], row["gymnasium_std"] = harness.gymnasium_score(log)
+
+    def save() -> None:
+        """The JSON so far, after every run: a session cut short keeps the runs that ended."""
+        scored(wait=False)
+        harness.write_json(args.json, rows, summary=summary(rows), argv=list(argv), partial=True)
 
     def train_job(job: tuple, gpu: int | None) -> None:
+        try:
+            train_one(job, gpu)
+        finally:
+            if job[2] == "bare":
+                bare_ended.add(job[0])  # its warm jobs may start (a failed bare run too: they report it)
+
+    def train_one(job: tuple, gpu: int | None) -> None:
         (task, algo, preset), seeds, label = job
         if args.cold or label == "bare":
             caches = out / f"caches-{task}-{preset}-{seeds[0]}"
@@ -300,14 +340,13 @@ def run_main(argv: Sequence[str]) -> None:
                     f"{row['in_run_mean_policy']}, exit {row['status']}",
                     flush=True,
                 )
+        with lock:
+            save()
 
     if args.bare_first:
         (out / "bare").mkdir(exist_ok=True)
-        on_gpus([(run, args.seeds[:1], "bare") for run in args.runs], gpus, train_job)
-    on_gpus(jobs, gpus, train_job)
-    for row, log, process in pending:
-        process.wait()
-        row["gymnasium_return"], row["gymnasium_std"] = harness.gymnasium_score(log)
+    on_gpus(jobs, gpus, train_job, ready=lambda job: job[2] != "warm" or job[0] in bare_ended)
+    scored(wait=True)
     groups = summary(rows)
     harness.write_json(args.json, rows, summary=groups, argv=list(argv))
     print(f"\n{harness.describe()}")

@@ -156,6 +156,27 @@ def test_suite_runs_one_job_at_a_time_on_each_gpu():
     assert sorted(job for job, _ in seen) == list(range(6))
 
 
+def test_suite_gpus_take_the_first_ready_job_and_wait_when_none_is():
+    """``on_gpus`` with ``ready``: a free GPU skips jobs that are not ready (a warm run whose bare
+    run has not ended) for the next that is, and waits while none is, until a job ends."""
+    on_gpus = load_script("benchmarks/suite.py").on_gpus
+    ended, order, lock = set(), [], threading.Lock()
+
+    def work(job, gpu):
+        time.sleep(0.05 if job == "a-bare" else 0.01)
+        with lock:
+            order.append(job)
+            ended.add(job)
+
+    jobs = ["a-bare", "a-warm", "b-bare", "b-warm"]
+    on_gpus(jobs, [0, 1], work, ready=lambda job: not job.endswith("warm") or job[0] + "-bare" in ended)
+    assert order.index("b-bare") < order.index("a-bare") < order.index("a-warm")  # b-bare ran beside a-bare
+    assert order.index("b-bare") < order.index("b-warm") and sorted(order) == sorted(jobs)
+    order.clear(), ended.clear()
+    on_gpus(jobs, [None], work, ready=lambda job: not job.endswith("warm") or job[0] + "-bare" in ended)
+    assert order == jobs  # one GPU: preset by preset
+
+
 def test_suite_bare_first_times_one_bare_run_then_every_seed_with_its_caches(tmp_path, monkeypatch, capsys):
     """``suite.py run --bare-first``: each preset's first seed runs first with empty caches of its
     own (a "bare" row), then every seed runs with the caches that run filled ("warm" rows); the
@@ -180,6 +201,30 @@ def test_suite_bare_first_times_one_bare_run_then_every_seed_with_its_caches(tmp
     ]
     runs = [group["run"] for group in json.loads((tmp_path / "out.json").read_text())["meta"]["summary"]]
     assert runs == ["hopper:npg:hopper (bare)", "hopper:npg:hopper (warm)"]
+    assert "partial" not in json.loads((tmp_path / "out.json").read_text())["meta"]
+
+    # Two presets go preset by preset, and the JSON holds every run that has ended, as it ends.
+    calls.clear()
+    saved = []
+    train = fake_train
+
+    def fake_train_reading_json(task, algo, preset, seeds, place, caches, extra, gpu=None):
+        path = tmp_path / "two.json"
+        saved.append(len(json.loads(path.read_text())["rows"]) if path.exists() else 0)
+        return train(task, algo, preset, seeds, place, caches, extra, gpu)
+
+    monkeypatch.setattr(suite, "train_and_time", fake_train_reading_json)
+    two = ["--runs", "hopper:npg:hopper", "walker2d:npg:walker2d_1m", *args[2:]]
+    suite.run_main([*two, "--bare-first", "--json", str(tmp_path / "two.json")])
+    assert [(seeds, caches) for seeds, _, caches, _ in calls] == [
+        ([0], "caches-hopper-hopper-0"),
+        ([0], "caches-hopper-hopper-0"),
+        ([1], "caches-hopper-hopper-0"),
+        ([0], "caches-walker2d-walker2d_1m-0"),
+        ([0], "caches-walker2d-walker2d_1m-0"),
+        ([1], "caches-walker2d-walker2d_1m-0"),
+    ]
+    assert saved == [0, 1, 2, 3, 4, 5]
     for other in ("--cold", "--warmup"):
         with pytest.raises(SystemExit) as error:
             suite.run_main([*args, "--bare-first", other])

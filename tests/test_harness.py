@@ -206,12 +206,11 @@ def test_suite_bare_first_times_one_bare_run_then_every_seed_with_its_caches(tmp
     # Two presets go preset by preset, and the JSON holds every run that has ended, as it ends.
     calls.clear()
     saved = []
-    train = fake_train
 
     def fake_train_reading_json(task, algo, preset, seeds, place, caches, extra, gpu=None):
         path = tmp_path / "two.json"
         saved.append(len(json.loads(path.read_text())["rows"]) if path.exists() else 0)
-        return train(task, algo, preset, seeds, place, caches, extra, gpu)
+        return fake_train(task, algo, preset, seeds, place, caches, extra, gpu)
 
     monkeypatch.setattr(suite, "train_and_time", fake_train_reading_json)
     two = ["--runs", "hopper:npg:hopper", "walker2d:npg:walker2d_1m", *args[2:]]

@@ -4,6 +4,12 @@ from __future__ import annotations
 
 from typing import Any
 
+from jaxpg.xla_flags import set_sequential_cpu_schedule
+
+# XLA:CPU's memory-minimising schedule, before JAX starts a backend: jaxlib 0.10's batched LAPACK
+# calls can deadlock XLA's thread pool under the concurrency-optimised one (jaxpg/xla_flags.py).
+set_sequential_cpu_schedule()
+
 __version__ = "0.1.0"
 
 __all__ = ["load_policy"]

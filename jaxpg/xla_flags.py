@@ -11,21 +11,26 @@ program of 512 envs each hung this way in their first block, the CPU idle; with 
 ran to their end. A schedule orders operations; it does not change what they compute (the same
 metrics, bit for bit, on Hopper), and Hopper's steps ran at the same speed on two cores.
 
-How. XLA reads ``XLA_FLAGS`` once, when JAX starts its first backend, so the flag is added to the
-environment at import, before that. Nothing is changed where ``XLA_FLAGS`` already names the option
-(set it to ``true`` there to keep XLA's default). Imported after JAX has started a backend, jaxpg's
-flag comes too late for this process (its child processes still get it). The option, given per
-program as a compile option instead, did not prevent the hang in NPG's update: only the process-wide
-flag did.
+How. Only with jaxlib 0.10 (a later one does not split the batch, and XLA aborts on a flag it does
+not know, so none gets it). XLA reads ``XLA_FLAGS`` once, when JAX starts its first backend, so the
+flag is added to the environment at import, before that. Nothing is changed where ``XLA_FLAGS``
+already names the option (set it to ``true`` there to keep XLA's default). Imported after JAX has
+started a backend, jaxpg's flag comes too late for this process (its child processes still get it).
+The option, given per program as a compile option instead, did not prevent the hang in NPG's update:
+only the process-wide flag did.
 """
 
 from __future__ import annotations
 
+import importlib.metadata
 import os
 from collections.abc import MutableMapping
 
 OPTION = "xla_cpu_enable_concurrency_optimized_scheduler"
 FLAG = f"--{OPTION}=false"
+# The jaxlib releases whose LAPACK kernels split a batch over XLA's pool and wait for it. Later
+# releases are left alone: XLA aborts on a flag it does not know, and none could be tried here.
+AFFECTED_JAXLIB = "0.10."
 
 
 def with_sequential_cpu_schedule(xla_flags: str) -> str:
@@ -35,8 +40,21 @@ def with_sequential_cpu_schedule(xla_flags: str) -> str:
     return f"{xla_flags} {FLAG}".strip()
 
 
-def set_sequential_cpu_schedule(environ: MutableMapping[str, str] = os.environ) -> str:
-    """Add ``FLAG`` to ``environ["XLA_FLAGS"]`` unless it names ``OPTION``; returns the new value.
+def set_sequential_cpu_schedule(
+    environ: MutableMapping[str, str] = os.environ, jaxlib_version: str | None = None
+) -> str:
+    """Add ``FLAG`` to ``environ["XLA_FLAGS"]`` when the installed jaxlib (or ``jaxlib_version``)
+    is a 0.10 release and ``XLA_FLAGS`` does not name ``OPTION``; returns its value ("" if unset).
     Processes started from this one inherit it."""
-    environ["XLA_FLAGS"] = with_sequential_cpu_schedule(environ.get("XLA_FLAGS", ""))
-    return environ["XLA_FLAGS"]
+    version = jaxlib_version if jaxlib_version is not None else _installed_jaxlib()
+    if version.startswith(AFFECTED_JAXLIB):
+        environ["XLA_FLAGS"] = with_sequential_cpu_schedule(environ.get("XLA_FLAGS", ""))
+    return environ.get("XLA_FLAGS", "")
+
+
+def _installed_jaxlib() -> str:
+    """The installed jaxlib's version ("" if none), read without importing it."""
+    try:
+        return importlib.metadata.version("jaxlib")
+    except importlib.metadata.PackageNotFoundError:
+        return ""

@@ -42,10 +42,17 @@ def test_the_flag_is_added_once_and_a_users_own_setting_is_kept():
     mine = "--xla_cpu_enable_concurrency_optimized_scheduler=true"
     assert xla_flags.with_sequential_cpu_schedule(mine) == mine
     environ = {"XLA_FLAGS": "--xla_dump_to=/tmp/d"}
-    once = xla_flags.set_sequential_cpu_schedule(environ)
-    assert xla_flags.set_sequential_cpu_schedule(environ) == once == environ["XLA_FLAGS"]
+    once = xla_flags.set_sequential_cpu_schedule(environ, "0.10.2")
+    assert xla_flags.set_sequential_cpu_schedule(environ, "0.10.2") == once == environ["XLA_FLAGS"]
     assert environ["XLA_FLAGS"].count(xla_flags.OPTION) == 1
-    assert xla_flags.FLAG in os.environ["XLA_FLAGS"] or xla_flags.OPTION in os.environ["XLA_FLAGS"]
+
+
+def test_only_jaxlib_0_10_gets_the_flag():
+    """Later jaxlibs do not split the batch, and XLA aborts on a flag it does not know."""
+    for version in ("0.11.2", "0.9.2", ""):
+        environ: dict[str, str] = {}
+        assert xla_flags.set_sequential_cpu_schedule(environ, version) == "" and environ == {}
+    assert xla_flags.set_sequential_cpu_schedule({}, "0.10.0") == xla_flags.FLAG
 
 
 def test_batched_cholesky_calls_side_by_side_return_after_import_jaxpg():

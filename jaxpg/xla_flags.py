@@ -11,13 +11,13 @@ program of 512 envs each hung this way in their first block, the CPU idle; with 
 ran to their end. A schedule orders operations; it does not change what they compute (the same
 metrics, bit for bit, on Hopper), and Hopper's steps ran at the same speed on two cores.
 
-How. Only with jaxlib 0.10 (a later one does not split the batch, and XLA aborts on a flag it does
-not know, so none gets it). XLA reads ``XLA_FLAGS`` once, when JAX starts its first backend, so the
-flag is added to the environment at import, before that. Nothing is changed where ``XLA_FLAGS``
-already names the option (set it to ``true`` there to keep XLA's default). Imported after JAX has
-started a backend, jaxpg's flag comes too late for this process (its child processes still get it).
-The option, given per program as a compile option instead, did not prevent the hang in NPG's update:
-only the process-wide flag did.
+How. Only with jaxlib 0.10: XLA aborts on a flag it does not know, and the flag could not be tried
+on a later jaxlib here (whose LAPACK kernels reportedly no longer split the batch). XLA reads
+``XLA_FLAGS`` once, when JAX starts its first backend, so the flag is added to the environment at
+import, before that. Nothing is changed where ``XLA_FLAGS`` already names the option (set it to
+``true`` there to keep XLA's default). Imported after JAX has started a backend, jaxpg's flag comes
+too late for this process (its child processes still get it). The option, given per program as a
+compile option instead, did not prevent the hang in NPG's update: only the process-wide flag did.
 """
 
 from __future__ import annotations
@@ -28,8 +28,8 @@ from collections.abc import MutableMapping
 
 OPTION = "xla_cpu_enable_concurrency_optimized_scheduler"
 FLAG = f"--{OPTION}=false"
-# The jaxlib releases whose LAPACK kernels split a batch over XLA's pool and wait for it. Later
-# releases are left alone: XLA aborts on a flag it does not know, and none could be tried here.
+# The jaxlib releases known to split a LAPACK batch over XLA's pool and wait for it. Later releases
+# are left alone: XLA aborts on a flag it does not know, and none could be tried here.
 AFFECTED_JAXLIB = "0.10."
 
 

@@ -48,7 +48,7 @@ def test_the_flag_is_added_once_and_a_users_own_setting_is_kept():
 
 
 def test_only_jaxlib_0_10_gets_the_flag():
-    """Later jaxlibs do not split the batch, and XLA aborts on a flag it does not know."""
+    """XLA aborts on a flag it does not know, so only the jaxlib known to deadlock gets it."""
     for version in ("0.11.2", "0.9.2", ""):
         environ: dict[str, str] = {}
         assert xla_flags.set_sequential_cpu_schedule(environ, version) == "" and environ == {}

@@ -291,8 +291,8 @@ EXPECTED = {
     ),
     ("ppo", "ant_fast"): (
         dict(
-            num_envs=4096,
-            horizon=40,
+            num_envs=16384,
+            horizon=10,
             num_minibatches=32,
             num_epochs=4,
             lr=0.0003,
@@ -308,7 +308,7 @@ EXPECTED = {
             value_activation="swish",
             network_init="orthogonal",
             eval_envs=128,
-            eval_every=90,
+            eval_every=150,
         ),
         ("ant",),
     ),
@@ -473,7 +473,7 @@ EXPECTED_ITERATIONS = {
     ("npg", "pusher_1m"): 480,
     ("ppo", "walker2d_fast"): 660,
     ("ppo", "half_cheetah_fast"): 560,
-    ("ppo", "ant_fast"): 870,
+    ("ppo", "ant_fast"): 1370,
     ("ppo", "humanoid_fast"): 250,
     ("ppo", "swimmer_fast"): 250,
     ("ppo", "reacher_fast"): 600,

@@ -243,8 +243,6 @@ def test_unused_fields_are_refused_unless_default():
     refused = [
         (reinforce.Config, "value_hidden", (8,)),
         (reinforce.Config, "normalize_value_targets", True),
-        (algos.get("ppo").Config, "normalize_value_targets", True),
-        (algos.get("a2c").Config, "normalize_value_targets", True),
     ]
     for config_cls, name, value in refused:
         assert name in config_cls.UNUSED_FIELDS

@@ -230,3 +230,40 @@ def test_ppo_learning_rate_metric_is_the_optimizers_schedule():
         assert float(ppo.learning_rate(config, jnp.asarray(it))) == pytest.approx(expected, rel=1e-6, abs=1e-12)
     constant = ppo.Config(lr=3e-4)
     assert float(ppo.learning_rate(constant, jnp.asarray(7))) == pytest.approx(3e-4)
+
+
+def test_ppo_standardised_value_targets_against_numpy(cartpole):
+    """With ``normalize_value_targets``, PPO's value loss is taken against the batch's targets
+    standardised by their statistics (the first batch: its own mean and variance, by NumPy), so
+    it stays near 1 where raw targets 100 times larger give a loss in the thousands; the update
+    leaves those statistics in the state, and the network's predictions in return units are
+    what GAE sees next iteration."""
+    scaled = dict(TINY, num_minibatches=1, num_epochs=1, reward_scaling=100.0)
+    losses = {}
+    for normalise in (False, True):
+        config = ppo.Config(**scaled, normalize_value_targets=normalise)
+        ts = ppo.init(jax.random.PRNGKey(5), cartpole, config)
+        new, metrics = jax.jit(ppo.update)(ts)
+        losses[normalise] = float(metrics["value_loss"])
+
+        sampled, traj, _ = core.phase_sample(ts)
+        batch = actor_critic.phase_advantages(sampled, traj)
+        targets = np.asarray(batch.value_targets, np.float64)
+        outputs = np.asarray(ts.value_fn.apply(ts.value_params, batch.obs), np.float64)
+        if normalise:
+            standardised = (targets - targets.mean()) / np.sqrt(targets.var() + 1e-8)
+            want = np.mean(np.square(outputs - standardised))
+            np.testing.assert_allclose(float(new.value_stats.mean[0]), targets.mean(), rtol=1e-5)
+            np.testing.assert_allclose(float(new.value_stats.var[0]), targets.var(), rtol=1e-4)
+            assert float(new.value_stats.count) == targets.size
+            np.testing.assert_allclose(
+                core.value_predictions(new, batch.obs),
+                new.value_stats.mean[0] + new.value_stats.std[0] * new.value_fn.apply(new.value_params, batch.obs),
+                rtol=1e-6,
+            )
+        else:
+            want = np.mean(np.square(outputs - targets))
+            assert float(new.value_stats.count) == 0.0  # untouched
+        np.testing.assert_allclose(losses[normalise], want, rtol=1e-4)
+    assert targets.std() > 50.0  # the raw targets are far from standardised
+    assert losses[True] < 10.0 < 100.0 < losses[False]

@@ -87,8 +87,9 @@ def update(ts: TrainState) -> tuple[TrainState, dict[str, jax.Array]]:
     old = ts
     ts, traj, _ = core.phase_sample(ts)
     batch = actor_critic.phase_advantages(ts, traj)
+    ts, fit_batch = actor_critic.standardise_value_targets(ts, batch)
     joint, opt_state, diagnostics = actor_critic.gradient_step(
-        ts, optimizer(ts.config), actor_critic.joint_params(ts), ts.opt_state, batch
+        ts, optimizer(ts.config), actor_critic.joint_params(ts), ts.opt_state, fit_batch
     )
     ts = actor_critic.with_joint_params(ts, joint, opt_state)
     metrics = {name: diagnostics[name] for name in ("entropy", "policy_loss", "value_loss", "grad_norm", "loss")}

@@ -9,14 +9,16 @@ whose surrogate is the likelihood ratio times the advantage, ``r A`` with
 
 The optimizer sees ``{"policy": params, "value": value_params}`` (``joint_params``); its state
 lives in ``TrainState.opt_state``, and the parameters stay in ``params`` / ``value_params`` as
-for every algorithm. The value network predicts returns as they are: the joint loss does not
-standardise its targets (``normalize_value_targets`` is not a setting of these algorithms).
+for every algorithm. The value network predicts returns as they are, or, with
+``normalize_value_targets``, standardised by running statistics of the targets
+(``standardise_value_targets``): the value loss then stays near 1 whatever the scale of the
+rewards, so that it does not swamp the policy's share of the clipped joint gradient.
 """
 
 from __future__ import annotations
 
 import dataclasses
-from typing import Any, ClassVar
+from typing import Any
 
 import jax
 import jax.numpy as jnp
@@ -35,15 +37,15 @@ class ActorCriticConfig(core.GAEConfig):
 
     Rewards are multiplied by ``reward_scaling`` before advantages and value targets;
     ``value_coef`` and ``entropy_coef`` weigh the value loss and the entropy bonus;
-    ``max_grad_norm`` clips the global norm of the joint gradient (0: no clipping).
+    ``max_grad_norm`` clips the global norm of the joint gradient (0: no clipping);
+    ``normalize_value_targets`` fits the value network to standardised targets
+    (``standardise_value_targets``).
     """
 
     value_coef: float = 0.5
     entropy_coef: float = 0.0
     max_grad_norm: float = 0.5
     reward_scaling: float = 1.0
-
-    UNUSED_FIELDS: ClassVar[tuple[str, ...]] = ("normalize_value_targets",)
 
     def validate(self, env: Env) -> None:
         super().validate(env)
@@ -73,6 +75,19 @@ def phase_advantages(ts: TrainState, traj: Trajectory) -> core.Batch:
     """``core.phase_advantages`` on rewards multiplied by ``config.reward_scaling``."""
     scaled = traj.replace(rewards=traj.rewards * ts.config.reward_scaling)
     return core.phase_advantages(ts, scaled)
+
+
+def standardise_value_targets(ts: TrainState, batch: core.Batch) -> tuple[TrainState, core.Batch]:
+    """With ``config.normalize_value_targets``: the target statistics absorb ``batch``'s value
+    targets ``[N]`` (``core.absorb_value_targets``, which rescales the value network's output layer
+    so that its predictions in return units stay the same), and the batch comes back with its
+    targets standardised by the new statistics, the units the network is trained in. Without
+    it, ``ts`` and ``batch`` unchanged."""
+    if not ts.config.normalize_value_targets:
+        return ts, batch
+    ts = core.absorb_value_targets(ts, batch)
+    stats = ts.value_stats
+    return ts, batch.replace(value_targets=(batch.value_targets - stats.mean[0]) / stats.std[0])
 
 
 def loss(

@@ -4,7 +4,8 @@ One iteration:
   1. sample ``num_envs x horizon`` transitions with the stochastic policy (``core.phase_sample``);
   2. scale the rewards by ``reward_scaling``, then GAE(gamma, lambda) advantages and
      lambda-return value targets from the current value function
-     (``actor_critic.phase_advantages``);
+     (``actor_critic.phase_advantages``), standardised with ``normalize_value_targets``
+     (``actor_critic.standardise_value_targets``);
   3. ``num_epochs`` passes over the batch, each in a fresh random order cut into
      ``num_minibatches`` minibatches; on each minibatch one optimizer step on the joint loss
      (eq. 9 of the paper)
@@ -46,7 +47,9 @@ class Config(actor_critic.ActorCriticConfig):
     within that distance of the sampling-time prediction (PPO2's value clipping; 0: off);
     ``value_coef`` and ``entropy_coef`` weigh the value loss and the entropy bonus.
     Returns: rewards are multiplied by ``reward_scaling`` before GAE(``gamma``, ``gae_lambda``);
-    ``value_target`` is ``"gae"`` (lambda-returns) or ``"returns"`` (discounted returns).
+    ``value_target`` is ``"gae"`` (lambda-returns) or ``"returns"`` (discounted returns);
+    ``normalize_value_targets`` trains the value network on standardised targets (the value loss,
+    and ``value_clip_eps``, are then in standardised units).
     """
 
     num_envs: int = 32
@@ -153,7 +156,8 @@ def update(ts: TrainState) -> tuple[TrainState, dict[str, jax.Array]]:
     ts, traj, key = core.phase_sample(ts)
     epochs_key, _ = jax.random.split(key)
     batch = actor_critic.phase_advantages(ts, traj)
-    ts, diagnostics = phase_epochs(ts, batch, epochs_key)
+    ts, fit_batch = actor_critic.standardise_value_targets(ts, batch)
+    ts, diagnostics = phase_epochs(ts, fit_batch, epochs_key)
     # The exact mean KL(pi_old || pi_new) over the batch, as every algorithm reports it.
     kl = core.mean_kl(ts, old.params, ts.params, batch)
     metrics = {**diagnostics, "learning_rate": learning_rate(ts.config, old.iteration)}

@@ -27,3 +27,4 @@ PY
     --max-grad-norm 0.5 --eval-envs 16 --eval-every 122 --log-std-init -0.5 --run-dir $R/$name --overwrite > $R/$name.log 2>&1
 for s in 0 1; do JAX_PLATFORMS=cpu JAXPG_COMPILATION_CACHE=off python /tmp/ant_nocfrc_eval.py $R/$name --gymnasium --episodes 10 --train-seed $s > $R/$name-g$s.log 2>&1; done
 # seeds 2 and 3: the same with name=anN23, --seeds 2 3 and the evaluation loop over 2 3
+# anNv: the same as anN (seeds 0 1) with --normalize-value-targets --value-coef 0.25 added

@@ -87,7 +87,7 @@ def update(ts: TrainState) -> tuple[TrainState, dict[str, jax.Array]]:
     old = ts
     ts, traj, _ = core.phase_sample(ts)
     batch = actor_critic.phase_advantages(ts, traj)
-    ts, fit_batch = actor_critic.standardise_value_targets(ts, batch)
+    ts, fit_batch = core.standardise_value_targets(ts, batch)
     joint, opt_state, diagnostics = actor_critic.gradient_step(
         ts, optimizer(ts.config), actor_critic.joint_params(ts), ts.opt_state, fit_batch
     )

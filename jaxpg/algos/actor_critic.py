@@ -11,7 +11,7 @@ The optimizer sees ``{"policy": params, "value": value_params}`` (``joint_params
 lives in ``TrainState.opt_state``, and the parameters stay in ``params`` / ``value_params`` as
 for every algorithm. The value network predicts returns as they are, or, with
 ``normalize_value_targets``, standardised by running statistics of the targets
-(``standardise_value_targets``): the value loss then stays near 1 whatever the scale of the
+(``core.standardise_value_targets``): the value loss then stays near 1 whatever the scale of the
 rewards, so that it does not swamp the policy's share of the clipped joint gradient.
 """
 
@@ -39,7 +39,7 @@ class ActorCriticConfig(core.GAEConfig):
     ``value_coef`` and ``entropy_coef`` weigh the value loss and the entropy bonus;
     ``max_grad_norm`` clips the global norm of the joint gradient (0: no clipping);
     ``normalize_value_targets`` fits the value network to standardised targets
-    (``standardise_value_targets``).
+    (``core.standardise_value_targets``).
     """
 
     value_coef: float = 0.5
@@ -75,19 +75,6 @@ def phase_advantages(ts: TrainState, traj: Trajectory) -> core.Batch:
     """``core.phase_advantages`` on rewards multiplied by ``config.reward_scaling``."""
     scaled = traj.replace(rewards=traj.rewards * ts.config.reward_scaling)
     return core.phase_advantages(ts, scaled)
-
-
-def standardise_value_targets(ts: TrainState, batch: core.Batch) -> tuple[TrainState, core.Batch]:
-    """With ``config.normalize_value_targets``: the target statistics absorb ``batch``'s value
-    targets ``[N]`` (``core.absorb_value_targets``, which rescales the value network's output layer
-    so that its predictions in return units stay the same), and the batch comes back with its
-    targets standardised by the new statistics, the units the network is trained in. Without
-    it, ``ts`` and ``batch`` unchanged."""
-    if not ts.config.normalize_value_targets:
-        return ts, batch
-    ts = core.absorb_value_targets(ts, batch)
-    stats = ts.value_stats
-    return ts, batch.replace(value_targets=(batch.value_targets - stats.mean[0]) / stats.std[0])
 
 
 def loss(

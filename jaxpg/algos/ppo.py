@@ -5,7 +5,7 @@ One iteration:
   2. scale the rewards by ``reward_scaling``, then GAE(gamma, lambda) advantages and
      lambda-return value targets from the current value function
      (``actor_critic.phase_advantages``), standardised with ``normalize_value_targets``
-     (``actor_critic.standardise_value_targets``);
+     (``core.standardise_value_targets``);
   3. ``num_epochs`` passes over the batch, each in a fresh random order cut into
      ``num_minibatches`` minibatches; on each minibatch one optimizer step on the joint loss
      (eq. 9 of the paper)
@@ -156,7 +156,7 @@ def update(ts: TrainState) -> tuple[TrainState, dict[str, jax.Array]]:
     ts, traj, key = core.phase_sample(ts)
     epochs_key, _ = jax.random.split(key)
     batch = actor_critic.phase_advantages(ts, traj)
-    ts, fit_batch = actor_critic.standardise_value_targets(ts, batch)
+    ts, fit_batch = core.standardise_value_targets(ts, batch)
     ts, diagnostics = phase_epochs(ts, fit_batch, epochs_key)
     # The exact mean KL(pi_old || pi_new) over the batch, as every algorithm reports it.
     kl = core.mean_kl(ts, old.params, ts.params, batch)

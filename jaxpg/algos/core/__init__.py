@@ -49,7 +49,12 @@ from jaxpg.algos.core.state import (
     memory_lower_bound,
     sampler_env,
 )
-from jaxpg.algos.core.value_fit import absorb_value_targets, phase_value_fit, value_optimizer
+from jaxpg.algos.core.value_fit import (
+    absorb_value_targets,
+    phase_value_fit,
+    standardise_value_targets,
+    value_optimizer,
+)
 
 __all__ = [
     "POLICY_NAMES",
@@ -86,6 +91,7 @@ __all__ = [
     "sampling_metrics",
     "shard_state",
     "split_over_envs",
+    "standardise_value_targets",
     "value_optimizer",
     "value_predictions",
     "weighted_mean",

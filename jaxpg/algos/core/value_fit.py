@@ -1,7 +1,8 @@
 """The value fit every algorithm with a separately fitted value function uses (NPG, TRPO, VPG):
 minibatch Adam on the batch's value targets (``jaxpg.value.fit_value``), optionally on targets
 standardised by running statistics whose moves the output layer absorbs (PopArt's "preserve
-outputs", van Hasselt et al. 2016)."""
+outputs", van Hasselt et al. 2016); PPO and A2C, whose value loss is part of a joint loss, share
+the standardisation (``standardise_value_targets``)."""
 
 from __future__ import annotations
 
@@ -34,28 +35,38 @@ def absorb_value_targets(ts: TrainState, batch: Batch) -> TrainState:
     return ts.replace(value_params=value_params, value_stats=stats)
 
 
+def standardise_value_targets(ts: TrainState, batch: Batch) -> tuple[TrainState, Batch]:
+    """With ``config.normalize_value_targets``: the target statistics absorb ``batch``'s value
+    targets ``[N]`` (``absorb_value_targets``, which rescales the value network's output layer so
+    that its predictions in return units stay the same), and the batch comes back with its
+    targets standardised by the new statistics, the units the network is trained in. Without
+    it, ``ts`` and ``batch`` unchanged."""
+    if not ts.config.normalize_value_targets:
+        return ts, batch
+    ts = absorb_value_targets(ts, batch)
+    stats = ts.value_stats
+    return ts, batch.replace(value_targets=(batch.value_targets - stats.mean[0]) / stats.std[0])
+
+
 def phase_value_fit(ts: TrainState, batch: Batch, key: jax.Array) -> tuple[TrainState, jax.Array]:
     """Fit the value network to ``batch.value_targets``: ``config.value_epochs`` passes of
     minibatch Adam (``value_optimizer``) on the weighted mean squared error, each epoch over at
     most ``config.value_epoch_samples`` samples (when > 0).
 
-    With ``normalize_value_targets`` the statistics first absorb this batch
-    (``absorb_value_targets``) and the network is fitted to the standardised targets; the loss is
+    With ``normalize_value_targets`` the statistics first absorb this batch and the network is
+    fitted to the standardised targets (``standardise_value_targets``); the loss is
     then in standardised units. Returns the state with the new value parameters, optimizer state
     and statistics, and the loss ``[]`` averaged over the minibatch steps.
     """
     config = ts.config
-    targets = batch.value_targets
-    if config.normalize_value_targets:
-        ts = absorb_value_targets(ts, batch)
-        targets = (targets - ts.value_stats.mean[0]) / ts.value_stats.std[0]
+    ts, batch = standardise_value_targets(ts, batch)
     value_params, value_opt_state, loss = value_lib.fit_value(
         ts.value_fn,
         ts.value_params,
         ts.value_opt_state,
         value_optimizer(config),
         batch.obs,
-        targets,
+        batch.value_targets,
         key,
         epochs=config.value_epochs,
         batch_size=config.value_minibatch_size,

@@ -349,6 +349,14 @@ BAD_INPUT = [
     (["--fidelity", "exact"], "--fidelity"),
     (["--minutes", "0"], "--minutes must be > 0"),
     (["--video-every"], "argument --video-every: expected one argument"),
+    (["--env-kwargs", "noise"], "argument --env-kwargs: expected KEY=VALUE, got 'noise'"),
+    (
+        ["--env-kwargs", "nope=1"],
+        "--env-kwargs: task 'inverted_pendulum' has no option 'nope'; its options: max_angle, reset_noise_scale",
+    ),
+    (["--env-kwargs", "max_angle=wide"], "--env-kwargs: task option max_angle must be a number, got 'wide'"),
+    (["--env-kwargs", "impl=jax"], "--env-kwargs: impl is set by its own flag, not --env-kwargs: use --impl"),
+    (["--env-kwargs", "max_angle=1", "max_angle=2"], "--env-kwargs gives max_angle more than once"),
 ]
 
 
@@ -403,6 +411,39 @@ def test_config_flags_parse_into_config(runs, monkeypatch):
     experiment = command_line.Experiment(config={"*": {"horizon": 16, "no_such_field": 1}, "npg": {"kl_delta": 0.1}})
     plan = planning.plan(["--run-dir", "planned"], experiment)
     assert plan.config.horizon == 16 and plan.config.kl_delta == 0.1
+
+
+def test_env_kwargs_reach_the_task_the_run_and_gymnasium(runs, tmp_path, monkeypatch):
+    """``--env-kwargs`` (and a preset's task options, below it) go to the task, are saved with the
+    run (a list comes back as the tuple the task takes) and are given to Gymnasium's env by the
+    replay; an option Gymnasium's env lacks is refused there rather than dropped."""
+    pytest.importorskip("gymnasium")
+    from jaxpg.run import replay
+
+    monkeypatch.chdir(runs)
+    experiment = command_line.Experiment()
+    base = ["--env", "ant", "--impl", "jax", "--run-dir", "planned"]
+    plans = {
+        "flag": planning.plan([*base, "--env-kwargs", "include_cfrc_ext_in_observation=false"], experiment),
+        "preset": planning.plan([*base, "--algo", "ppo", "--preset", "ant_1m"], experiment),
+        "flag over preset": planning.plan(
+            [*base, "--algo", "ppo", "--preset", "ant_1m", "--env-kwargs", "include_cfrc_ext_in_observation=1"],
+            experiment,
+        ),
+    }
+    for name, size in (("flag", 27), ("preset", 27), ("flag over preset", 105)):
+        plan = plans[name]
+        assert plan.env.observation_size == size, name
+        assert plan.run.env_kwargs["include_cfrc_ext_in_observation"] is (size == 105), name
+        gym_env = replay.gymnasium_reference_env("ant", plan.run.env_kwargs)
+        assert gym_env.observation_space.shape == (size,), name
+    assert not (runs / "planned").exists()
+
+    run = dataclasses.replace(plans["flag"].run, env_kwargs={"healthy_z_range": (0.3, 1.0), "impl": "jax"})
+    run.save(tmp_path)
+    assert config_io.RunConfig.load(tmp_path).env_kwargs == {"healthy_z_range": (0.3, 1.0), "impl": "jax"}
+    with pytest.raises(ValueError, match="Gymnasium's InvertedPendulum-v5 has no option max_angle"):
+        replay.gymnasium_reference_env("inverted_pendulum", {"max_angle": 0.3, "impl": "jax"})
 
 
 def test_a_preset_sets_its_iterations_unless_the_flag_does(runs, monkeypatch):

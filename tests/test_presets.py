@@ -12,6 +12,7 @@ import pytest
 
 from jaxpg import algos, envs
 from jaxpg.algos import presets
+from jaxpg.run import task_options
 from jaxpg.run.config_io import RunConfig
 
 LYCEUM = dict(
@@ -456,6 +457,7 @@ EXPECTED_NAMES = {
         "walker2d_fast",
         "half_cheetah_fast",
         "ant_fast",
+        "ant_1m",
         "humanoid_fast",
         "swimmer_fast",
         "reacher_fast",
@@ -474,6 +476,7 @@ EXPECTED_ITERATIONS = {
     ("ppo", "walker2d_fast"): 660,
     ("ppo", "half_cheetah_fast"): 560,
     ("ppo", "ant_fast"): 1370,
+    ("ppo", "ant_1m"): 488,
     ("ppo", "humanoid_fast"): 250,
     ("ppo", "swimmer_fast"): 250,
     ("ppo", "reacher_fast"): 600,
@@ -485,8 +488,8 @@ ANY_TASK_CHECKS = ("inverted_pendulum", "cartpole", "hopper")
 
 
 @functools.cache
-def env(task: str) -> envs.Env:
-    return envs.make(task)
+def env(task: str, options: tuple[tuple[str, object], ...] = ()) -> envs.Env:
+    return envs.make(task, **dict(options))
 
 
 @pytest.mark.parametrize("key", sorted(EXPECTED), ids="/".join)
@@ -524,9 +527,22 @@ def test_every_preset_builds_a_valid_config_for_its_tasks(key):
     config = algos.get(algo).Config(**algos.preset(algo, name))
     assert row.tasks is None or (row.tasks and set(row.tasks) <= set(envs.names())), row.tasks
     for task in row.tasks or ANY_TASK_CHECKS:
-        config.validate(env(task))
+        assert task_options.check_options(task, dict(row.env_kwargs)) == row.env_kwargs
+        config.validate(env(task, tuple(row.env_kwargs.items())))
         assert algos.preset(algo, name, task) == dict(row.overrides)
         assert name in algos.preset_names(algo, task)
+
+
+def test_presets_that_set_task_options():
+    """Only ``ant_1m`` sets a task option (Ant-v3's observation, without the contact forces), and
+    the lookup hands out a copy."""
+    assert {key: dict(row.env_kwargs) for key, row in presets.TABLE.items() if row.env_kwargs} == {
+        ("ppo", "ant_1m"): {"include_cfrc_ext_in_observation": False}
+    }
+    copy = algos.preset_env_kwargs("ppo", "ant_1m")
+    copy["include_cfrc_ext_in_observation"] = True
+    assert algos.preset_env_kwargs("ppo", "ant_1m") == {"include_cfrc_ext_in_observation": False}
+    assert algos.preset_env_kwargs("ppo", "ant_fast") == {} == algos.preset_env_kwargs("ppo", "nope")
 
 
 def test_module_presets_are_read_only_views_of_the_table():

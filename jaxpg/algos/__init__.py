@@ -64,6 +64,13 @@ def preset_iterations(algo: str, name: str) -> int | None:
     return None if row is None else row.iterations
 
 
+def preset_env_kwargs(algo: str, name: str) -> dict[str, Any]:
+    """The task options (``jaxpg.envs.make`` keyword arguments) that ``algo``'s preset ``name``
+    sets; ``{}`` for most presets, and for an unknown one (which ``preset`` refuses)."""
+    row = presets.TABLE.get((algo, name))
+    return {} if row is None else dict(row.env_kwargs)
+
+
 def preset_names(algo: str, task: str | None = None) -> list[str]:
     """The presets of ``algo`` (those that suit ``task`` when given), sorted."""
     _check_known(algo)

@@ -43,7 +43,7 @@ from typing import Any
 
 from jaxpg import algos, envs
 from jaxpg.algos.field_help import field_choices, field_help
-from jaxpg.run import config_io
+from jaxpg.run import config_io, task_options
 from jaxpg.run.flags import UsageError, finite_float, seed_value
 
 
@@ -133,7 +133,7 @@ RUN_FLAGS = (
     "task", "algo", "seed", "seeds", "iterations", "run_dir", "resume", "overwrite", "checkpoint_every",
     "keep_checkpoints", "log_every", "video_every", "preset", "profile", "fidelity", "impl",
     "max_episode_steps", "shard", "progress", "coordinator_address", "num_processes", "process_id",
-    "distributed_timeout", "minutes",
+    "distributed_timeout", "minutes", "env_kwargs",
 )  # fmt: skip
 
 
@@ -202,6 +202,13 @@ def _positive(text: str) -> int:
     if value < 0:
         raise argparse.ArgumentTypeError(f"must be >= 0, got {value}")
     return value
+
+
+def _assignment(text: str) -> tuple[str, Any]:
+    try:
+        return task_options.parse_assignment(text)
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
 
 
 def _keep_count(text: str) -> int:
@@ -287,6 +294,15 @@ def build_parser(experiment: Experiment, algo: str, config_cls: type | None, con
     run.add_argument("--fidelity", choices=("fast", "gymnasium"), help="MJX physics settings (default: fast)")
     run.add_argument("--impl", choices=("jax", "warp"), help="MJX implementation (default: warp on a GPU, else jax)")
     run.add_argument("--max-episode-steps", type=int, help="time limit of an episode (default: the task's)")
+    run.add_argument(
+        "--env-kwargs",
+        nargs="+",
+        type=_assignment,
+        metavar="KEY=VALUE",
+        help="options of the task, with the meaning of Gymnasium's env keyword arguments, e.g. "
+        "include_cfrc_ext_in_observation=false for ant; saved with the run, and given to Gymnasium's env "
+        "by python -m jaxpg.evaluate --gymnasium (default: the task's, or the preset's)",
+    )
     run.add_argument(
         "--progress",
         action=argparse.BooleanOptionalAction,

@@ -134,7 +134,14 @@ class RunConfig:
         bad = [s for s in seeds if not 0 <= s <= MAX_SEED]
         if bad:
             raise RunDirError(f"{path}: seeds must be integers in [0, {MAX_SEED}], got {bad[0]}")
+        # JSON has no tuples: a task option such as healthy_z_range comes back as a list.
+        values["env_kwargs"] = {k: _as_tuples(v) for k, v in values.get("env_kwargs", {}).items()}
         return cls(**values)
+
+
+def _as_tuples(value: Any) -> Any:
+    """``value`` with every list, nested too, as a tuple (what the env constructors take)."""
+    return tuple(_as_tuples(v) for v in value) if isinstance(value, list) else value
 
 
 def _no_default(field: dataclasses.Field) -> bool:

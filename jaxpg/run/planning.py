@@ -14,7 +14,17 @@ from typing import Any
 import jax
 
 from jaxpg import algos, envs
-from jaxpg.run import checkpointer, config_io, directory, layout, metrics_log, policy_io, replacing, run_lock
+from jaxpg.run import (
+    checkpointer,
+    config_io,
+    directory,
+    layout,
+    metrics_log,
+    policy_io,
+    replacing,
+    run_lock,
+    task_options,
+)
 from jaxpg.run.command_line import (
     CONFIG_PREFIX,
     ENV_PREFIX,
@@ -51,6 +61,21 @@ def _explicit_config(args: argparse.Namespace) -> dict[str, Any]:
 
 def _explicit_env(args: argparse.Namespace) -> dict[str, Any]:
     return {k[len(ENV_PREFIX) :]: v for k, v in vars(args).items() if k.startswith(ENV_PREFIX) and v is not None}
+
+
+def _task_options(args: argparse.Namespace, algo: str, task: str) -> dict[str, Any]:
+    """The task options of the preset, then those of ``--env-kwargs`` (``UsageError`` for one given
+    twice, unknown to the task, or of the wrong type), converted to the task's types."""
+    given = dict(args.env_kwargs or ())
+    if len(given) < len(args.env_kwargs or ()):
+        keys = [key for key, _ in args.env_kwargs]
+        twice = sorted({key for key in keys if keys.count(key) > 1})
+        raise UsageError(f"--env-kwargs gives {', '.join(twice)} more than once")
+    options = algos.preset_env_kwargs(algo, args.preset) if args.preset is not None else {}
+    try:
+        return task_options.check_options(task, {**options, **given})
+    except ValueError as e:
+        raise UsageError(f"--env-kwargs: {e}") from None
 
 
 def _default_run_dir(task: str, algo: str) -> Path:
@@ -107,7 +132,7 @@ def plan_fresh(args: argparse.Namespace, experiment: Experiment, module: Any, al
     values.update(_explicit_config(args))
     types = config_io.field_types(config_cls)
     config = config_cls(**{k: config_io.coerce(types[k], v) for k, v in values.items()})
-    env_kwargs = {**experiment.env_kwargs, **_explicit_env(args)}
+    env_kwargs = {**experiment.env_kwargs, **_task_options(args, algo, task), **_explicit_env(args)}
     for key in ("fidelity", "impl", "max_episode_steps"):
         if getattr(args, key) is not None:
             env_kwargs[key] = getattr(args, key)
@@ -159,7 +184,17 @@ def plan_fresh(args: argparse.Namespace, experiment: Experiment, module: Any, al
 
 def plan_resume(args: argparse.Namespace, run: RunConfig, run_dir: Path) -> Plan:
     fixed = [flag_name(k) for k in (*_explicit_config(args), *_explicit_env(args))]
-    for key in ("seed", "seeds", "preset", "fidelity", "impl", "max_episode_steps", "run_dir", "overwrite"):
+    for key in (
+        "seed",
+        "seeds",
+        "preset",
+        "fidelity",
+        "impl",
+        "max_episode_steps",
+        "env_kwargs",
+        "run_dir",
+        "overwrite",
+    ):
         if getattr(args, key) is not None:
             fixed.append(flag_name(key))
     if args.task is not None and args.task != run.task:

@@ -3,6 +3,8 @@
 
 from __future__ import annotations
 
+import importlib
+import inspect
 from collections.abc import Callable
 from typing import Any
 
@@ -11,6 +13,7 @@ import numpy as np
 from jaxpg import envs
 from jaxpg import video as video_lib
 from jaxpg.envs import atari
+from jaxpg.run import task_options
 
 GYMNASIUM_INSTALL = "pip install 'gymnasium[mujoco]'"
 
@@ -43,12 +46,28 @@ def gymnasium_reference_env(task: str, env_kwargs: dict[str, Any], render: bool 
     if gym_id is None:
         known = ", ".join(envs.GYMNASIUM_COUNTERPARTS)
         raise ValueError(f"task {task!r} has no Gymnasium counterpart; known: {known}")
-    kwargs: dict[str, Any] = {}
+    kwargs = gymnasium_options(task, gym_id, env_kwargs)
     if "max_episode_steps" in env_kwargs:
         kwargs["max_episode_steps"] = int(env_kwargs["max_episode_steps"])
     if render and task != "cartpole":  # CartPole's renderer needs pygame; jaxpg draws it itself
         kwargs.update(render_mode="rgb_array", width=480, height=480)
     return gym.make(gym_id, **kwargs)
+
+
+def gymnasium_options(task: str, gym_id: str, env_kwargs: dict[str, Any]) -> dict[str, Any]:
+    """The task options among ``env_kwargs`` (``jaxpg.run.task_options``, e.g. Ant's
+    ``include_cfrc_ext_in_observation``), which Gymnasium's ``gym_id`` takes with the same meaning;
+    ``ValueError`` for one that it does not take (a replay without it would score another task).
+    The simulation settings (fidelity, implementation, batch) are jaxpg's own and stay out."""
+    import gymnasium as gym
+
+    options = {k: v for k, v in env_kwargs.items() if k in task_options.option_types(task)}
+    module_name, _, class_name = str(gym.spec(gym_id).entry_point).partition(":")
+    accepted = inspect.signature(getattr(importlib.import_module(module_name), class_name)).parameters
+    missing = sorted(set(options) - set(accepted))
+    if missing:
+        raise ValueError(f"Gymnasium's {gym_id} has no option {', '.join(missing)}, which this run's env was given")
+    return options
 
 
 def evaluate_gymnasium(

@@ -446,6 +446,33 @@ def test_env_kwargs_reach_the_task_the_run_and_gymnasium(runs, tmp_path, monkeyp
         replay.gymnasium_reference_env("inverted_pendulum", {"max_angle": 0.3, "impl": "jax"})
 
 
+# Task options with no keyword of that name in the task's Gymnasium env: the Gymnasium replay refuses a
+# run that set one. Every other option of every task with a Gymnasium counterpart is Gymnasium's own.
+OPTIONS_GYMNASIUM_LACKS = {
+    "hopper": ["healthy_angle_max", "healthy_state_max", "healthy_z_min"],
+    "inverted_pendulum": ["max_angle"],
+    "inverted_double_pendulum": ["min_tip_height"],
+    "reacher": ["arm_noise_scale", "arm_velocity_noise_scale", "target_radius"],
+    "cartpole": ["reset_bound"],
+}
+
+
+def test_task_options_are_gymnasiums_keywords_but_the_listed_ones():
+    pytest.importorskip("gymnasium")
+    from jaxpg import envs
+    from jaxpg.run import replay, task_options
+
+    lacking = {}
+    for task, (gym_id, _) in envs.GYMNASIUM_COUNTERPARTS.items():
+        options = task_options.option_types(task)
+        assert not set(options) & {"naconmax", "njmax", "fidelity", "impl", "batch"}, task
+        try:
+            replay.gymnasium_options(task, gym_id, dict.fromkeys(options, 0))
+        except ValueError as e:
+            lacking[task] = str(e).split(" has no option ")[1].split(", which")[0].split(", ")
+    assert lacking == OPTIONS_GYMNASIUM_LACKS
+
+
 def test_a_preset_sets_its_iterations_unless_the_flag_does(runs, monkeypatch):
     """A preset made for a step budget (``hopper_1m``: 120 iterations of 8192 samples) runs that many
     iterations from the command line without ``--iterations``; the flag still wins, and a preset

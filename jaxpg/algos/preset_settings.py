@@ -123,3 +123,58 @@ NPG_HOPPER: Mapping[str, Any] = MappingProxyType(
 # std 2.7 before clipping), which keeps Hopper's seeds out of the "dive forward once" optimum. The
 # `*_1m` presets of the other tasks change its initial log-std (and step size).
 NPG_1M: Mapping[str, Any] = MappingProxyType({**NPG_HOPPER, "horizon": 32, "log_std_init": 1.0})
+
+# PPO within 1 M env steps at Tianshou's MuJoCo settings: 16 envs x 128 steps (2048 samples), 10
+# epochs x 32 minibatches, lr 3e-4 annealed to 0 over the 488 iterations (0.999 M env steps),
+# 64x64 tanh networks, initial log-std -0.5, observation normalisation, gradients clipped at 0.5.
+PPO_SMALL_BATCH: Mapping[str, Any] = MappingProxyType(
+    dict(
+        num_envs=16,
+        horizon=128,
+        gamma=0.99,
+        gae_lambda=0.95,
+        normalize_observations=True,
+        policy_hidden=(64, 64),
+        value_hidden=(64, 64),
+        policy_activation="tanh",
+        value_activation="tanh",
+        log_std_init=-0.5,
+        num_epochs=10,
+        num_minibatches=32,
+        lr=3e-4,
+        anneal_lr_iterations=488,
+        max_grad_norm=0.5,
+        entropy_coef=0.0,
+        reward_scaling=1.0,
+        eval_envs=16,
+        eval_every=122,
+    )
+)
+
+# PPO within 1 M env steps at SB3 RL Zoo's tuned HalfCheetah settings (its 1 env x 512 steps as 16
+# envs x 32; 20 epochs x 8 minibatches, lr 2.06e-5, clip 0.1, gamma 0.98, lambda 0.92, initial
+# log-std -2, 256x256 ReLU networks), 1953 iterations (0.9999 M env steps), rewards x 0.05.
+PPO_ZOO_HALF_CHEETAH: Mapping[str, Any] = MappingProxyType(
+    dict(
+        num_envs=16,
+        horizon=32,
+        num_minibatches=8,
+        num_epochs=20,
+        lr=2.0633e-05,
+        clip_eps=0.1,
+        gae_lambda=0.92,
+        gamma=0.98,
+        max_grad_norm=0.8,
+        value_coef=0.58096,
+        entropy_coef=0.000401762,
+        log_std_init=-2.0,
+        policy_hidden=(256, 256),
+        value_hidden=(256, 256),
+        policy_activation="relu",
+        value_activation="relu",
+        normalize_observations=True,
+        reward_scaling=0.05,
+        eval_envs=16,
+        eval_every=500,
+    )
+)

@@ -15,8 +15,10 @@ from typing import Any
 from jaxpg import envs
 from jaxpg.run import config_io
 
-# Parameters of a task's constructor that are simulation settings, not task options.
+# Parameters of a task's constructor that are simulation settings, not task options: those with
+# their own flags, then MuJoCo Warp's buffer sizes (which some tasks raise by default).
 SIMULATION_SETTINGS = ("self", "fidelity", "impl", "max_episode_steps")
+BUFFER_SIZES = ("naconmax", "njmax")
 
 
 def parse_assignment(text: str) -> tuple[str, Any]:
@@ -43,7 +45,7 @@ def option_types(task: str) -> dict[str, Any]:
     hints = typing.get_type_hints(cls.__init__)
     out: dict[str, Any] = {}
     for name, param in inspect.signature(cls.__init__).parameters.items():
-        if name in SIMULATION_SETTINGS or param.kind in (param.VAR_KEYWORD, param.VAR_POSITIONAL):
+        if name in SIMULATION_SETTINGS + BUFFER_SIZES or param.kind in (param.VAR_KEYWORD, param.VAR_POSITIONAL):
             continue
         out[name] = hints.get(name, Any)
     return out

@@ -458,7 +458,12 @@ OPTIONS_GYMNASIUM_LACKS = {
 
 
 def test_task_options_are_gymnasiums_keywords_but_the_listed_ones():
-    pytest.importorskip("gymnasium")
+    """Every task option but the listed ones is a keyword of the task's Gymnasium env, with
+    Gymnasium's default."""
+    gym = pytest.importorskip("gymnasium")
+    import importlib
+    import inspect
+
     from jaxpg import envs
     from jaxpg.run import replay, task_options
 
@@ -470,6 +475,13 @@ def test_task_options_are_gymnasiums_keywords_but_the_listed_ones():
             replay.gymnasium_options(task, gym_id, dict.fromkeys(options, 0))
         except ValueError as e:
             lacking[task] = str(e).split(" has no option ")[1].split(", which")[0].split(", ")
+        spec = gym.spec(gym_id)
+        module_name, _, class_name = str(spec.entry_point).partition(":")
+        gym_params = inspect.signature(getattr(importlib.import_module(module_name), class_name)).parameters
+        ours = inspect.signature(envs.task_class(task)).parameters
+        for name in set(options) & set(gym_params):
+            theirs = spec.kwargs.get(name, gym_params[name].default)
+            np.testing.assert_allclose(np.asarray(ours[name].default, float), np.asarray(theirs, float), err_msg=name)
     assert lacking == OPTIONS_GYMNASIUM_LACKS
 
 

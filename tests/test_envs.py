@@ -1702,6 +1702,56 @@ def test_gymnasium_parity_humanoid(task, parity_results):
     assert r["after_reward"] < 1e-3 and r["after_info"] < 1e-3, r
 
 
+# Gymnasium's observation keywords of Humanoid and HumanoidStandup, each combination checked below.
+HUMANOID_OBSERVATION_KEYWORDS = [
+    {},
+    {"exclude_current_positions_from_observation": False, "include_cinert_in_observation": False},
+    {"include_cvel_in_observation": False, "include_cfrc_ext_in_observation": False},
+    {"include_qfrc_actuator_in_observation": False, "include_cinert_in_observation": False},
+]
+
+
+@pytest.mark.parametrize("task", HUMANOID_TASKS)
+def test_humanoid_observation_keywords_match_gymnasium(task):
+    """Each combination of Gymnasium's observation keywords gives Gymnasium's own observation
+    (``_get_obs`` of its v5 env made with them), read from the same MuJoCo data after 20 or more
+    random steps (up to one with contact forces; actuator forces nonzero), and the same
+    observation size."""
+    for keywords in HUMANOID_OBSERVATION_KEYWORDS:
+        gym_env = make_gymnasium(task, **keywords).unwrapped
+        gym_env.reset(seed=0)
+        rng = np.random.default_rng(0)
+        for t in range(300):  # on until a step with contacts (the lying humanoid bounces off the floor)
+            gym_env.step(rng.uniform(-0.4, 0.4, gym_env.action_space.shape))
+            if t >= 20 and np.abs(gym_env.data.cfrc_ext).max() > 0:
+                break
+        env = envs.make_task(task, impl="jax", **keywords)
+        data = mjx.put_data(env.mj_model, gym_env.data)
+        expected = gym_env._get_obs()
+        assert env.observation_size == expected.shape[0] == gym_env.observation_space.shape[0], keywords
+        assert np.abs(gym_env.data.cfrc_ext).max() > 0 and np.abs(gym_env.data.qfrc_actuator).max() > 0
+        observation = np.asarray(env.observation(data))
+        np.testing.assert_allclose(observation, expected, rtol=1e-6, atol=1e-6, err_msg=str(keywords))
+
+
+def test_humanoid_terminate_when_unhealthy(monkeypatch):
+    """``terminate_when_unhealthy=False`` (Gymnasium's keyword): a fallen humanoid's step is not
+    terminal, and it earns no survive reward, as in Gymnasium v5; by default the step terminates."""
+    gym_env = make_gymnasium("humanoid").unwrapped
+    gym_env.reset(seed=0)
+    qpos = gym_env.data.qpos.copy()
+    qpos[2] = 0.5  # the torso below the healthy range
+    gym_env.set_state(qpos, gym_env.data.qvel)
+    action = np.zeros(gym_env.action_space.shape)
+    for terminate in (True, False):
+        env = envs.make_task("humanoid", impl="jax", terminate_when_unhealthy=terminate)
+        monkeypatch.setattr(env, "physics_step", lambda data, ctrl: data)  # stay where set: no physics
+        data = mjx.put_data(env.mj_model, gym_env.data)
+        state = envs.State(data=data, obs=None, reward=None, terminated=None, truncated=None, metrics={}, info={})
+        _, _, _, terminated, metrics = env._step(state, action)
+        assert bool(terminated) is terminate and float(metrics["reward_survive"]) == 0.0
+
+
 def test_humanoid_newton_in_place_of_pgs():
     """Gymnasium's Humanoid-v5 model asks for the PGS solver, which ``mjx.put_model`` refuses; jaxpg's
     asset asks for it too (it is Gymnasium's model) and ``load_model`` gives it Newton in both

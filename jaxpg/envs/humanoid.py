@@ -8,8 +8,11 @@ on the bodies ``cfrc_ext[1:]`` (13 x 6 = 78). Action ``[17]`` in ``[-0.4, 0.4]``
 (gears 25-300). Reward: ``1.25 *`` the x-velocity of the centre of mass (the mass-weighted mean of
 the bodies' ``xipos``, differenced over the step) ``+ 5`` while healthy ``- 0.1 |action|^2 -
 min(5e-7 * sum(cfrc_ext^2), 10)``. Healthy: torso height ``1 < qpos[2] < 2``; an unhealthy state
-terminates the episode, with no survive reward on that step. Reset noise: uniform +-1e-2 on qpos
-and qvel. Frame skip 5 (dt 0.015 s), 1000-step limit.
+terminates the episode (unless ``terminate_when_unhealthy=False``), with no survive reward on that
+step. Reset noise: uniform +-1e-2 on qpos and qvel. Frame skip 5 (dt 0.015 s), 1000-step limit.
+Gymnasium's keywords ``exclude_current_positions_from_observation`` (``False``: ``qpos`` whole, 24)
+and ``include_{cinert,cvel,qfrc_actuator,cfrc_ext}_in_observation`` choose the observation's parts,
+as in Gymnasium; the contact cost reads ``cfrc_ext`` whether it is observed or not.
 
 As in Gymnasium, the derived quantities (``cinert``, ``cvel``, ``xipos``, ``qfrc_actuator``) are
 those MuJoCo leaves in ``data`` after the step: ``mjx.step`` and ``mj_step`` both run the forward
@@ -70,8 +73,9 @@ from jaxpg.envs.mjx_env import Fidelity, Impl, MjxEnv, mjx, planar_position_metr
 
 class HumanoidBase(MjxEnv):
     """What Humanoid and HumanoidStandup share: Gymnasium's 17-motor humanoid model (``xml_file``)
-    at frame skip 5, its ``[348]`` observation with the external forces ``cfrc_ext`` after the
-    step, and the reset noise; the tasks add their rewards."""
+    at frame skip 5, its observation (``[348]`` with every part; Gymnasium's keywords choose the
+    parts) with the external forces ``cfrc_ext`` after the step, and the reset noise; the tasks
+    add their rewards."""
 
     action_low = -0.4
     action_high = 0.4
@@ -85,6 +89,11 @@ class HumanoidBase(MjxEnv):
         reset_noise_scale: float,
         naconmax: int,
         njmax: int,
+        exclude_current_positions_from_observation: bool = True,
+        include_cinert_in_observation: bool = True,
+        include_cvel_in_observation: bool = True,
+        include_qfrc_actuator_in_observation: bool = True,
+        include_cfrc_ext_in_observation: bool = True,
         **mjx_kwargs: Any,
     ):
         super().__init__(
@@ -101,8 +110,24 @@ class HumanoidBase(MjxEnv):
             opt = self.mjx_model.opt
             opt = opt.replace(_impl=opt._impl.replace(run_rne_postconstraint=True))
             self.mjx_model = self.mjx_model.replace(opt=opt)
-        nbody = self.mj_model.nbody
-        self.observation_size = (self.nq - 2) + self.nv + (nbody - 1) * (10 + 6 + 6) + (self.nv - 6)
+        # The observation's parts, Gymnasium's keywords: qpos (less the torso's x-y when excluded),
+        # qvel, then each of cinert, cvel, qfrc_actuator and cfrc_ext that is included.
+        self.skipped_qpos = 2 if exclude_current_positions_from_observation else 0
+        self.observed = {
+            "cinert": include_cinert_in_observation,
+            "cvel": include_cvel_in_observation,
+            "qfrc_actuator": include_qfrc_actuator_in_observation,
+            "cfrc_ext": include_cfrc_ext_in_observation,
+        }
+        body_rows = self.mj_model.nbody - 1
+        sizes = {
+            "cinert": body_rows * 10,
+            "cvel": body_rows * 6,
+            "qfrc_actuator": self.nv - 6,
+            "cfrc_ext": body_rows * 6,
+        }
+        self.observation_size = (self.nq - self.skipped_qpos) + self.nv
+        self.observation_size += sum(size for name, size in sizes.items() if self.observed[name])
         self.action_size = self.mj_model.nu
         self.reset_noise_scale = reset_noise_scale
 
@@ -171,18 +196,17 @@ class HumanoidBase(MjxEnv):
         return self.physics_state(qpos, qvel, forward=True)
 
     def observation(self, data: Any) -> jax.Array:
-        """``[348]`` observation from an ``mjx.Data`` after a step (or a forward pass at reset)."""
+        """``[observation_size]`` observation (348 by default) from an ``mjx.Data`` after a step (or
+        a forward pass at reset), its parts chosen by Gymnasium's keywords (``__init__``)."""
         impl = data._impl
-        return jnp.concatenate(
-            [
-                data.qpos[2:],
-                data.qvel,
-                impl.cinert[1:].reshape(-1),
-                data.cvel[1:].reshape(-1),
-                data.qfrc_actuator[6:],
-                impl.cfrc_ext[1:].reshape(-1),
-            ]
-        )
+        parts = {
+            "cinert": impl.cinert[1:].reshape(-1),
+            "cvel": data.cvel[1:].reshape(-1),
+            "qfrc_actuator": data.qfrc_actuator[6:],
+            "cfrc_ext": impl.cfrc_ext[1:].reshape(-1),
+        }
+        observed = [part for name, part in parts.items() if self.observed[name]]
+        return jnp.concatenate([data.qpos[self.skipped_qpos :], data.qvel, *observed])
 
     @staticmethod
     def external_force_cost(data: Any, weight: float, cost_range: tuple[float, float]) -> jax.Array:
@@ -207,8 +231,14 @@ class Humanoid(HumanoidBase):
         contact_cost_weight: float = 5e-7,
         contact_cost_range: tuple[float, float] = (-np.inf, 10.0),
         healthy_reward: float = 5.0,
+        terminate_when_unhealthy: bool = True,
         healthy_z_range: tuple[float, float] = (1.0, 2.0),
         reset_noise_scale: float = 1e-2,
+        exclude_current_positions_from_observation: bool = True,
+        include_cinert_in_observation: bool = True,
+        include_cvel_in_observation: bool = True,
+        include_qfrc_actuator_in_observation: bool = True,
+        include_cfrc_ext_in_observation: bool = True,
         # warp capacities per env: MuJoCo's Humanoid-v5 (Newton) peaked at 10 contacts and 34 constraint
         # rows over 6 x 1000 random steps, mostly fallen
         naconmax: int = 32,
@@ -216,8 +246,21 @@ class Humanoid(HumanoidBase):
         **mjx_kwargs: Any,
     ):
         super().__init__(
-            "humanoid.xml", fidelity, impl, max_episode_steps, reset_noise_scale, naconmax, njmax, **mjx_kwargs
+            "humanoid.xml",
+            fidelity,
+            impl,
+            max_episode_steps,
+            reset_noise_scale,
+            naconmax,
+            njmax,
+            exclude_current_positions_from_observation=exclude_current_positions_from_observation,
+            include_cinert_in_observation=include_cinert_in_observation,
+            include_cvel_in_observation=include_cvel_in_observation,
+            include_qfrc_actuator_in_observation=include_qfrc_actuator_in_observation,
+            include_cfrc_ext_in_observation=include_cfrc_ext_in_observation,
+            **mjx_kwargs,
         )
+        self.terminate_when_unhealthy = terminate_when_unhealthy
         self.forward_reward_weight = forward_reward_weight
         self.ctrl_cost_weight = ctrl_cost_weight
         self.contact_cost_weight = contact_cost_weight
@@ -273,4 +316,5 @@ class Humanoid(HumanoidBase):
             **planar_position_metrics(data.qpos),
         }
         reward = (forward + survive) - (ctrl_cost + contact_cost)  # Gymnasium's order of the sums
-        return data, self.observation(data), reward, ~healthy, metrics
+        terminated = ~healthy if self.terminate_when_unhealthy else jnp.zeros_like(healthy)
+        return data, self.observation(data), reward, terminated, metrics

@@ -3,7 +3,9 @@
 Humanoid's body, observation and physics (``jaxpg/envs/humanoid.py``, whose ``HumanoidBase`` this
 task shares), started lying on the floor (``humanoid_standup.xml``: torso at height 0.105, waist and
 legs stretched along x). Observation ``[348]``: ``qpos[2:]``, ``qvel``, ``cinert[1:]``, ``cvel[1:]``,
-``qfrc_actuator[6:]``, ``cfrc_ext[1:]``, read after the step as in Humanoid. Action ``[17]`` in
+``qfrc_actuator[6:]``, ``cfrc_ext[1:]``, read after the step as in Humanoid (and its parts chosen
+by the same Gymnasium keywords, ``exclude_current_positions_from_observation`` and
+``include_{cinert,cvel,qfrc_actuator,cfrc_ext}_in_observation``). Action ``[17]`` in
 ``[-0.4, 0.4]``. Reward: the torso's height over the model's timestep (``qpos[2] / 0.003``, not over
 the env step ``dt``) ``- 0.1 |action|^2 - min(0.5e-6 * sum(cfrc_ext^2), 10) + 1``. No termination:
 every episode runs to the 1000-step limit. Reset noise: uniform +-1e-2 on qpos and qvel. Frame skip
@@ -62,6 +64,11 @@ class HumanoidStandup(HumanoidBase):
         impact_cost_weight: float = 0.5e-6,
         impact_cost_range: tuple[float, float] = (-np.inf, 10.0),
         reset_noise_scale: float = 1e-2,
+        exclude_current_positions_from_observation: bool = True,
+        include_cinert_in_observation: bool = True,
+        include_cvel_in_observation: bool = True,
+        include_qfrc_actuator_in_observation: bool = True,
+        include_cfrc_ext_in_observation: bool = True,
         # warp capacities per env: MuJoCo's HumanoidStandup-v5 (Newton) peaked at 11 contacts and 33
         # constraint rows over 8 x 1000 random steps
         naconmax: int = 32,
@@ -69,7 +76,19 @@ class HumanoidStandup(HumanoidBase):
         **mjx_kwargs: Any,
     ):
         super().__init__(
-            "humanoid_standup.xml", fidelity, impl, max_episode_steps, reset_noise_scale, naconmax, njmax, **mjx_kwargs
+            "humanoid_standup.xml",
+            fidelity,
+            impl,
+            max_episode_steps,
+            reset_noise_scale,
+            naconmax,
+            njmax,
+            exclude_current_positions_from_observation=exclude_current_positions_from_observation,
+            include_cinert_in_observation=include_cinert_in_observation,
+            include_cvel_in_observation=include_cvel_in_observation,
+            include_qfrc_actuator_in_observation=include_qfrc_actuator_in_observation,
+            include_cfrc_ext_in_observation=include_cfrc_ext_in_observation,
+            **mjx_kwargs,
         )
         self.uph_cost_weight = uph_cost_weight
         self.ctrl_cost_weight = ctrl_cost_weight

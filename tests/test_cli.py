@@ -449,7 +449,6 @@ def test_env_kwargs_reach_the_task_the_run_and_gymnasium(runs, tmp_path, monkeyp
 # Task options with no keyword of that name in the task's Gymnasium env: the Gymnasium replay refuses a
 # run that set one. Every other option of every task with a Gymnasium counterpart is Gymnasium's own.
 OPTIONS_GYMNASIUM_LACKS = {
-    "hopper": ["healthy_angle_max", "healthy_state_max", "healthy_z_min"],
     "inverted_pendulum": ["max_angle"],
     "inverted_double_pendulum": ["min_tip_height"],
     "reacher": ["arm_noise_scale", "arm_velocity_noise_scale", "target_radius"],

@@ -1734,6 +1734,60 @@ def test_humanoid_observation_keywords_match_gymnasium(task):
         np.testing.assert_allclose(observation, expected, rtol=1e-6, atol=1e-6, err_msg=str(keywords))
 
 
+@pytest.mark.parametrize("task", ["hopper", "walker2d", "half_cheetah", "swimmer"])
+def test_planar_observation_keyword_matches_gymnasium(task):
+    """``exclude_current_positions_from_observation=False`` observes the positions too, as
+    Gymnasium's ``_get_obs`` does from the same state (after 30 random steps)."""
+    for keywords in ({}, {"exclude_current_positions_from_observation": False}):
+        gym_env = make_gymnasium(task, **keywords).unwrapped
+        gym_env.reset(seed=1)
+        rng = np.random.default_rng(1)
+        for _ in range(30):
+            gym_env.step(rng.uniform(-1, 1, gym_env.action_space.shape))
+        env = envs.make_task(task, impl="jax", **keywords)
+        expected = gym_env._get_obs()
+        assert env.observation_size == expected.shape[0] == gym_env.observation_space.shape[0], keywords
+        observation = env.observation(jnp.asarray(gym_env.data.qpos), jnp.asarray(gym_env.data.qvel))
+        np.testing.assert_allclose(np.asarray(observation), expected, rtol=1e-6, atol=1e-6, err_msg=str(keywords))
+
+
+def test_hopper_healthy_ranges_match_gymnasium():
+    """Hopper's healthy ranges (Gymnasium's keywords, here narrowed) judge random states as
+    Gymnasium's ``is_healthy`` does."""
+    ranges = {"healthy_z_range": (0.9, 1.4), "healthy_angle_range": (-0.3, 0.1), "healthy_state_range": (-3.0, 3.0)}
+    gym_env = make_gymnasium("hopper", **ranges).unwrapped
+    gym_env.reset(seed=0)
+    env = envs.make_task("hopper", impl="jax", **ranges)
+    rng = np.random.default_rng(0)
+    verdicts = []
+    for _ in range(200):
+        qpos = gym_env.init_qpos + rng.uniform(-0.6, 0.6, gym_env.model.nq)
+        qvel = rng.uniform(-3.5, 3.5, gym_env.model.nv)
+        gym_env.set_state(qpos, qvel)
+        verdicts.append(bool(gym_env.is_healthy))
+        assert bool(env.is_healthy(jnp.asarray(qpos), jnp.asarray(qvel))) == verdicts[-1]
+    assert 0 < sum(verdicts) < len(verdicts)  # both kinds of state were judged
+
+
+@pytest.mark.parametrize("task", ["hopper", "walker2d"])
+def test_planar_terminate_when_unhealthy(task, monkeypatch):
+    """``terminate_when_unhealthy=False``: a fallen walker's step is not terminal and earns no
+    survive reward, as in Gymnasium v5; by default it terminates."""
+    gym_env = make_gymnasium(task).unwrapped
+    gym_env.reset(seed=0)
+    qpos = gym_env.data.qpos.copy()
+    qpos[1] = 0.3  # the torso below the healthy height
+    gym_env.set_state(qpos, gym_env.data.qvel)
+    action = np.zeros(gym_env.action_space.shape)
+    for terminate in (True, False):
+        env = envs.make_task(task, impl="jax", terminate_when_unhealthy=terminate)
+        monkeypatch.setattr(env, "physics_step", lambda data, ctrl: data)  # stay where set: no physics
+        data = mjx.put_data(env.mj_model, gym_env.data)
+        state = envs.State(data=data, obs=None, reward=None, terminated=None, truncated=None, metrics={}, info={})
+        _, _, _, terminated, metrics = env._step(state, action)
+        assert bool(terminated) is terminate and float(metrics["reward_survive"]) == 0.0
+
+
 def test_humanoid_terminate_when_unhealthy(monkeypatch):
     """``terminate_when_unhealthy=False`` (Gymnasium's keyword): a fallen humanoid's step is not
     terminal, and it earns no survive reward, as in Gymnasium v5; by default the step terminates."""

@@ -36,6 +36,7 @@ class HalfCheetah(MjxEnv):
         forward_reward_weight: float = 1.0,
         ctrl_cost_weight: float = 0.1,
         reset_noise_scale: float = 0.1,
+        exclude_current_positions_from_observation: bool = True,
         **mjx_kwargs: Any,
     ):
         super().__init__(
@@ -47,15 +48,16 @@ class HalfCheetah(MjxEnv):
             total_mass=14.0,  # Gymnasium's model sets it with the compiler's deprecated settotalmass
             **mjx_kwargs,
         )
-        self.observation_size = self.nq - 1 + self.nv
+        self.skipped_qpos = 1 if exclude_current_positions_from_observation else 0  # qpos[0] is x
+        self.observation_size = self.nq - self.skipped_qpos + self.nv
         self.action_size = self.mj_model.nu
         self.forward_reward_weight = forward_reward_weight
         self.ctrl_cost_weight = ctrl_cost_weight
         self.reset_noise_scale = reset_noise_scale
 
     def observation(self, qpos: jax.Array, qvel: jax.Array) -> jax.Array:
-        """``[17]`` observation from ``qpos [9]`` and ``qvel [9]``."""
-        return jnp.concatenate([qpos[1:], qvel])
+        """``[observation_size]`` observation (17 by default) from ``qpos [9]`` and ``qvel [9]``."""
+        return jnp.concatenate([qpos[self.skipped_qpos :], qvel])
 
     def _reset(self, key: jax.Array) -> tuple[Any, jax.Array, dict[str, jax.Array]]:
         kq, kv = jax.random.split(key)

@@ -4,7 +4,10 @@ Observation ``[11]``: ``qpos[1:]`` (torso height, torso angle, thigh, leg, foot 
 ``clip(qvel, -10, 10)`` (6 velocities). Action ``[3]`` in ``[-1, 1]``: torques on thigh, leg, foot
 (gear 200). Reward: forward velocity of the torso + 1 while healthy - 1e-3 * |action|^2.
 Healthy: ``z > 0.7``, ``|angle| < 0.2`` and every entry of ``(qpos, qvel)[2:]`` inside (-100, 100);
-an unhealthy state terminates the episode. Reset noise: uniform +-5e-3 on qpos and qvel.
+an unhealthy state terminates the episode (unless ``terminate_when_unhealthy=False``; the ranges
+are Gymnasium's keywords too). Reset noise: uniform +-5e-3 on qpos and qvel.
+``exclude_current_positions_from_observation=False`` observes ``qpos`` whole (x first), as in
+Gymnasium.
 Frame skip 4 (dt 0.008 s), 1000-step limit. The task score is the forward distance ``qpos[0]``.
 """
 
@@ -32,10 +35,12 @@ class Hopper(MjxEnv):
         forward_reward_weight: float = 1.0,
         ctrl_cost_weight: float = 1e-3,
         healthy_reward: float = 1.0,
-        healthy_z_min: float = 0.7,
-        healthy_angle_max: float = 0.2,
-        healthy_state_max: float = 100.0,
+        terminate_when_unhealthy: bool = True,
+        healthy_state_range: tuple[float, float] = (-100.0, 100.0),
+        healthy_z_range: tuple[float, float] = (0.7, float("inf")),
+        healthy_angle_range: tuple[float, float] = (-0.2, 0.2),
         reset_noise_scale: float = 5e-3,
+        exclude_current_positions_from_observation: bool = True,
         **mjx_kwargs: Any,
     ):
         super().__init__(
@@ -46,26 +51,31 @@ class Hopper(MjxEnv):
             max_episode_steps=max_episode_steps,
             **mjx_kwargs,
         )
-        self.observation_size = self.nq - 1 + self.nv
+        self.skipped_qpos = 1 if exclude_current_positions_from_observation else 0
+        self.observation_size = self.nq - self.skipped_qpos + self.nv
         self.action_size = self.mj_model.nu
         self.forward_reward_weight = forward_reward_weight
         self.ctrl_cost_weight = ctrl_cost_weight
         self.healthy_reward = healthy_reward
-        self.healthy_z_min = healthy_z_min
-        self.healthy_angle_max = healthy_angle_max
-        self.healthy_state_max = healthy_state_max
+        self.terminate_when_unhealthy = terminate_when_unhealthy
+        self.healthy_state_range = healthy_state_range
+        self.healthy_z_range = healthy_z_range
+        self.healthy_angle_range = healthy_angle_range
         self.reset_noise_scale = reset_noise_scale
 
     def observation(self, qpos: jax.Array, qvel: jax.Array) -> jax.Array:
-        """``[11]`` observation from ``qpos [6]`` and ``qvel [6]``."""
-        return jnp.concatenate([qpos[1:], jnp.clip(qvel, -10.0, 10.0)])
+        """``[observation_size]`` observation (11 by default) from ``qpos [6]`` and ``qvel [6]``."""
+        return jnp.concatenate([qpos[self.skipped_qpos :], jnp.clip(qvel, -10.0, 10.0)])
 
     def is_healthy(self, qpos: jax.Array, qvel: jax.Array) -> jax.Array:
-        """``[]`` bool: the hopper is upright, high enough and its state bounded."""
+        """``[]`` bool: the hopper is upright, high enough and its state bounded (each inside its
+        open healthy range)."""
         z, angle = qpos[1], qpos[2]
         state = jnp.concatenate([qpos, qvel])[2:]
-        bounded = jnp.all(jnp.abs(state) < self.healthy_state_max)
-        return bounded & (z > self.healthy_z_min) & (jnp.abs(angle) < self.healthy_angle_max)
+        (state_min, state_max), (z_min, z_max) = self.healthy_state_range, self.healthy_z_range
+        angle_min, angle_max = self.healthy_angle_range
+        bounded = jnp.all((state_min < state) & (state < state_max))
+        return bounded & (z_min < z) & (z < z_max) & (angle_min < angle) & (angle < angle_max)
 
     def _reset(self, key: jax.Array) -> tuple[Any, jax.Array, dict[str, jax.Array]]:
         kq, kv = jax.random.split(key)
@@ -103,4 +113,5 @@ class Hopper(MjxEnv):
             "z_distance_from_origin": data.qpos[1] - self.init_qpos[1],
             "task_score": data.qpos[0],
         }
-        return data, self.observation(data.qpos, data.qvel), reward, ~healthy, metrics
+        terminated = ~healthy if self.terminate_when_unhealthy else jnp.zeros_like(healthy)
+        return data, self.observation(data.qpos, data.qvel), reward, terminated, metrics

@@ -38,6 +38,7 @@ class Swimmer(MjxEnv):
         forward_reward_weight: float = 1.0,
         ctrl_cost_weight: float = 1e-4,
         reset_noise_scale: float = 0.1,
+        exclude_current_positions_from_observation: bool = True,
         **mjx_kwargs: Any,
     ):
         super().__init__(
@@ -48,15 +49,16 @@ class Swimmer(MjxEnv):
             max_episode_steps=max_episode_steps,
             **mjx_kwargs,
         )
-        self.observation_size = self.nq - 2 + self.nv
+        self.skipped_qpos = 2 if exclude_current_positions_from_observation else 0  # qpos[:2] is x-y
+        self.observation_size = self.nq - self.skipped_qpos + self.nv
         self.action_size = self.mj_model.nu
         self.forward_reward_weight = forward_reward_weight
         self.ctrl_cost_weight = ctrl_cost_weight
         self.reset_noise_scale = reset_noise_scale
 
     def observation(self, qpos: jax.Array, qvel: jax.Array) -> jax.Array:
-        """``[8]`` observation from ``qpos [5]`` and ``qvel [5]``."""
-        return jnp.concatenate([qpos[2:], qvel])
+        """``[observation_size]`` observation (8 by default) from ``qpos [5]`` and ``qvel [5]``."""
+        return jnp.concatenate([qpos[self.skipped_qpos :], qvel])
 
     def _reset(self, key: jax.Array) -> tuple[Any, jax.Array, dict[str, jax.Array]]:
         kq, kv = jax.random.split(key)

@@ -5,8 +5,9 @@ Observation ``[17]``: ``qpos[1:]`` (torso height, torso angle, the six joint ang
 leg, foot and the left thigh, leg, foot (gear 100). Reward: forward velocity of the torso
 ``(x_after - x_before) / dt`` + 1 while healthy - 1e-3 * |action|^2. Healthy: torso height
 ``0.8 < z < 2`` and angle ``-1 < angle < 1`` (v5 checks no velocity bound, unlike Hopper); an
-unhealthy state terminates the episode, with no survive reward on that step. Reset noise: uniform
-+-5e-3 on qpos and qvel. Frame skip 4 (dt 0.008 s), 1000-step limit.
+unhealthy state terminates the episode (unless ``terminate_when_unhealthy=False``), with no survive
+reward on that step. Reset noise: uniform +-5e-3 on qpos and qvel. Frame skip 4 (dt 0.008 s),
+1000-step limit. ``exclude_current_positions_from_observation=False`` observes ``qpos`` whole.
 
 Metrics: Gymnasium's ``info`` terms ``reward_forward``, ``reward_ctrl`` (negative),
 ``reward_survive``, ``x_position``, ``x_velocity`` and ``z_distance_from_origin`` (torso height
@@ -40,7 +41,9 @@ class Walker2d(MjxEnv):
         healthy_reward: float = 1.0,
         healthy_z_range: tuple[float, float] = (0.8, 2.0),
         healthy_angle_range: tuple[float, float] = (-1.0, 1.0),
+        terminate_when_unhealthy: bool = True,
         reset_noise_scale: float = 5e-3,
+        exclude_current_positions_from_observation: bool = True,
         **mjx_kwargs: Any,
     ):
         super().__init__(
@@ -51,19 +54,21 @@ class Walker2d(MjxEnv):
             max_episode_steps=max_episode_steps,
             **mjx_kwargs,
         )
-        self.observation_size = self.nq - 1 + self.nv
+        self.skipped_qpos = 1 if exclude_current_positions_from_observation else 0
+        self.observation_size = self.nq - self.skipped_qpos + self.nv
         self.action_size = self.mj_model.nu
         self.forward_reward_weight = forward_reward_weight
         self.ctrl_cost_weight = ctrl_cost_weight
         self.healthy_reward = healthy_reward
         self.healthy_z_range = healthy_z_range
         self.healthy_angle_range = healthy_angle_range
+        self.terminate_when_unhealthy = terminate_when_unhealthy
         self.reset_noise_scale = reset_noise_scale
         self.init_z = float(self.mj_model.qpos0[1])
 
     def observation(self, qpos: jax.Array, qvel: jax.Array) -> jax.Array:
-        """``[17]`` observation from ``qpos [9]`` and ``qvel [9]``."""
-        return jnp.concatenate([qpos[1:], jnp.clip(qvel, -10.0, 10.0)])
+        """``[observation_size]`` observation (17 by default) from ``qpos [9]`` and ``qvel [9]``."""
+        return jnp.concatenate([qpos[self.skipped_qpos :], jnp.clip(qvel, -10.0, 10.0)])
 
     def is_healthy(self, qpos: jax.Array) -> jax.Array:
         """``[]`` bool: the torso's height and angle are inside their (open) healthy ranges."""
@@ -107,4 +112,5 @@ class Walker2d(MjxEnv):
             "task_score": data.qpos[0],
         }
         reward = forward + survive - ctrl_cost
-        return data, self.observation(data.qpos, data.qvel), reward, ~healthy, metrics
+        terminated = ~healthy if self.terminate_when_unhealthy else jnp.zeros_like(healthy)
+        return data, self.observation(data.qpos, data.qvel), reward, terminated, metrics

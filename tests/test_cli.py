@@ -548,6 +548,18 @@ def test_evaluate_in_jaxpg_and_gymnasium(trained, tmp_path, capsys):
     assert "Gymnasium InvertedPendulum-v5" in out and "return:" in out
     assert evaluate_cli.main([str(tmp_path / "missing"), "--episodes", "1"]) == 2
     assert capsys.readouterr().err.startswith("error: run directory")
+    # A run given an option that Gymnasium's env lacks is not replayed there as another task.
+    copy = tmp_path / "with_option"
+    shutil.copytree(trained, copy)
+    config = json.loads((copy / "config.json").read_text())
+    config["env_kwargs"]["max_angle"] = 0.2  # the default: the run itself is unchanged
+    (copy / "config.json").write_text(json.dumps(config))
+    assert evaluate_cli.main([str(copy), "--episodes", "1"]) == 0
+    capsys.readouterr()
+    assert evaluate_cli.main([str(copy), "--episodes", "1", "--gymnasium"]) == 2
+    assert capsys.readouterr().err == (
+        "error: --gymnasium: Gymnasium's InvertedPendulum-v5 has no option max_angle, which this run's env was given\n"
+    )
 
 
 @pytest.mark.parametrize("gymnasium", [False, True], ids=["jaxpg", "gymnasium"])

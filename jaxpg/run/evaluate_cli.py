@@ -150,10 +150,15 @@ def main(argv: Sequence[str] | None = None) -> int:
         if gym_id is None:
             print(f"error: task {run.task!r} has no Gymnasium counterpart", file=sys.stderr)
             return 2
+        try:  # the run's task options, given to Gymnasium's env too
+            options = replay.gymnasium_options(run.task, gym_id, run.env_kwargs)
+        except ValueError as e:
+            print(f"error: --gymnasium: {e}", file=sys.stderr)
+            return 2
         returns, lengths, frames = replay.evaluate_gymnasium(
             policy, run.task, run.env_kwargs, args.episodes, args.seed, video=args.video
         )
-        env_name = f"Gymnasium {gym_id}"
+        env_name = f"Gymnasium {gym_id}" + "".join(f" {k}={v}" for k, v in options.items())
         metric_line = ""
     else:
         env = run.make_env()

@@ -616,3 +616,18 @@ def test_pipeline_batched_and_async_same_results_as_gymnasium(cartpole_batched):
         vec.close(terminate=True)
     theirs = run_pipeline(gymnasium.make_vec("CartPole-v1", 2, "sync", wrappers=[start_like, *single]), actions)
     assert_same_results(ours, theirs, 1e-4)
+
+
+def test_gymnasium_keywords_reach_the_task():
+    """Gymnasium's keyword arguments of an env, given to ``gymnasium.make`` of a jaxpg id, reach
+    the task with their meaning: the spaces match Gymnasium's own env made with the same ones."""
+    for gym_id, keywords in (
+        ("Ant-v5", {"include_cfrc_ext_in_observation": False}),
+        ("Hopper-v5", {"exclude_current_positions_from_observation": False, "healthy_z_range": (0.5, 2.0)}),
+        ("Humanoid-v5", {"include_cinert_in_observation": False, "terminate_when_unhealthy": False}),
+    ):
+        ours = gymnasium.make(f"jaxpg/{gym_id}", **keywords)
+        theirs = gymnasium.make(gym_id, **keywords)
+        assert ours.observation_space.shape == theirs.observation_space.shape, gym_id
+        ours.close()
+        theirs.close()

@@ -1769,36 +1769,22 @@ def test_hopper_healthy_ranges_match_gymnasium():
     assert 0 < sum(verdicts) < len(verdicts)  # both kinds of state were judged
 
 
-@pytest.mark.parametrize("task", ["hopper", "walker2d"])
-def test_planar_terminate_when_unhealthy(task, monkeypatch):
-    """``terminate_when_unhealthy=False``: a fallen walker's step is not terminal and earns no
-    survive reward, as in Gymnasium v5; by default it terminates."""
+# The tasks that end an unhealthy episode, and the index of the torso's height in their qpos.
+TERMINATING_TASKS_HEIGHT = {"hopper": 1, "walker2d": 1, "humanoid": 2}
+
+
+@pytest.mark.parametrize("task", sorted(TERMINATING_TASKS_HEIGHT))
+def test_terminate_when_unhealthy(task, monkeypatch):
+    """``terminate_when_unhealthy=False`` (Gymnasium's keyword): a fallen body's step is not
+    terminal and earns no survive reward, as in Gymnasium v5; by default it terminates."""
     gym_env = make_gymnasium(task).unwrapped
     gym_env.reset(seed=0)
     qpos = gym_env.data.qpos.copy()
-    qpos[1] = 0.3  # the torso below the healthy height
+    qpos[TERMINATING_TASKS_HEIGHT[task]] = 0.3  # the torso below the healthy height
     gym_env.set_state(qpos, gym_env.data.qvel)
     action = np.zeros(gym_env.action_space.shape)
     for terminate in (True, False):
         env = envs.make_task(task, impl="jax", terminate_when_unhealthy=terminate)
-        monkeypatch.setattr(env, "physics_step", lambda data, ctrl: data)  # stay where set: no physics
-        data = mjx.put_data(env.mj_model, gym_env.data)
-        state = envs.State(data=data, obs=None, reward=None, terminated=None, truncated=None, metrics={}, info={})
-        _, _, _, terminated, metrics = env._step(state, action)
-        assert bool(terminated) is terminate and float(metrics["reward_survive"]) == 0.0
-
-
-def test_humanoid_terminate_when_unhealthy(monkeypatch):
-    """``terminate_when_unhealthy=False`` (Gymnasium's keyword): a fallen humanoid's step is not
-    terminal, and it earns no survive reward, as in Gymnasium v5; by default the step terminates."""
-    gym_env = make_gymnasium("humanoid").unwrapped
-    gym_env.reset(seed=0)
-    qpos = gym_env.data.qpos.copy()
-    qpos[2] = 0.5  # the torso below the healthy range
-    gym_env.set_state(qpos, gym_env.data.qvel)
-    action = np.zeros(gym_env.action_space.shape)
-    for terminate in (True, False):
-        env = envs.make_task("humanoid", impl="jax", terminate_when_unhealthy=terminate)
         monkeypatch.setattr(env, "physics_step", lambda data, ctrl: data)  # stay where set: no physics
         data = mjx.put_data(env.mj_model, gym_env.data)
         state = envs.State(data=data, obs=None, reward=None, terminated=None, truncated=None, metrics={}, info={})

@@ -55,6 +55,8 @@ def check_options(task: str, options: dict[str, Any]) -> dict[str, Any]:
     """``options`` converted to the types of ``task``'s constructor (lists to tuples, ``0``/``1``
     to booleans); ``ValueError`` (one line) naming the option for an unknown name or a value of
     the wrong type, listing the task's options."""
+    if not options:
+        return {}
     types = option_types(task)
     out: dict[str, Any] = {}
     for name, value in options.items():

@@ -460,7 +460,6 @@ def test_task_options_are_gymnasiums_keywords_but_the_listed_ones():
     """Every task option but the listed ones is a keyword of the task's Gymnasium env, with
     Gymnasium's default."""
     gym = pytest.importorskip("gymnasium")
-    import importlib
     import inspect
 
     from jaxpg import envs
@@ -475,8 +474,7 @@ def test_task_options_are_gymnasiums_keywords_but_the_listed_ones():
         except ValueError as e:
             lacking[task] = str(e).split(" has no option ")[1].split(", which")[0].split(", ")
         spec = gym.spec(gym_id)
-        module_name, _, class_name = str(spec.entry_point).partition(":")
-        gym_params = inspect.signature(getattr(importlib.import_module(module_name), class_name)).parameters
+        gym_params = replay.gymnasium_parameters(gym_id)
         ours = inspect.signature(envs.task_class(task)).parameters
         for name in set(options) & set(gym_params):
             theirs = spec.kwargs.get(name, gym_params[name].default)

@@ -54,17 +54,22 @@ def gymnasium_reference_env(task: str, env_kwargs: dict[str, Any], render: bool 
     return gym.make(gym_id, **kwargs)
 
 
+def gymnasium_parameters(gym_id: str) -> dict[str, inspect.Parameter]:
+    """The keyword arguments of the class that Gymnasium registers as ``gym_id`` (its entry point),
+    with their defaults."""
+    import gymnasium as gym
+
+    module_name, _, class_name = str(gym.spec(gym_id).entry_point).partition(":")
+    return dict(inspect.signature(getattr(importlib.import_module(module_name), class_name)).parameters)
+
+
 def gymnasium_options(task: str, gym_id: str, env_kwargs: dict[str, Any]) -> dict[str, Any]:
     """The task options among ``env_kwargs`` (``jaxpg.run.task_options``, e.g. Ant's
     ``include_cfrc_ext_in_observation``), which Gymnasium's ``gym_id`` takes with the same meaning;
     ``ValueError`` for one that it does not take (a replay without it would score another task).
     The simulation settings (fidelity, implementation, batch) are jaxpg's own and stay out."""
-    import gymnasium as gym
-
     options = {k: v for k, v in env_kwargs.items() if k in task_options.option_types(task)}
-    module_name, _, class_name = str(gym.spec(gym_id).entry_point).partition(":")
-    accepted = inspect.signature(getattr(importlib.import_module(module_name), class_name)).parameters
-    missing = sorted(set(options) - set(accepted))
+    missing = sorted(set(options) - set(gymnasium_parameters(gym_id)))
     if missing:
         raise ValueError(f"Gymnasium's {gym_id} has no option {', '.join(missing)}, which this run's env was given")
     return options

@@ -334,3 +334,36 @@ def test_policy_and_value_function_with_a_conv_torso():
     assert logits.shape == (7, 2, 3) and value_fn.apply(value_params, obs).shape == (7, 2)
     with pytest.raises(ValueError, match="reads"):
         policy.init(jax.random.PRNGKey(0), 100)
+
+
+@pytest.mark.parametrize("network_init", ["glorot_uniform", "orthogonal"])
+def test_policy_head_scale_scales_only_the_policys_last_layer(network_init):
+    """``policy_head_scale`` multiplies the last layer of the policy network (kernel and bias) and
+    nothing else: the hidden layers, the log-std and the value network are those of the default."""
+    from jaxpg import envs
+    from jaxpg.algos import core, ppo
+
+    env = envs.make("inverted_pendulum")
+    key = jax.random.PRNGKey(5)
+    base, scaled = (
+        ppo.Config(network_init=network_init, policy_hidden=(8, 8), policy_head_scale=s) for s in (1.0, 0.01)
+    )
+    (policy, value_fn), (policy_s, value_fn_s) = core.make_networks(env, base), core.make_networks(env, scaled)
+    params, params_s = policy.init(key, env.observation_size), policy_s.init(key, env.observation_size)
+    *hidden, head = params["mean"]
+    *hidden_s, head_s = params_s["mean"]
+    for layer, layer_s in zip(hidden, hidden_s, strict=True):
+        np.testing.assert_array_equal(layer["w"], layer_s["w"])
+        np.testing.assert_array_equal(layer["b"], layer_s["b"])
+    np.testing.assert_allclose(head_s["w"], 0.01 * np.asarray(head["w"]), rtol=1e-6)
+    np.testing.assert_allclose(head_s["b"], 0.01 * np.asarray(head["b"]), rtol=1e-6)
+    assert float(jnp.max(jnp.abs(head["w"]))) > 0.05  # the default head is not already tiny
+    np.testing.assert_array_equal(params["log_std"], params_s["log_std"])
+    for leaf, leaf_s in zip(
+        jax.tree.leaves(value_fn.init(key, env.observation_size)),
+        jax.tree.leaves(value_fn_s.init(key, env.observation_size)),
+        strict=True,
+    ):
+        np.testing.assert_array_equal(leaf, leaf_s)
+    with pytest.raises(ValueError, match="policy_head_scale"):
+        ppo.Config(policy_head_scale=0.0).validate(env)

@@ -35,9 +35,12 @@ class Config(actor_critic.ActorCriticConfig):
     not stay there; the ``cartpole`` preset, with scaled rewards, is the tested one that does).
 
     ``horizon`` is ``t_max``; ``optimizer`` is ``"rmsprop"`` (decay ``rmsprop_decay``, epsilon
-    ``eps``; the paper's shared-statistics RMSprop becomes ordinary RMSprop in the synchronous
-    setting) or ``"adam"`` (epsilon ``eps``); ``max_grad_norm`` 0 turns clipping off. The
-    remaining fields are those of ``actor_critic.ActorCriticConfig``.
+    ``eps``, added inside the square root with ``rmsprop_eps_in_sqrt`` as optax and MXNet do, or
+    to the root as PyTorch does; the paper's shared-statistics RMSprop becomes ordinary RMSprop in
+    the synchronous setting) or ``"adam"`` (epsilon ``eps``); the learning rate ``lr`` decays
+    linearly to 0 over ``anneal_lr_iterations`` iterations when that is > 0 (one optimizer step
+    each); ``max_grad_norm`` 0 turns clipping off. The remaining fields are those of
+    ``actor_critic.ActorCriticConfig``.
     """
 
     FIELD_CHOICES: ClassVar[dict[str, tuple[str, ...]]] = {"optimizer": ("rmsprop", "adam")}
@@ -46,7 +49,9 @@ class Config(actor_critic.ActorCriticConfig):
     horizon: int = 16
     optimizer: str = "adam"
     lr: float = 3e-3
+    anneal_lr_iterations: int = 0
     rmsprop_decay: float = 0.99
+    rmsprop_eps_in_sqrt: bool = True
     eps: float = 1e-5
     max_grad_norm: float = 0.5
     value_coef: float = 0.5
@@ -58,8 +63,10 @@ class Config(actor_critic.ActorCriticConfig):
         super().validate(env)
         if self.optimizer not in ("rmsprop", "adam"):
             raise ValueError(f"optimizer must be 'rmsprop' or 'adam', got {self.optimizer!r}")
-        if not self.lr > 0:
-            raise ValueError(f"lr must be > 0, got {self.lr}")
+        if not self.lr > 0 or self.anneal_lr_iterations < 0:
+            raise ValueError(
+                f"lr must be > 0 and anneal_lr_iterations >= 0, got {self.lr}, {self.anneal_lr_iterations}"
+            )
         if not 0 <= self.rmsprop_decay < 1:
             raise ValueError(f"rmsprop_decay must be in [0, 1), got {self.rmsprop_decay}")
 
@@ -68,12 +75,20 @@ class Config(actor_critic.ActorCriticConfig):
 PRESETS = presets.by_algorithm("a2c")
 
 
+def learning_rate_schedule(config: Config) -> optax.Schedule | float:
+    """``config.lr``, or its linear decay to 0 over ``anneal_lr_iterations`` optimizer steps."""
+    if not config.anneal_lr_iterations:
+        return config.lr
+    return optax.linear_schedule(config.lr, 0.0, config.anneal_lr_iterations)
+
+
 def optimizer(config: Config) -> optax.GradientTransformation:
-    """Gradient clipping, then RMSprop or Adam at ``lr``."""
+    """Gradient clipping, then RMSprop or Adam at ``learning_rate_schedule``."""
+    lr = learning_rate_schedule(config)
     if config.optimizer == "rmsprop":
-        step = optax.rmsprop(config.lr, decay=config.rmsprop_decay, eps=config.eps)
+        step = optax.rmsprop(lr, decay=config.rmsprop_decay, eps=config.eps, eps_in_sqrt=config.rmsprop_eps_in_sqrt)
     else:
-        step = optax.adam(config.lr, eps=config.eps)
+        step = optax.adam(lr, eps=config.eps)
     return optax.chain(core.clip_gradients(config.max_grad_norm), step)
 
 

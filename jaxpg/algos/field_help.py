@@ -28,6 +28,8 @@ FIELD_HELP: dict[str, str] = {
     "policy_hidden": "hidden layer sizes of the policy network",
     "policy_activation": "activation of the hidden layers of the policy network",
     "network_init": "initialisation of the weights and biases of the policy and value networks",
+    "policy_head_scale": "multiply the policy network's last layer by this at initialisation (0.01: initial mean "
+    "actions near 0)",
     "conv_torso": "convolutions before the hidden layers of both networks, on a task with image observations: "
     "mnih2013 (16 8x8/4, 32 4x4/2) or nature (32 8x8/4, 64 4x4/2, 64 3x3/1)",
     "log_std_init": "initial log standard deviation of a Gaussian policy",
@@ -62,6 +64,8 @@ FIELD_HELP: dict[str, str] = {
     "lr": "learning rate",
     "weight_decay": "decoupled weight decay (adamw)",
     "rmsprop_decay": "RMSprop's decay of the squared-gradient average",
+    "rmsprop_eps_in_sqrt": "RMSprop divides by sqrt(average + eps) (optax, MXNet) or, false, by sqrt(average) + eps "
+    "(PyTorch)",
     "eps": "optimizer epsilon",
     "adam_eps": "Adam's epsilon",
     "max_grad_norm": "clip the global gradient norm to this (0: no clipping)",

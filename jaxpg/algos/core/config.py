@@ -36,7 +36,9 @@ class BaseConfig:
     LyceumAI's sampler fills its budget).
     Networks: the policy (``policy``, ``policy_hidden``, ``policy_activation``, ``log_std_init``)
     and the value network (``value_hidden``, ``value_activation``), both initialised by the
-    scheme ``network_init``. On a task whose observations are images (``Env.image_shape``),
+    scheme ``network_init``; ``policy_head_scale`` then multiplies the policy's last layer (kernel
+    and bias), e.g. 0.01 for an initial mean action near 0 whatever the observation (Andrychowicz
+    et al. 2021, Tianshou, CleanRL). On a task whose observations are images (``Env.image_shape``),
     ``conv_torso`` (``networks.CONV_TORSOS``) puts convolutions before the hidden layers of both
     networks (each network has its own). ``normalize_value_targets`` makes the value network predict targets
     standardised by their running statistics (``TrainState.value_stats``), which the core keeps
@@ -59,6 +61,7 @@ class BaseConfig:
     policy_hidden: tuple[int, ...] = (64, 64)
     policy_activation: str = "tanh"
     network_init: str = "glorot_uniform"
+    policy_head_scale: float = 1.0
     conv_torso: str = "none"
     log_std_init: float = 0.0
     value_hidden: tuple[int, ...] = (64, 64)
@@ -106,6 +109,8 @@ class BaseConfig:
                 raise ValueError(f"unknown {name} {getattr(self, name)!r}; expected one of {', '.join(ACTIVATIONS)}")
         if self.network_init not in KERNEL_INITS:
             raise ValueError(f"unknown network_init {self.network_init!r}; expected one of {', '.join(KERNEL_INITS)}")
+        if not self.policy_head_scale > 0:
+            raise ValueError(f"policy_head_scale must be > 0, got {self.policy_head_scale}")
         if self.conv_torso not in CONV_TORSOS:
             raise ValueError(f"unknown conv_torso {self.conv_torso!r}; expected one of {', '.join(CONV_TORSOS)}")
         if self.conv_torso != "none" and (env.image_shape is None or not env.discrete):

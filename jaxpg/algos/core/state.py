@@ -100,7 +100,8 @@ class TrainState:
 
 def make_networks(env: Env, config: BaseConfig) -> tuple[Any, ValueFunction]:
     """The policy named by ``config`` (categorical for a discrete env) and the value function,
-    both initialised by ``config.network_init``, each with its own ``config.conv_torso`` if any
+    both initialised by ``config.network_init`` (the policy's last layer then multiplied by
+    ``config.policy_head_scale``), each with its own ``config.conv_torso`` if any
     (orthogonal kernels get the ReLU gain sqrt(2) there)."""
     name = "categorical" if env.discrete else config.policy
     conv = None
@@ -115,6 +116,8 @@ def make_networks(env: Env, config: BaseConfig) -> tuple[Any, ValueFunction]:
     )
     if conv is not None:
         layers["conv"] = conv
+    if config.policy_head_scale != 1.0:
+        layers["final_kernel_scale"] = config.policy_head_scale
     if name == "gaussian":
         layers["log_std_init"] = config.log_std_init
     policy = make_policy(name, env.action_size, env.discrete, **layers)

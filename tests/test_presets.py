@@ -405,6 +405,62 @@ EXPECTED = {
         ),
         ("pusher",),
     ),
+    ("a2c", "ant_1m"): (
+        dict(
+            network_init="orthogonal",
+            policy_head_scale=0.01,
+            num_envs=16,
+            horizon=5,
+            optimizer="rmsprop",
+            lr=7e-4,
+            rmsprop_decay=0.99,
+            eps=1e-5,
+            rmsprop_eps_in_sqrt=False,
+            anneal_lr_iterations=37500,
+            gamma=0.99,
+            gae_lambda=0.95,
+            entropy_coef=0.01,
+            value_coef=0.5,
+            max_grad_norm=0.5,
+            policy_hidden=(64, 64),
+            value_hidden=(64, 64),
+            policy_activation="tanh",
+            value_activation="tanh",
+            log_std_init=-0.5,
+            normalize_observations=True,
+            normalize_value_targets=True,
+            normalize_advantages=False,
+            eval_envs=16,
+            eval_every=2500,
+        ),
+        ("ant",),
+    ),
+    ("ppo", "humanoid_1m"): (
+        dict(
+            num_envs=16,
+            horizon=128,
+            gamma=0.99,
+            gae_lambda=0.95,
+            normalize_observations=True,
+            policy_hidden=(64, 64),
+            value_hidden=(64, 64),
+            policy_activation="tanh",
+            value_activation="tanh",
+            log_std_init=-1.42,
+            num_epochs=10,
+            num_minibatches=32,
+            lr=3e-4,
+            anneal_lr_iterations=488,
+            max_grad_norm=0.5,
+            entropy_coef=0.0,
+            reward_scaling=1.0,
+            eval_envs=16,
+            eval_every=122,
+            network_init="orthogonal",
+            policy_head_scale=0.01,
+        ),
+        ("humanoid",),
+    ),
     ("vpg", "lightning"): (
         dict(
             sampling="continuing",
@@ -447,7 +503,7 @@ EXPECTED_NAMES = {
     "reinforce": ["gymnasium_tutorial", "kokoyi"],
     "reinforce_points": [],
     "vpg": ["lightning"],
-    "a2c": ["pong", "minpy", "cartpole", "atari"],
+    "a2c": ["pong", "minpy", "ant_1m", "humanoid_1m", "cartpole", "atari"],
     "ppo": [
         "brax_hopper",
         "brax_hopper_short",
@@ -478,6 +534,8 @@ EXPECTED_ITERATIONS = {
     ("ppo", "walker2d_fast"): 660,
     ("ppo", "half_cheetah_fast"): 560,
     ("ppo", "ant_fast"): 1370,
+    ("a2c", "ant_1m"): 12500,
+    ("a2c", "humanoid_1m"): 12500,
     ("ppo", "ant_1m"): 488,
     ("ppo", "humanoid_1m"): 488,
     ("ppo", "half_cheetah_1m"): 1953,
@@ -538,10 +596,11 @@ def test_every_preset_builds_a_valid_config_for_its_tasks(key):
 
 
 def test_presets_that_set_task_options():
-    """Only ``ant_1m`` sets a task option (Ant-v3's observation, without the contact forces), and
-    the lookup hands out a copy."""
+    """Only the 1 M-step presets of Ant and Humanoid set a task option (the observation without
+    the contact forces, as Ant-v3's effectively was), and the lookup hands out a copy."""
+    no_contact_forces = {"include_cfrc_ext_in_observation": False}
     assert {key: dict(row.env_kwargs) for key, row in presets.TABLE.items() if row.env_kwargs} == {
-        ("ppo", "ant_1m"): {"include_cfrc_ext_in_observation": False}
+        (algo, name): no_contact_forces for algo in ("a2c", "ppo") for name in ("ant_1m", "humanoid_1m")
     }
     copy = algos.preset_env_kwargs("ppo", "ant_1m")
     copy["include_cfrc_ext_in_observation"] = True

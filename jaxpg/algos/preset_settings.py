@@ -159,39 +159,30 @@ NO_CONTACT_FORCES: Mapping[str, Any] = MappingProxyType({"include_cfrc_ext_in_ob
 # policy's last layer scaled by 0.01 (initial mean actions near 0).
 TIANSHOU_INIT: Mapping[str, Any] = MappingProxyType(dict(network_init="orthogonal", policy_head_scale=0.01))
 
-# Tianshou's MuJoCo A2C (1 M env steps in 12,500 iterations): 16 envs x 5 steps, RMSprop 7e-4 with
-# PyTorch's epsilon 1e-5 added to the root, its learning rate decaying linearly to 0 over Tianshou's
-# 3 M-step runs (37,500 iterations: two thirds remain at 1 M), GAE lambda 0.95, entropy bonus 0.01,
-# value weight 0.5, gradients clipped at 0.5, 64x64 tanh networks, initial log-std -0.5,
-# observation normalisation, value targets normalised (Tianshou scales returns by their running
-# std; here they are standardised), advantages as they are.
+# Tianshou's MuJoCo A2C (1 M env steps in 12,500 iterations): MinPy's (16 envs x 5 steps, RMSprop
+# 7e-4, entropy bonus 0.01, value weight 0.5, gradients clipped at 0.5) with PyTorch's epsilon 1e-5
+# added to the root, the learning rate decaying linearly to 0 over Tianshou's 3 M-step runs (37,500
+# iterations: two thirds remain at 1 M), GAE lambda 0.95, 64x64 tanh networks, initial log-std
+# -0.5, observation normalisation, value targets normalised (Tianshou scales returns by their
+# running std; here they are standardised), advantages as they are.
 A2C_TIANSHOU: Mapping[str, Any] = MappingProxyType(
-    dict(
+    {
+        **A2C_MINPY,
         **TIANSHOU_INIT,
-        num_envs=16,
-        horizon=5,
-        optimizer="rmsprop",
-        lr=7e-4,
-        rmsprop_decay=0.99,
-        eps=1e-5,
-        rmsprop_eps_in_sqrt=False,
-        anneal_lr_iterations=37500,
-        gamma=0.99,
-        gae_lambda=0.95,
-        entropy_coef=0.01,
-        value_coef=0.5,
-        max_grad_norm=0.5,
-        policy_hidden=(64, 64),
-        value_hidden=(64, 64),
-        policy_activation="tanh",
-        value_activation="tanh",
-        log_std_init=-0.5,
-        normalize_observations=True,
-        normalize_value_targets=True,
-        normalize_advantages=False,
-        eval_envs=16,
-        eval_every=2500,
-    )
+        "rmsprop_eps_in_sqrt": False,
+        "anneal_lr_iterations": 37500,
+        "gae_lambda": 0.95,
+        "policy_hidden": (64, 64),
+        "value_hidden": (64, 64),
+        "policy_activation": "tanh",
+        "value_activation": "tanh",
+        "log_std_init": -0.5,
+        "normalize_observations": True,
+        "normalize_value_targets": True,
+        "normalize_advantages": False,
+        "eval_envs": 16,
+        "eval_every": 2500,
+    }
 )
 
 # Tianshou's policies act in [-1, 1], scaled to the task's action range; jaxpg's act in the task's

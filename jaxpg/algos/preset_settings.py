@@ -159,19 +159,13 @@ NO_CONTACT_FORCES: Mapping[str, Any] = MappingProxyType({"include_cfrc_ext_in_ob
 # policy's last layer scaled by 0.01 (initial mean actions near 0).
 TIANSHOU_INIT: Mapping[str, Any] = MappingProxyType(dict(network_init="orthogonal", policy_head_scale=0.01))
 
-# Tianshou's MuJoCo A2C (1 M env steps in 12,500 iterations): MinPy's (16 envs x 5 steps, RMSprop
-# 7e-4, entropy bonus 0.01, value weight 0.5, gradients clipped at 0.5) with PyTorch's epsilon 1e-5
-# added to the root, the learning rate decaying linearly to 0 over Tianshou's 3 M-step runs (37,500
-# iterations: two thirds remain at 1 M), GAE lambda 0.95, 64x64 tanh networks, initial log-std
-# -0.5, observation normalisation, value targets normalised (Tianshou scales returns by their
-# running std; here they are standardised), advantages as they are.
-A2C_TIANSHOU: Mapping[str, Any] = MappingProxyType(
+# The networks and normalisations Tianshou's MuJoCo scripts share (A2C, NPG, TRPO, PPO): its
+# initialisation, 64x64 tanh policy and value networks, initial log-std -0.5, observation
+# normalisation, normalised value targets (Tianshou scales returns by their running std; here
+# they are standardised).
+TIANSHOU_NETWORKS: Mapping[str, Any] = MappingProxyType(
     {
-        **A2C_MINPY,
         **TIANSHOU_INIT,
-        "rmsprop_eps_in_sqrt": False,
-        "anneal_lr_iterations": 37500,
-        "gae_lambda": 0.95,
         "policy_hidden": (64, 64),
         "value_hidden": (64, 64),
         "policy_activation": "tanh",
@@ -179,6 +173,21 @@ A2C_TIANSHOU: Mapping[str, Any] = MappingProxyType(
         "log_std_init": -0.5,
         "normalize_observations": True,
         "normalize_value_targets": True,
+    }
+)
+
+# Tianshou's MuJoCo A2C (1 M env steps in 12,500 iterations): MinPy's (16 envs x 5 steps, RMSprop
+# 7e-4, entropy bonus 0.01, value weight 0.5, gradients clipped at 0.5) with PyTorch's epsilon 1e-5
+# added to the root, the learning rate decaying linearly to 0 over Tianshou's 3 M-step runs (37,500
+# iterations: two thirds remain at 1 M), GAE lambda 0.95, Tianshou's networks, advantages as they
+# are.
+A2C_TIANSHOU: Mapping[str, Any] = MappingProxyType(
+    {
+        **A2C_MINPY,
+        **TIANSHOU_NETWORKS,
+        "rmsprop_eps_in_sqrt": False,
+        "anneal_lr_iterations": 37500,
+        "gae_lambda": 0.95,
         "normalize_advantages": False,
         "eval_envs": 16,
         "eval_every": 2500,
@@ -187,12 +196,11 @@ A2C_TIANSHOU: Mapping[str, Any] = MappingProxyType(
 
 # Tianshou's MuJoCo TRPO within 1 M env steps (976 iterations): 16 envs x 64 steps (1024 samples an
 # update), max KL 0.01, a line search of 10 steps shrinking by 0.8, 10 conjugate-gradient
-# iterations with damping 0.1, advantages normalised, GAE(0.99, 0.95), 64x64 tanh networks with
-# Tianshou's initialisation, initial log-std -0.5, observation normalisation, standardised value
-# targets fitted by 20 full-batch Adam steps at 1e-3 an update.
+# iterations with damping 0.1, advantages normalised, GAE(0.99, 0.95), Tianshou's networks, the
+# value network fitted by 20 full-batch Adam steps at 1e-3 an update.
 TRPO_TIANSHOU: Mapping[str, Any] = MappingProxyType(
     {
-        **TIANSHOU_INIT,
+        **TIANSHOU_NETWORKS,
         "num_envs": 16,
         "horizon": 64,
         "max_kl": 0.01,
@@ -203,16 +211,9 @@ TRPO_TIANSHOU: Mapping[str, Any] = MappingProxyType(
         "gamma": 0.99,
         "gae_lambda": 0.95,
         "normalize_advantages": True,
-        "normalize_observations": True,
-        "normalize_value_targets": True,
         "value_lr": 1e-3,
         "value_epochs": 20,
         "value_batch_size": 0,
-        "policy_hidden": (64, 64),
-        "value_hidden": (64, 64),
-        "policy_activation": "tanh",
-        "value_activation": "tanh",
-        "log_std_init": -0.5,
         "eval_envs": 8,
         "eval_every": 245,
     }

@@ -1,0 +1,4 @@
+# 2 CPU cores, JAX 0.10.2, MJX 3.17.0 (JAX implementation), 2026-11-28: HalfCheetah with ppo ant_1m's settings
+# (PPO_SMALL_BATCH) plus Tianshou's initialisation, 4 seeds in one program, 488 iterations (0.999 M env steps).
+python -m jaxpg.cli --env half_cheetah --algo ppo --num-envs 16 --horizon 128 --gamma 0.99 --gae-lambda 0.95 --normalize-observations --policy-hidden 64 64 --value-hidden 64 64 --policy-activation tanh --value-activation tanh --log-std-init -0.5 --num-epochs 10 --num-minibatches 32 --lr 3e-4 --anneal-lr-iterations 488 --max-grad-norm 0.5 --entropy-coef 0 --reward-scaling 1 --iterations 488 --network-init orthogonal --policy-head-scale 0.01 --seeds 0 1 2 3 --eval-envs 8 --eval-every 122 --log-every 61 --run-dir run --no-progress
+for S in 0 1 2 3; do python -m jaxpg.evaluate run --gymnasium --episodes 10 --train-seed $S; done

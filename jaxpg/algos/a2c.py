@@ -49,7 +49,6 @@ class Config(actor_critic.ActorCriticConfig):
     horizon: int = 16
     optimizer: str = "adam"
     lr: float = 3e-3
-    anneal_lr_iterations: int = 0
     rmsprop_decay: float = 0.99
     rmsprop_eps_in_sqrt: bool = True
     eps: float = 1e-5
@@ -63,10 +62,8 @@ class Config(actor_critic.ActorCriticConfig):
         super().validate(env)
         if self.optimizer not in ("rmsprop", "adam"):
             raise ValueError(f"optimizer must be 'rmsprop' or 'adam', got {self.optimizer!r}")
-        if not self.lr > 0 or self.anneal_lr_iterations < 0:
-            raise ValueError(
-                f"lr must be > 0 and anneal_lr_iterations >= 0, got {self.lr}, {self.anneal_lr_iterations}"
-            )
+        if not self.lr > 0:
+            raise ValueError(f"lr must be > 0, got {self.lr}")
         if not 0 <= self.rmsprop_decay < 1:
             raise ValueError(f"rmsprop_decay must be in [0, 1), got {self.rmsprop_decay}")
 
@@ -75,16 +72,10 @@ class Config(actor_critic.ActorCriticConfig):
 PRESETS = presets.by_algorithm("a2c")
 
 
-def learning_rate_schedule(config: Config) -> optax.Schedule | float:
-    """``config.lr``, or its linear decay to 0 over ``anneal_lr_iterations`` optimizer steps."""
-    if not config.anneal_lr_iterations:
-        return config.lr
-    return optax.linear_schedule(config.lr, 0.0, config.anneal_lr_iterations)
-
-
 def optimizer(config: Config) -> optax.GradientTransformation:
-    """Gradient clipping, then RMSprop or Adam at ``learning_rate_schedule``."""
-    lr = learning_rate_schedule(config)
+    """Gradient clipping, then RMSprop or Adam at ``lr``, annealed over one optimizer step an
+    iteration (``actor_critic.learning_rate_schedule``)."""
+    lr = actor_critic.learning_rate_schedule(config.lr, config, 1)
     if config.optimizer == "rmsprop":
         step = optax.rmsprop(lr, decay=config.rmsprop_decay, eps=config.eps, eps_in_sqrt=config.rmsprop_eps_in_sqrt)
     else:

@@ -38,6 +38,8 @@ class ActorCriticConfig(core.GAEConfig):
     Rewards are multiplied by ``reward_scaling`` before advantages and value targets;
     ``value_coef`` and ``entropy_coef`` weigh the value loss and the entropy bonus;
     ``max_grad_norm`` clips the global norm of the joint gradient (0: no clipping);
+    ``anneal_lr_iterations`` > 0 decays the learning rate linearly to 0 over that many iterations
+    (``learning_rate_schedule``);
     ``normalize_value_targets`` fits the value network to standardised targets
     (``core.standardise_value_targets``).
     """
@@ -46,11 +48,22 @@ class ActorCriticConfig(core.GAEConfig):
     entropy_coef: float = 0.0
     max_grad_norm: float = 0.5
     reward_scaling: float = 1.0
+    anneal_lr_iterations: int = 0
 
     def validate(self, env: Env) -> None:
         super().validate(env)
         if self.max_grad_norm < 0:
             raise ValueError(f"max_grad_norm must be >= 0 (0: no clipping), got {self.max_grad_norm}")
+        if self.anneal_lr_iterations < 0:
+            raise ValueError(f"anneal_lr_iterations must be >= 0 (0: constant), got {self.anneal_lr_iterations}")
+
+
+def learning_rate_schedule(lr: float, config: ActorCriticConfig, steps_per_iteration: int) -> optax.Schedule | float:
+    """The learning rate as optax takes it: ``lr``, or its linear decay to 0 over
+    ``config.anneal_lr_iterations`` iterations of ``steps_per_iteration`` optimizer steps each."""
+    if not config.anneal_lr_iterations:
+        return lr
+    return optax.linear_schedule(lr, 0.0, config.anneal_lr_iterations * steps_per_iteration)
 
 
 def joint_params(ts: TrainState) -> dict[str, Any]:

@@ -57,7 +57,6 @@ class Config(actor_critic.ActorCriticConfig):
     num_epochs: int = 10
     num_minibatches: int = 8
     lr: float = 1e-3
-    anneal_lr_iterations: int = 0
     adam_eps: float = 1e-5
     max_grad_norm: float = 0.5
     clip_eps: float = 0.2
@@ -78,10 +77,8 @@ class Config(actor_critic.ActorCriticConfig):
                 f"num_envs {self.num_envs} x horizon {self.horizon} = {self.samples_per_iteration} samples "
                 f"do not split into {self.num_minibatches} equal minibatches"
             )
-        if not self.lr > 0 or self.anneal_lr_iterations < 0:
-            raise ValueError(
-                f"lr must be > 0 and anneal_lr_iterations >= 0, got {self.lr}, {self.anneal_lr_iterations}"
-            )
+        if not self.lr > 0:
+            raise ValueError(f"lr must be > 0, got {self.lr}")
         if not self.clip_eps > 0 or self.value_clip_eps < 0:
             raise ValueError(
                 f"clip_eps must be > 0 and value_clip_eps >= 0, got {self.clip_eps}, {self.value_clip_eps}"
@@ -93,13 +90,9 @@ PRESETS = presets.by_algorithm("ppo")
 
 
 def learning_rate_schedule(config: Config) -> optax.Schedule | float:
-    """The learning rate as optax takes it: ``config.lr``, or a linear decay to 0 over
-    ``anneal_lr_iterations`` iterations that counts optimizer steps (``num_epochs *
-    num_minibatches`` per iteration)."""
-    if not config.anneal_lr_iterations:
-        return config.lr
-    steps = config.anneal_lr_iterations * config.num_epochs * config.num_minibatches
-    return optax.linear_schedule(config.lr, 0.0, steps)
+    """``actor_critic.learning_rate_schedule`` counting optimizer steps: ``num_epochs *
+    num_minibatches`` per iteration."""
+    return actor_critic.learning_rate_schedule(config.lr, config, config.num_epochs * config.num_minibatches)
 
 
 def optimizer(config: Config) -> optax.GradientTransformation:

@@ -125,7 +125,7 @@ TABLE: Mapping[tuple[str, str], Preset] = MappingProxyType(
         ("npg", "lyceum"): Preset(overrides=dict(**LYCEUM_SETTINGS, kl_delta=0.05)),
         # --- TRPO ---
         ("trpo", "lyceum"): Preset(overrides=dict(**LYCEUM_SETTINGS, max_kl=0.05)),
-        # Walker2d within 1 M env steps at Tianshou's TRPO settings (TRPO_TIANSHOU): Gymnasium median 4494 of 8 seeds.
+        # Walker2d within 1 M env steps at Tianshou's TRPO settings (TRPO_TIANSHOU): Gymnasium median 4018 of 16 seeds.
         ("trpo", "walker2d_1m"): Preset(tasks=("walker2d",), overrides=TRPO_TIANSHOU, iterations=976),
         # --- REINFORCE ---
         # On inverted_pendulum: the Gymnasium REINFORCE tutorial. Shared tanh trunk 16 -> 32,
@@ -218,9 +218,8 @@ TABLE: Mapping[tuple[str, str], Preset] = MappingProxyType(
         ("a2c", "minpy"): Preset(overrides=A2C_MINPY),
         # Within 1 M env steps at Tianshou's MuJoCo A2C settings (preset_settings.A2C_TIANSHOU),
         # contact forces out of the observation; Humanoid with its initial std in Humanoid's
-        # action units. 16 seeds on one GPU, stopped by a time limit at 0.88-0.91 M env steps,
-        # Gymnasium v5 medians: Ant 2663 (PPO's ant_1m: 2260), Humanoid 647 (4 of 16 seeds above
-        # 1700).
+        # action units. 16 seeds on one GPU, Gymnasium v5 medians: Ant 2843 at 1 M env steps (PPO's
+        # ant_1m: 2260); Humanoid 647 when a time limit stopped it at 0.91 M (4 of 16 seeds above 1700).
         ("a2c", "ant_1m"): Preset(
             tasks=("ant",), overrides=A2C_TIANSHOU, env_kwargs=NO_CONTACT_FORCES, iterations=12500
         ),

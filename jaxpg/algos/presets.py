@@ -30,6 +30,7 @@ from jaxpg.algos.preset_settings import (
     PPO_ZOO_HALF_CHEETAH,
     TIANSHOU_INIT,
     TRPO_TIANSHOU,
+    TRPO_ZOO_SWIMMER,
 )
 
 
@@ -77,13 +78,10 @@ TABLE: Mapping[tuple[str, str], Preset] = MappingProxyType(
         # fit and the Fisher-vector products capped at 16384 samples so that they stay cheap at
         # large --num-envs.
         ("npg", "hopper"): Preset(tasks=("hopper",), overrides=NPG_HOPPER),
-        # Hopper within 1 M env steps (120 iterations), chosen over 16 seeds on one
-        # GPU among 19 settings (BENCHMARKS.md, "The suite within 1 M env steps").
+        # Hopper within 1 M env steps, the best of 19 settings over 16 seeds on one GPU (BENCHMARKS.md).
         ("npg", "hopper_1m"): Preset(tasks=("hopper",), overrides=NPG_1M, iterations=120),
-        # Walker2d and HalfCheetah within 1 M env steps (120 iterations): each the best
-        # of 8-10 settings screened over 16 seeds; Walker2d with initial log-std 0.75, HalfCheetah
-        # with log-std -0.5 (std 0.6: it does not terminate, so it gains from exploiting early)
-        # and a KL bound of 0.15.
+        # Walker2d and HalfCheetah within 1 M env steps, each the best of 8-10 settings over 16 seeds;
+        # HalfCheetah, which does not terminate, gains from a narrow policy (std 0.6) early.
         ("npg", "walker2d_1m"): Preset(tasks=("walker2d",), overrides={**NPG_1M, "log_std_init": 0.75}, iterations=120),
         ("npg", "half_cheetah_1m"): Preset(
             tasks=("half_cheetah",), overrides={**NPG_1M, "log_std_init": -0.5, "kl_delta": 0.15}, iterations=120
@@ -125,8 +123,10 @@ TABLE: Mapping[tuple[str, str], Preset] = MappingProxyType(
         ("npg", "lyceum"): Preset(overrides=dict(**LYCEUM_SETTINGS, kl_delta=0.05)),
         # --- TRPO ---
         ("trpo", "lyceum"): Preset(overrides=dict(**LYCEUM_SETTINGS, max_kl=0.05)),
-        # Walker2d within 1 M env steps at Tianshou's TRPO settings (TRPO_TIANSHOU): Gymnasium median 4018 of 16 seeds.
+        # Within 1 M env steps: Walker2d at Tianshou's TRPO settings (Gymnasium median 4018 of 16
+        # seeds), Swimmer at SB3 RL Zoo's with a wider initial policy (preset_settings).
         ("trpo", "walker2d_1m"): Preset(tasks=("walker2d",), overrides=TRPO_TIANSHOU, iterations=976),
+        ("trpo", "swimmer_1m"): Preset(tasks=("swimmer",), overrides=TRPO_ZOO_SWIMMER, iterations=488),
         # --- REINFORCE ---
         # On inverted_pendulum: the Gymnasium REINFORCE tutorial. Shared tanh trunk 16 -> 32,
         # linear mean and softplus-std heads, AdamW lr 1e-4, gamma 0.99, one update per episode,

@@ -30,6 +30,7 @@ from jaxpg.algos.preset_settings import (
     PPO_ZOO_HALF_CHEETAH,
     TIANSHOU_INIT,
     TRPO_TIANSHOU,
+    TRPO_ZOO_REACHER,
     TRPO_ZOO_SWIMMER,
 )
 
@@ -86,12 +87,9 @@ TABLE: Mapping[tuple[str, str], Preset] = MappingProxyType(
         ("npg", "half_cheetah_1m"): Preset(
             tasks=("half_cheetah",), overrides={**NPG_1M, "log_std_init": -0.5, "kl_delta": 0.15}, iterations=120
         ),
-        # Swimmer and Reacher within 1 M env steps, each the best of 4-7 settings screened with 4
-        # seeds on a CPU and scored in Gymnasium: Swimmer with gamma 0.9999 (its reward, slow forward
-        # motion, pays off over the whole 1000-step episode) and initial log-std 0; Reacher with a
-        # narrow initial policy (log-std -0.5: its control cost punishes wide actions) and 64 envs,
-        # so 480 updates fit in 1 M steps (120 updates of 256 envs scored about 1 lower). Gymnasium
-        # medians over 8 seeds: Swimmer 117, Reacher -5.14.
+        # Swimmer and Reacher within 1 M env steps, each the best of 4-7 settings over 4 seeds on a
+        # CPU: Swimmer with gamma 0.9999 (its reward pays off over the whole episode); Reacher with
+        # log-std -0.5 and 480 updates of 64 envs. Gymnasium medians of 8: 117, -5.14 (TRPO's: higher).
         ("npg", "swimmer_1m"): Preset(
             tasks=("swimmer",), overrides={**NPG_1M, "gamma": 0.9999, "log_std_init": 0.0}, iterations=120
         ),
@@ -124,9 +122,10 @@ TABLE: Mapping[tuple[str, str], Preset] = MappingProxyType(
         # --- TRPO ---
         ("trpo", "lyceum"): Preset(overrides=dict(**LYCEUM_SETTINGS, max_kl=0.05)),
         # Within 1 M env steps: Walker2d at Tianshou's TRPO settings (Gymnasium median 4018 of 16
-        # seeds), Swimmer at SB3 RL Zoo's with a wider initial policy (preset_settings).
+        # seeds), Swimmer and Reacher at SB3 RL Zoo's (preset_settings).
         ("trpo", "walker2d_1m"): Preset(tasks=("walker2d",), overrides=TRPO_TIANSHOU, iterations=976),
         ("trpo", "swimmer_1m"): Preset(tasks=("swimmer",), overrides=TRPO_ZOO_SWIMMER, iterations=488),
+        ("trpo", "reacher_1m"): Preset(tasks=("reacher",), overrides=TRPO_ZOO_REACHER, iterations=488),
         # --- REINFORCE ---
         # On inverted_pendulum: the Gymnasium REINFORCE tutorial. Shared tanh trunk 16 -> 32,
         # linear mean and softplus-std heads, AdamW lr 1e-4, gamma 0.99, one update per episode,

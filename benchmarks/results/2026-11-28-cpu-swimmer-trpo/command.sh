@@ -12,3 +12,6 @@ python -m jaxpg.cli --env swimmer $ZOO --log-std-init 0.5 --seeds 0 1 2 3 --run-
 python -m jaxpg.cli --env swimmer $ZOO --log-std-init 0.5 --seeds 4 5 6 7 --run-dir run-ls05b
 # each seed's final mean policy, 10 episodes in Gymnasium's Swimmer-v5 (gymnasium_*_seedS.log)
 python -m jaxpg.evaluate run-ls05 --gymnasium --episodes 10 --train-seed S
+# The preset with the same samples an update from 16 envs x 128 steps (sw16; run alone):
+python -m jaxpg.cli --env swimmer --algo trpo --preset swimmer_1m --num-envs 16 --horizon 128 --seeds 0 1 2 3 \
+  --log-every 61 --no-progress --run-dir run-sw16

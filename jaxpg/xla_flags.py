@@ -33,11 +33,17 @@ FLAG = f"--{OPTION}=false"
 AFFECTED_JAXLIB = "0.10."
 
 
-def with_sequential_cpu_schedule(xla_flags: str) -> str:
-    """``xla_flags`` (an ``XLA_FLAGS`` value) with ``FLAG`` appended, unless it names ``OPTION``."""
-    if OPTION in xla_flags:
+def with_option(xla_flags: str, option: str, value: str) -> str:
+    """``xla_flags`` (an ``XLA_FLAGS`` value) with ``--option=value`` appended, unless it names
+    ``option`` already (a user's own setting is kept)."""
+    if option in xla_flags:
         return xla_flags
-    return f"{xla_flags} {FLAG}".strip()
+    return f"{xla_flags} --{option}={value}".strip()
+
+
+def with_sequential_cpu_schedule(xla_flags: str) -> str:
+    """``xla_flags`` with ``FLAG`` appended, unless it names ``OPTION``."""
+    return with_option(xla_flags, OPTION, "false")
 
 
 def set_sequential_cpu_schedule(

@@ -15,10 +15,11 @@ from typing import Any
 # The tests are compilation-bound on the CPU; the emitters decide how XLA generates code for a fusion,
 # not what it computes. (jaxpg itself picks the legacy emitters only for Pusher's programs:
 # jaxpg.envs.compile_options.) Set before JAX starts a backend, which reads XLA_FLAGS once.
-if "xla_cpu_use_fusion_emitters" not in os.environ.get("XLA_FLAGS", ""):
-    os.environ["XLA_FLAGS"] = f"{os.environ.get('XLA_FLAGS', '')} --xla_cpu_use_fusion_emitters=false".strip()
+from jaxpg import xla_flags  # imports no JAX backend
 
-import jax  # noqa: E402
+os.environ["XLA_FLAGS"] = xla_flags.with_option(os.environ.get("XLA_FLAGS", ""), "xla_cpu_use_fusion_emitters", "false")
+
+import jax
 import pytest
 
 from jaxpg import algos, video

@@ -38,6 +38,8 @@ CHOLESKY_PROGRAM = textwrap.dedent(
 
 def test_the_flag_is_added_once_and_a_users_own_setting_is_kept():
     assert xla_flags.with_sequential_cpu_schedule("") == xla_flags.FLAG
+    assert xla_flags.with_option("--xla_dump_to=/tmp/d", "xla_b", "0") == "--xla_dump_to=/tmp/d --xla_b=0"
+    assert xla_flags.with_option("--xla_b=1", "xla_b", "0") == "--xla_b=1"
     assert xla_flags.with_sequential_cpu_schedule("--xla_dump_to=/tmp/d") == f"--xla_dump_to=/tmp/d {xla_flags.FLAG}"
     mine = "--xla_cpu_enable_concurrency_optimized_scheduler=true"
     assert xla_flags.with_sequential_cpu_schedule(mine) == mine

@@ -9,12 +9,13 @@ from pathlib import Path
 from typing import Any
 
 # XLA:CPU's legacy emitters in place of its fusion emitters, for every test process and every process
-# a test starts (they inherit the environment): on two CPU cores they compiled MJX's Hopper step in
-# 9.1 s against 15.5 s, the inverted pendulum's in 4.4 s against 6.3 s and Walker2d's command-line
-# training block in 21.3 s against 27.1 s, and two pendulum learning tests ran in 102 s against 114 s.
-# The tests are compilation-bound on the CPU; the emitters decide how XLA generates code for a fusion,
-# not what it computes. (jaxpg itself picks the legacy emitters only for Pusher's programs:
-# jaxpg.envs.compile_options.) Set before JAX starts a backend, which reads XLA_FLAGS once.
+# a test starts (they inherit the environment; the notebooks' kernels excepted, test_notebooks.py): on
+# two CPU cores they compiled MJX's Hopper step in 9.1 s against 15.5 s, the inverted pendulum's in
+# 4.4 s against 6.3 s and Walker2d's command-line training block in 21.3 s against 27.1 s, and the
+# whole run took 2804 s against 3441 s. The tests are compilation-bound on the CPU; the emitters
+# decide how XLA generates code for a fusion, not what it computes, though rounding may differ.
+# (jaxpg itself picks the legacy emitters only for Pusher's programs: jaxpg.envs.compile_options.)
+# Set before JAX starts a backend, which reads XLA_FLAGS once.
 from jaxpg import xla_flags  # imports no JAX backend
 
 os.environ["XLA_FLAGS"] = xla_flags.with_option(os.environ.get("XLA_FLAGS", ""), "xla_cpu_use_fusion_emitters", "false")

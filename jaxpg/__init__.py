@@ -4,11 +4,11 @@ from __future__ import annotations
 
 from typing import Any
 
-from jaxpg.xla_flags import set_sequential_cpu_schedule
+from jaxpg.xla_flags import set_single_thread_cpu_pool
 
-# XLA:CPU's memory-minimising schedule, before JAX starts a backend: jaxlib 0.10's batched LAPACK
-# calls can deadlock XLA's thread pool under the concurrency-optimised one (jaxpg/xla_flags.py).
-set_sequential_cpu_schedule()
+# One thread in XLA:CPU's pool, before JAX starts a backend: jaxlib 0.10's batched LAPACK calls
+# can otherwise deadlock the pool (jaxpg/xla_flags.py).
+set_single_thread_cpu_pool()
 
 __version__ = "0.1.0"
 

@@ -1,23 +1,37 @@
-"""The one process-wide XLA setting jaxpg makes, when it is imported: XLA:CPU's memory-minimising
-schedule in place of its concurrency-optimised one.
+"""The one process-wide setting jaxpg makes for XLA, when it is imported: with jaxlib 0.10 and
+0.11.0, XLA:CPU's thread pool gets one thread (``NPROC=1``); and ``with_option``, which adds an
+option to an ``XLA_FLAGS`` value.
 
-Why. MJX's Newton solver factors each env's constraint Hessian with LAPACK's Cholesky. jaxlib 0.10
-splits a large batch of factorizations into chunks on XLA:CPU's intra-op thread pool, whose size is
-the number of cores the process may use, and blocks its own pool thread until the chunks are done.
-When XLA's concurrency-optimised schedule runs as many such calls side by side as the pool has
-threads, every thread waits for chunks that no thread is free to run, and the program never
-returns. On two cores (JAX 0.10.2) ``python experiments/hopper.py --num-envs 4096`` and an 8-seed
-program of 512 envs each hung this way in their first block, the CPU idle; with this schedule both
-ran to their end. A schedule orders operations; it does not change what they compute (the same
-metrics, bit for bit, on Hopper), and Hopper's steps ran at the same speed on two cores.
+Why. MJX factors each env's mass matrix and its Newton solver's Hessian with LAPACK's Cholesky.
+jaxlib 0.10's LAPACK kernels split a large batch (one of more than about 2e5 flops, e.g. 2800 6x6
+factorizations) into chunks, schedule the chunks on XLA:CPU's thread pool and block their own pool
+thread until the chunks are done. When as many such calls run side by side as the pool has threads
+(in training, a step's factorization and ``AutoReset``'s fresh reset state are independent), every
+thread waits for chunks that no thread is free to run: the program never returns, the CPU idle.
+``python experiments/hopper.py --num-envs 4096`` hung this way on two cores. A kernel splits its
+batch only over more than one thread, so with a pool of one thread nothing waits on the pool.
+``tests/test_xla_flags.py`` runs the reproduction: two cores, jaxlib 0.10.2, 4 of 4 hung under
+XLA's default flags, 0 of 10 with ``NPROC=1``; jaxlib 0.11.0 3 of 3 and 0 of 2; 0.11.1 and 0.11.2
+returned 3 of 3 and 4 of 4 without it, so later releases are left alone.
 
-How. Only with jaxlib 0.10: XLA aborts on a flag it does not know, and the flag could not be tried
-on a later jaxlib here (whose LAPACK kernels reportedly no longer split the batch). XLA reads
-``XLA_FLAGS`` once, when JAX starts its first backend, so the flag is added to the environment at
-import, before that. Nothing is changed where ``XLA_FLAGS`` already names the option (set it to
-``true`` there to keep XLA's default). Imported after JAX has started a backend, jaxpg's flag comes
-too late for this process (its child processes still get it). The option, given per program as a
-compile option instead, did not prevent the hang in NPG's update: only the process-wide flag did.
+Before, jaxpg set XLA's memory-minimising schedule instead
+(``--xla_cpu_enable_concurrency_optimized_scheduler=false``). That made the hang rarer, not
+impossible: the reproduction hung 1 run in 6 with it on two idle cores, and in a CI run.
+
+How. XLA's CPU client sizes its thread pool from the environment variable ``NPROC`` when it is set
+(else from the cores the process may use), once, when JAX starts its CPU backend; so jaxpg sets it
+at import, before that. A value you set yourself is kept. Imported after JAX has started its CPU
+backend, jaxpg's setting comes too late for this process (processes it starts still inherit it).
+XLA gives the pool at least as many threads as CPU devices
+(``--xla_force_host_platform_device_count``), so with several CPU devices the hang is possible
+again.
+
+Cost. None measured on two cores, where it was faster: ``python -m jaxpg.cli --env hopper
+--num-envs 256 --iterations 24 --log-every 8`` trained at 5.3k and 4.8k env steps/s against 4.9k and
+4.7k with two threads, 201 s against 214 s in all (jaxlib 0.10.2, one run each), and the
+reproduction ran in 3-4 s against 5. Results may differ in their last bits from those of a pool of
+several threads (a dot product's sum may be split between threads), so CPU metrics recorded before
+this setting are not reproduced bit for bit; with the setting, the same seed gives the same numbers.
 """
 
 from __future__ import annotations
@@ -26,11 +40,7 @@ import importlib.metadata
 import os
 from collections.abc import MutableMapping
 
-OPTION = "xla_cpu_enable_concurrency_optimized_scheduler"
-FLAG = f"--{OPTION}=false"
-# The jaxlib releases known to split a LAPACK batch over XLA's pool and wait for it. Later releases
-# are left alone: XLA aborts on a flag it does not know, and none could be tried here.
-AFFECTED_JAXLIB = "0.10."
+THREADS_VARIABLE = "NPROC"
 
 
 def with_option(xla_flags: str, option: str, value: str) -> str:
@@ -41,24 +51,25 @@ def with_option(xla_flags: str, option: str, value: str) -> str:
     return f"{xla_flags} --{option}={value}".strip()
 
 
-def with_sequential_cpu_schedule(xla_flags: str) -> str:
-    """``xla_flags`` with ``FLAG`` appended, unless it names ``OPTION``."""
-    return with_option(xla_flags, OPTION, "false")
+def splits_lapack_batches(jaxlib_version: str) -> bool:
+    """Whether this jaxlib release's LAPACK kernels wait on XLA:CPU's pool for their chunks (found by
+    running tests/test_xla_flags.py's program without the setting: the module docstring)."""
+    return jaxlib_version.startswith("0.10.") or jaxlib_version == "0.11.0"
 
 
-def set_sequential_cpu_schedule(
+def set_single_thread_cpu_pool(
     environ: MutableMapping[str, str] = os.environ, jaxlib_version: str | None = None
 ) -> str:
-    """Add ``FLAG`` to ``environ["XLA_FLAGS"]`` when the installed jaxlib (or ``jaxlib_version``)
-    is a 0.10 release and ``XLA_FLAGS`` does not name ``OPTION``; returns its value ("" if unset).
-    Processes started from this one inherit it."""
-    version = jaxlib_version if jaxlib_version is not None else _installed_jaxlib()
-    if version.startswith(AFFECTED_JAXLIB):
-        environ["XLA_FLAGS"] = with_sequential_cpu_schedule(environ.get("XLA_FLAGS", ""))
-    return environ.get("XLA_FLAGS", "")
+    """Set ``environ["NPROC"] = "1"`` when the installed jaxlib (or ``jaxlib_version``) splits LAPACK
+    batches and ``NPROC`` is unset; returns its value ("" if unset). Processes started from this one
+    inherit it."""
+    version = jaxlib_version if jaxlib_version is not None else installed_jaxlib()
+    if splits_lapack_batches(version):
+        environ.setdefault(THREADS_VARIABLE, "1")
+    return environ.get(THREADS_VARIABLE, "")
 
 
-def _installed_jaxlib() -> str:
+def installed_jaxlib() -> str:
     """The installed jaxlib's version ("" if none), read without importing it."""
     try:
         return importlib.metadata.version("jaxlib")

@@ -1,5 +1,5 @@
-"""jaxpg's one process-wide XLA setting (``jaxpg/xla_flags.py``): XLA:CPU's memory-minimising
-schedule, which keeps jaxlib 0.10's batched LAPACK calls from deadlocking XLA's thread pool."""
+"""jaxpg's one process-wide XLA setting (``jaxpg/xla_flags.py``): one thread in XLA:CPU's pool
+(``NPROC=1``), which keeps jaxlib 0.10's batched LAPACK calls from deadlocking the pool."""
 
 from __future__ import annotations
 
@@ -10,10 +10,11 @@ import textwrap
 
 from jaxpg import xla_flags
 
-# As many independent batched Cholesky factorizations per step as XLA:CPU's thread pool has threads
-# (at most 8), 1000 steps in a row, each batch large enough that jaxlib 0.10 splits it over the pool.
-# Without the flag this program never returned on two cores (3 runs of 3; 50 steps: 1 of 3); with
-# it, 5 of 5 returned. The factors are checked against NumPy's.
+# As many independent batched Cholesky factorizations per step as the cores the process may use (at
+# most 8: as many as XLA:CPU's pool would have threads), 1000 steps in a row, each batch large enough
+# that jaxlib 0.10 splits it over the pool. On two cores with jaxlib 0.10.2 it never returned under
+# XLA's default flags (4 of 4 runs), and hung 1 run in 6 under the memory-minimising schedule that
+# jaxpg used to set; with NPROC=1, 10 of 10 returned, in 3-4 s. The factors are checked against NumPy's.
 CHOLESKY_PROGRAM = textwrap.dedent(
     """
     import os
@@ -31,38 +32,42 @@ CHOLESKY_PROGRAM = textwrap.dedent(
         return total, jnp.stack([jnp.linalg.cholesky(mats[i]) for i in range(count)])
     total, factors = jax.device_get(run(jnp.asarray(spd)))
     np.testing.assert_allclose(factors, np.linalg.cholesky(spd.astype(np.float64)), rtol=1e-4, atol=1e-4)
-    print(os.environ["XLA_FLAGS"], count, total)
+    print(os.environ.get("NPROC"), count, total)
     """
 )
 
 
-def test_the_flag_is_added_once_and_a_users_own_setting_is_kept():
-    assert xla_flags.with_sequential_cpu_schedule("") == xla_flags.FLAG
+def test_one_thread_is_asked_for_once_and_a_users_own_setting_is_kept():
+    environ: dict[str, str] = {}
+    assert xla_flags.set_single_thread_cpu_pool(environ, "0.10.2") == "1" == environ["NPROC"]
+    assert xla_flags.set_single_thread_cpu_pool(environ, "0.10.2") == "1" and len(environ) == 1
+    mine = {"NPROC": "2", "XLA_FLAGS": "--xla_dump_to=/tmp/d"}
+    assert xla_flags.set_single_thread_cpu_pool(mine, "0.10.2") == "2"
+    assert mine == {"NPROC": "2", "XLA_FLAGS": "--xla_dump_to=/tmp/d"}
+
+
+def test_only_the_jaxlibs_that_split_lapack_batches_get_it():
+    """0.10.x and 0.11.0 hung without it; 0.11.1 and 0.11.2 did not (jaxpg/xla_flags.py)."""
+    for version in ("0.11.1", "0.11.2", "0.12.0", "0.9.2", "0.1.0", ""):
+        environ: dict[str, str] = {}
+        assert xla_flags.set_single_thread_cpu_pool(environ, version) == "" and environ == {}
+    for version in ("0.10.0", "0.10.2", "0.11.0"):
+        assert xla_flags.set_single_thread_cpu_pool({}, version) == "1"
+
+
+def test_an_option_is_added_once_and_a_users_own_value_is_kept():
+    assert xla_flags.with_option("", "xla_b", "0") == "--xla_b=0"
     assert xla_flags.with_option("--xla_dump_to=/tmp/d", "xla_b", "0") == "--xla_dump_to=/tmp/d --xla_b=0"
     assert xla_flags.with_option("--xla_b=1", "xla_b", "0") == "--xla_b=1"
-    assert xla_flags.with_sequential_cpu_schedule("--xla_dump_to=/tmp/d") == f"--xla_dump_to=/tmp/d {xla_flags.FLAG}"
-    mine = "--xla_cpu_enable_concurrency_optimized_scheduler=true"
-    assert xla_flags.with_sequential_cpu_schedule(mine) == mine
-    environ = {"XLA_FLAGS": "--xla_dump_to=/tmp/d"}
-    once = xla_flags.set_sequential_cpu_schedule(environ, "0.10.2")
-    assert xla_flags.set_sequential_cpu_schedule(environ, "0.10.2") == once == environ["XLA_FLAGS"]
-    assert environ["XLA_FLAGS"].count(xla_flags.OPTION) == 1
-
-
-def test_only_jaxlib_0_10_gets_the_flag():
-    """XLA aborts on a flag it does not know, so only the jaxlib known to deadlock gets it."""
-    for version in ("0.11.2", "0.9.2", ""):
-        environ: dict[str, str] = {}
-        assert xla_flags.set_sequential_cpu_schedule(environ, version) == "" and environ == {}
-    assert xla_flags.set_sequential_cpu_schedule({}, "0.10.0") == xla_flags.FLAG
 
 
 def test_batched_cholesky_calls_side_by_side_return_after_import_jaxpg():
-    """A fresh process that imports jaxpg runs the program that hung without the flag, and gets
+    """A fresh process that imports jaxpg runs the program that hung without the setting, and gets
     NumPy's factors (float32 against float64: entries of order 1-5, so 1e-4 holds rounding)."""
-    environ = {k: v for k, v in os.environ.items() if k != "XLA_FLAGS"} | {"JAX_PLATFORMS": "cpu"}
+    environ = {k: v for k, v in os.environ.items() if k not in ("XLA_FLAGS", "NPROC")} | {"JAX_PLATFORMS": "cpu"}
     done = subprocess.run(
         [sys.executable, "-c", CHOLESKY_PROGRAM], env=environ, capture_output=True, text=True, timeout=180
     )
     assert done.returncode == 0, done.stderr[-2000:]
-    assert done.stdout.startswith(xla_flags.FLAG)
+    if xla_flags.splits_lapack_batches(xla_flags.installed_jaxlib()):
+        assert done.stdout.startswith("1 ")

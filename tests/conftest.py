@@ -41,6 +41,31 @@ if "JAXPG_COMPILATION_CACHE" not in os.environ:
     os.environ["JAXPG_COMPILATION_CACHE"] = tempfile.mkdtemp(prefix="jaxpg-xla-cache-")
 
 
+# The modules that took longest on two cores, longest first (a full run's --durations, 2026-11-28:
+# test_envs 1340 s, the notebooks 720 s, test_pong 480 s, test_reliability 385 s, test_learning
+# 330 s, test_gymnasium_api 250 s; the next took 190 s). pytest-xdist hands whole modules
+# (--dist loadfile) to its two workers in collection order: collected alphabetically, test_pong and
+# test_reliability started last and one worker finished them while the other idled.
+LONGEST_MODULES = (
+    "test_envs.py",
+    "test_notebooks.py",
+    "test_pong.py",
+    "test_reliability.py",
+    "test_learning.py",
+    "test_gymnasium_api.py",
+)
+
+
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    """Collect ``LONGEST_MODULES`` first, in that order; the rest (and each module's tests) keep
+    their order."""
+    items.sort(
+        key=lambda item: (
+            LONGEST_MODULES.index(item.path.name) if item.path.name in LONGEST_MODULES else len(LONGEST_MODULES)
+        )
+    )
+
+
 _CACHE_DIR_AT_START: list = []  # JAX's jax_compilation_cache_dir when the first test starts
 
 

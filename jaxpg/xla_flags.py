@@ -1,6 +1,6 @@
 """The one process-wide setting jaxpg makes for XLA, when it is imported: with jaxlib 0.10 and
-0.11.0, XLA:CPU's thread pool gets one thread (``NPROC=1``); and ``with_option``, which adds an
-option to an ``XLA_FLAGS`` value.
+0.11.0, XLA:CPU's thread pool gets one thread (``NPROC=1``); and ``with_option(s)``, which add
+options to an ``XLA_FLAGS`` value.
 
 Why. MJX factors each env's mass matrix and its Newton solver's Hessian with LAPACK's Cholesky.
 jaxlib 0.10's LAPACK kernels split a large batch (one of more than about 2e5 flops, e.g. 2800 6x6
@@ -38,7 +38,7 @@ from __future__ import annotations
 
 import importlib.metadata
 import os
-from collections.abc import MutableMapping
+from collections.abc import Iterable, MutableMapping
 
 THREADS_VARIABLE = "NPROC"
 
@@ -49,6 +49,13 @@ def with_option(xla_flags: str, option: str, value: str) -> str:
     if option in xla_flags:
         return xla_flags
     return f"{xla_flags} --{option}={value}".strip()
+
+
+def with_options(xla_flags: str, options: Iterable[tuple[str, str]]) -> str:
+    """``xla_flags`` with each ``(option, value)`` of ``options`` appended by ``with_option``."""
+    for option, value in options:
+        xla_flags = with_option(xla_flags, option, value)
+    return xla_flags
 
 
 def splits_lapack_batches(jaxlib_version: str) -> bool:

@@ -8,24 +8,31 @@ import shutil
 from pathlib import Path
 from typing import Any
 
-# XLA:CPU's legacy emitters in place of its fusion emitters, for every test process and every process
-# a test starts (they inherit the environment; the notebooks' kernels excepted, test_notebooks.py): on
-# two CPU cores they compiled MJX's Hopper step in 9.1 s against 15.5 s, the inverted pendulum's in
-# 4.4 s against 6.3 s and Walker2d's command-line training block in 21.3 s against 27.1 s, and the
-# whole run took 2804 s against 3441 s. The tests are compilation-bound on the CPU; the emitters
-# decide how XLA generates code for a fusion, not what it computes, though rounding may differ.
-# (jaxpg itself picks the legacy emitters only for Pusher's programs: jaxpg.envs.compile_options.)
-# Set before JAX starts a backend, which reads XLA_FLAGS once.
-from jaxpg import xla_flags  # imports no JAX backend
-
-os.environ["XLA_FLAGS"] = xla_flags.with_option(os.environ.get("XLA_FLAGS", ""), "xla_cpu_use_fusion_emitters", "false")
-
 import jax
 import pytest
 
-from jaxpg import algos, video
+from jaxpg import algos, video, xla_flags
 from jaxpg.run import config_io, layout
 from jaxpg.run.checkpointer import Checkpointer
+
+# Two XLA:CPU options for every test process and every process a test starts (they inherit the
+# environment; the notebooks' kernels excepted: they get READER_XLA_FLAGS, test_notebooks.py). The
+# tests are compilation-bound on the CPU, and both make compilation faster:
+# - the legacy emitters in place of the fusion emitters: on two cores they compiled MJX's Hopper step
+#   in 9.1 s against 15.5 s, the inverted pendulum's in 4.4 s against 6.3 s and Walker2d's
+#   command-line training block in 21.3 s against 27.1 s; the whole run took 2804 s against 3441 s.
+#   (jaxpg itself picks them only for Pusher's programs: jaxpg.envs.compile_options.)
+# - LLVM's optimisation level 1 in place of XLA's default: Hopper's NPG update (16 envs x 64 steps)
+#   compiled in 16.9 and 18.2 s against 24.6 and 23.0 s and ran at the same speed (208-243 ms against
+#   251 ms); Pong's A2C block (4 seeds x 50 iterations, test_pong's learning test) in 6.2 s against
+#   12.0 s, running in 7.41 s against 7.39 s; Humanoid's command-line smoke run took 52.6 s against 60.3 s.
+# Both decide how XLA generates code, not what it computes, though rounding may differ.
+# Set before JAX starts a backend, which reads XLA_FLAGS once (the imports above start none).
+
+TEST_XLA_OPTIONS = (("xla_cpu_use_fusion_emitters", "false"), ("xla_backend_optimization_level", "1"))
+READER_XLA_FLAGS = os.environ.get("XLA_FLAGS", "")  # as the session found it: a reader's own settings
+os.environ["XLA_FLAGS"] = xla_flags.with_options(READER_XLA_FLAGS, TEST_XLA_OPTIONS)
+
 
 # MuJoCo picks its OpenGL backend at first import (none of the imports above imports it:
 # tests/test_imports.py): jaxpg.video.configure_gl sets MUJOCO_GL to a backend whose library loads

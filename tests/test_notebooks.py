@@ -38,12 +38,14 @@ CELL_TIMEOUT_S = 600
 @pytest.fixture(scope="module")
 def kernel_env():
     """Quick mode and offscreen rendering for the kernel; the kernel runs this interpreter, with
-    XLA's default CPU emitters as a reader's kernel has them (conftest.py gives the other tests the
-    legacy ones). The legacy ones once left notebook 03's quick-mode learning check short of its bar
-    (16 envs x 12 iterations: 37.5 against 40); at its present 32 envs x 20 iterations it passed
-    with either (every seed 126-200)."""
+    the XLA flags a reader's kernel has (conftest.READER_XLA_FLAGS: without the compile options
+    conftest.py gives the other tests). The legacy emitters once left notebook 03's quick-mode
+    learning check short of its bar (16 envs x 12 iterations: 37.5 against 40); at its present
+    32 envs x 20 iterations it passed with either (every seed 126-200)."""
+    from conftest import READER_XLA_FLAGS
+
     saved = {k: os.environ.get(k) for k in ("JAXPG_QUICK", "MUJOCO_GL", "PATH", "XLA_FLAGS")}
-    os.environ["XLA_FLAGS"] = os.environ.get("XLA_FLAGS", "").replace("--xla_cpu_use_fusion_emitters=false", "").strip()
+    os.environ["XLA_FLAGS"] = READER_XLA_FLAGS
     os.environ["JAXPG_QUICK"] = "1"  # MUJOCO_GL: what conftest's jaxpg.video.configure_gl chose, if any
     # The "python3" kernel spec starts `python`; put this interpreter's directory first.
     os.environ["PATH"] = str(Path(sys.executable).parent) + os.pathsep + os.environ.get("PATH", "")

@@ -59,6 +59,7 @@ def test_an_option_is_added_once_and_a_users_own_value_is_kept():
     assert xla_flags.with_option("", "xla_b", "0") == "--xla_b=0"
     assert xla_flags.with_option("--xla_dump_to=/tmp/d", "xla_b", "0") == "--xla_dump_to=/tmp/d --xla_b=0"
     assert xla_flags.with_option("--xla_b=1", "xla_b", "0") == "--xla_b=1"
+    assert xla_flags.with_options("--xla_b=1", [("xla_a", "2"), ("xla_b", "0")]) == "--xla_b=1 --xla_a=2"
 
 
 def test_batched_cholesky_calls_side_by_side_return_after_import_jaxpg():

@@ -24,7 +24,8 @@ at import, before that. A value you set yourself is kept. Imported after JAX has
 backend, jaxpg's setting comes too late for this process (processes it starts still inherit it).
 XLA gives the pool at least as many threads as CPU devices
 (``--xla_force_host_platform_device_count``), so with several CPU devices the hang is possible
-again.
+again. Whether other XLA clients read ``NPROC`` (a GPU client's host threads) was not checked: the
+GPU figures in BENCHMARKS.md ran on jaxlib 0.11.2, which this leaves alone.
 
 Cost. None measured on two cores, where it was faster: ``python -m jaxpg.cli --env hopper
 --num-envs 256 --iterations 24 --log-every 8`` trained at 5.3k and 4.8k env steps/s against 4.9k and

@@ -1,10 +1,11 @@
 """Learning tests: every algorithm, with its defaults or a named preset exactly as shipped, learns its
 CPU task, for two seeds (REINFORCE: three of four).
 
-How a test trains and judges (``learn``): seeds 0 and 1 train together in one vmapped program
-(``train.init_seeds``, ``train.train(seeds=True)``, one compiled block of ``eval_every`` iterations),
-the mean (deterministic) policy of each seed is evaluated every ``eval_every`` iterations on
-``eval_envs`` fresh episodes, and the test passes as soon as, for every seed, the mean of its last
+How a test trains and judges (``learn``): seeds 0 and 1 (REINFORCE: 0-3) train together in one
+vmapped program (``train.init_seeds``, ``train.train(seeds=True)``, one compiled block of
+``eval_every`` iterations), the mean (deterministic) policy of each seed is evaluated every
+``eval_every`` iterations on ``eval_envs`` fresh episodes, and the test passes as soon as, for every
+seed (REINFORCE: three of the four), the mean of its last
 ``LAST`` evaluations reaches the bar; it fails if that has not happened by the iteration cap. So a
 single lucky evaluation is not enough, and a policy that collapses again after solving the task
 pulls its mean down. Only the evaluation settings (``eval_envs``, ``eval_every``) differ from what

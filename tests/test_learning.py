@@ -48,7 +48,6 @@ def learn(
     ``bar`` or more, or ``max_iterations`` have run. Returns the evaluations ``[num_evaluations,
     num_seeds]`` and the iterations run."""
     every = config.eval_every
-    need = len(seeds) if need is None else need
     assert max_iterations % every == 0
     cpu_start = time.process_time()
     ts = train_lib.init_seeds(algo.init, list(seeds), env, config)

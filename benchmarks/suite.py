@@ -6,7 +6,9 @@ Two modes (``python benchmarks/suite.py MODE --help`` for each):
   run   train every ``TASK:ALGO:PRESET`` for every seed, then replay each run's final mean policy
         in Gymnasium; print the table, write JSON (runs and their metrics);
   plot  mean-policy return against wall clock and against env steps, one panel per task, the
-        seeds of each preset as a band, from ``run --json`` files.
+        seeds of each preset as a band, from ``run --json`` files;
+  count how many seeds of each setting reached a score, over any number of ``run --json`` files
+        (to judge a setting's failure rate over hundreds of seeds).
 
     python benchmarks/suite.py run --runs walker2d:npg:walker2d_1m half_cheetah:npg:half_cheetah_1m --seeds 0 1 2 \\
         --json suite.json
@@ -84,6 +86,16 @@ Reads ``run --json`` files; each TASK:ALGO:PRESET is a line (the median over see
 lowest to the highest seed), on a common grid of wall-clock seconds and of env steps.
 
     python benchmarks/suite.py plot suite.json --out docs/suite.png
+    python benchmarks/suite.py count blocks/*.json --bar 3000
+"""
+
+COUNT_DOC = """How many seeds of each setting reached a Gymnasium score, over ``run --json`` files.
+
+A setting is a TASK:ALGO:PRESET with the ``--extra`` flags its runs were given; a seed that two
+files both hold is counted once (the later file's). Prints one row per setting: seeds, how many
+scored at or above ``--bar``, the share below it, the lowest and the median, and the seeds below.
+
+    python benchmarks/suite.py count results/*.json --bar 3000
 """
 
 
@@ -93,6 +105,14 @@ def parse_run(text: str) -> tuple[str, str, str]:
     if len(parts) != 3 or not all(parts):
         raise argparse.ArgumentTypeError(f"expected TASK:ALGO:PRESET, got {text!r}")
     return parts[0], parts[1], parts[2]
+
+
+def seeds_label(seeds: Sequence[int]) -> str:
+    """A run directory's seed part: ``[3]`` -> ``"seed3"``, ``[0, 2, 5]`` -> ``"seed0-2-5"``, and a
+    run of consecutive seeds as its ends, ``[0, 1, ..., 63]`` -> ``"seeds0to63"``, so that a block of
+    many seeds stays within a file name's 255 bytes."""
+    consecutive = len(seeds) > 2 and list(seeds) == list(range(seeds[0], seeds[0] + len(seeds)))
+    return f"seeds{seeds[0]}to{seeds[-1]}" if consecutive else f"seed{'-'.join(map(str, seeds))}"
 
 
 def judge(task: str, preset: str, scores: list[float], walls: list[float], steps: list[float]) -> str:
@@ -129,7 +149,7 @@ def train_and_time(
     """One run as a fresh process, training ``seeds`` (several: together in one vmapped program),
     on GPU number ``gpu`` alone when given (``CUDA_VISIBLE_DEVICES``); one row per seed (without
     the Gymnasium score)."""
-    name = f"{task}-{algo}-{preset}-seed{'-'.join(map(str, seeds))}"
+    name = f"{task}-{algo}-{preset}-{seeds_label(seeds)}"
     run_dir = out / name
     shutil.rmtree(run_dir, ignore_errors=True)
     env = {
@@ -421,7 +441,57 @@ def plot_main(argv: Sequence[str]) -> None:
     print(f"wrote {args.out}")
 
 
-MODES = {"run": run_main, "plot": plot_main}
+def tally(rows: Sequence[dict], bar: float) -> list[dict]:
+    """One entry per setting (TASK:ALGO:PRESET and its extra flags) of the scored ``rows``: its
+    seeds, how many scored at least ``bar``, the lowest and the median score, the seeds below."""
+    settings: dict[tuple[str, str], dict[int, float]] = {}
+    for row in rows:
+        if row.get("gymnasium_return") is None:
+            continue
+        setting = (f"{row['task']}:{row['algo']}:{row['preset']}", " ".join(row.get("extra", [])))
+        settings.setdefault(setting, {})[row["seed"]] = row["gymnasium_return"]
+    out = []
+    for (run, extra), scores in settings.items():
+        values = list(scores.values())
+        below = sorted((seed for seed, score in scores.items() if score < bar), key=scores.__getitem__)
+        out.append(
+            {
+                "run": run,
+                "extra": extra,
+                "seeds": len(values),
+                "reached": len(values) - len(below),
+                "lowest": min(values),
+                "median": statistics.median(values),
+                "below": [(seed, scores[seed]) for seed in below],
+            }
+        )
+    return out
+
+
+def count_main(argv: Sequence[str]) -> None:
+    parser = argparse.ArgumentParser(prog="suite.py count", description=COUNT_DOC, formatter_class=RAW)
+    parser.add_argument("files", nargs="+")
+    parser.add_argument("--bar", type=float, required=True, help="the score a seed must reach")
+    args = parser.parse_args(argv)
+    entries = tally([row for path in args.files for row in harness.rows_of(path)], args.bar)
+    print(
+        harness.table(
+            entries,
+            [
+                ("task:algo:preset", lambda e: e["run"]),
+                ("extra flags", lambda e: e["extra"] or "-"),
+                ("seeds", lambda e: e["seeds"]),
+                (f">= {args.bar:g}", lambda e: e["reached"]),
+                ("below", lambda e: f"{100 * (1 - e['reached'] / e['seeds']):.1f} %"),
+                ("lowest", lambda e: f"{e['lowest']:.0f}"),
+                ("median", lambda e: f"{e['median']:.0f}"),
+                ("seeds below (score)", lambda e: ", ".join(f"{s} ({v:.0f})" for s, v in e["below"]) or "-"),
+            ],
+        )
+    )
+
+
+MODES = {"run": run_main, "plot": plot_main, "count": count_main}
 
 if __name__ == "__main__":
     harness.run_modes(__file__, MODES, __doc__)

@@ -126,6 +126,43 @@ def test_suite_judges_each_preset_against_its_target():
     assert suite.judge("ant", "ant_fast", [], [60.0], [1e7]) == "no score"
 
 
+def test_suite_names_a_block_of_many_seeds_within_a_file_name():
+    suite = load_script("benchmarks/suite.py")
+    assert suite.seeds_label([3]) == "seed3"
+    assert suite.seeds_label([0, 2, 5]) == "seed0-2-5"
+    assert suite.seeds_label([4, 5]) == "seed4-5"
+    assert suite.seeds_label(list(range(1000, 1064))) == "seeds1000to1063"
+    assert suite.seeds_label([1, 2, 3, 5]) == "seed1-2-3-5"
+
+
+def test_suite_counts_each_setting_s_seeds_below_the_bar_once():
+    suite = load_script("benchmarks/suite.py")
+
+    def row(seed: int, score: float | None, extra: list[str]) -> dict:
+        return {
+            "task": "hopper",
+            "algo": "npg",
+            "preset": "hopper_1m",
+            "seed": seed,
+            "gymnasium_return": score,
+            "extra": extra,
+        }
+
+    rows = [
+        row(0, 3100.0, []),
+        row(1, 2500.0, []),
+        row(2, 900.0, []),
+        row(1, 2600.0, []),
+        row(3, None, []),
+        row(0, 2000.0, ["--kl-delta", "0.1"]),
+    ]
+    base, kl = suite.tally(rows, 3000.0)
+    assert (base["run"], base["extra"], base["seeds"], base["reached"]) == ("hopper:npg:hopper_1m", "", 3, 1)
+    assert base["below"] == [(2, 900.0), (1, 2600.0)]  # seed 1 once, at its later score; seed 3 unscored
+    assert (base["lowest"], base["median"]) == (900.0, 2600.0)
+    assert (kl["extra"], kl["seeds"], kl["reached"]) == ("--kl-delta 0.1", 1, 0)
+
+
 def test_suite_runs_one_job_at_a_time_on_each_gpu():
     """``suite.py run --gpus``: every job runs once, on one GPU at a time, the GPUs side by side; a
     failed job is raised after the others ended."""

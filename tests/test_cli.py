@@ -374,7 +374,11 @@ def test_bad_input_is_one_error_line_with_status_2(extra, message, runs, capsys,
 
 def test_num_envs_not_divisible_by_devices_in_a_subprocess(runs):
     """Also checks the ``python -m jaxpg.cli`` entry; two fake CPU devices shard the env batch."""
-    env = {**os.environ, "XLA_FLAGS": "--xla_force_host_platform_device_count=2", "JAX_PLATFORMS": "cpu"}
+    env = {
+        **os.environ,
+        "XLA_FLAGS": f"{os.environ.get('XLA_FLAGS', '')} --xla_force_host_platform_device_count=2",
+        "JAX_PLATFORMS": "cpu",
+    }
     argv = [sys.executable, "-m", "jaxpg.cli", "--env", "inverted_pendulum", "--num-envs", "3"]
     proc = subprocess.run([*argv, "--run-dir", str(runs / "sharded")], capture_output=True, text=True, env=env)
     assert proc.returncode == 2

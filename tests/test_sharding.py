@@ -246,7 +246,11 @@ def test_episodes_from_split_resets_equal_rollout_episodes(jit):
 def test_scaling_benchmark_runs_on_cpu(tmp_path):
     """``benchmarks/throughput.py scaling`` with its docstring's CPU command (tiny sizes, 2 forced devices)."""
     out = tmp_path / "scaling.json"
-    env = {**os.environ, "XLA_FLAGS": "--xla_force_host_platform_device_count=2", "JAX_PLATFORMS": "cpu"}
+    env = {
+        **os.environ,
+        "XLA_FLAGS": f"{os.environ.get('XLA_FLAGS', '')} --xla_force_host_platform_device_count=2",
+        "JAX_PLATFORMS": "cpu",
+    }
     cmd = [sys.executable, str(ROOT / "benchmarks" / "throughput.py"), "scaling", "--task", "cartpole"]
     cmd += ["--envs-per-device", "8", "--horizon", "4", "--iterations", "1", "--json", str(out)]
     proc = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=600)

@@ -82,4 +82,4 @@ MinPy's comparison on the real game (running reward against wall-clock time, 1 t
 )
 
 if __name__ == "__main__":
-    exit_process(main(experiment=EXPERIMENT))
+    exit_process(main(experiment=EXPERIMENT, owns_process=True))

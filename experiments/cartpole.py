@@ -37,4 +37,4 @@ videos: CartPole is drawn with NumPy (--video-every N, or python -m jaxpg.evalua
 )
 
 if __name__ == "__main__":
-    exit_process(main(experiment=EXPERIMENT))
+    exit_process(main(experiment=EXPERIMENT, owns_process=True))

@@ -48,4 +48,4 @@ then: python -m jaxpg.evaluate RUN_DIR --episodes 10 --gymnasium --video hopper.
 )
 
 if __name__ == "__main__":
-    exit_process(main(experiment=EXPERIMENT))
+    exit_process(main(experiment=EXPERIMENT, owns_process=True))

@@ -39,4 +39,4 @@ then: python -m jaxpg.evaluate RUN_DIR --episodes 20 --gymnasium --video pendulu
 )
 
 if __name__ == "__main__":
-    exit_process(main(experiment=EXPERIMENT))
+    exit_process(main(experiment=EXPERIMENT, owns_process=True))

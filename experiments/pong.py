@@ -58,4 +58,4 @@ MinPy's comparison (running reward against wall clock for 1 to 256 envs, into po
 )
 
 if __name__ == "__main__":
-    exit_process(main(experiment=EXPERIMENT))
+    exit_process(main(experiment=EXPERIMENT, owns_process=True))

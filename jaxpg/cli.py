@@ -18,4 +18,4 @@ from jaxpg.run.main import exit_process, main
 __all__ = ["Experiment", "UsageError", "exit_process", "main"]
 
 if __name__ == "__main__":
-    exit_process(main())
+    exit_process(main(owns_process=True))

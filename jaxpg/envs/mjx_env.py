@@ -2,11 +2,7 @@
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
-import functools
-import importlib.util
-import io
 import time
 from pathlib import Path
 from typing import Any, Literal
@@ -15,6 +11,7 @@ import jax
 import jax.numpy as jnp
 import mujoco
 
+from jaxpg.envs import mjx_import
 from jaxpg.envs.base import Env, expand_like
 
 ASSETS = Path(__file__).parent / "assets"
@@ -48,33 +45,16 @@ INTEGRATION_STATE = (
 )
 
 
-@functools.cache
-def warp_available() -> bool:
-    """True when the ``warp-lang`` package (MuJoCo Warp's runtime) can be imported."""
-    return importlib.util.find_spec("warp") is not None
-
-
-def _import_mjx() -> Any:
-    """``mujoco.mjx``, imported quietly: without warp-lang MJX prints "Failed to import warp" on
-    import (the JAX implementation works regardless), and with it Warp prints a banner and a line
-    per compiled module unless ``warp.config.quiet`` is set."""
-    if warp_available():
-        import warp
-
-        warp.config.quiet = True  # warp-lang 1.18
-        if hasattr(warp, "LOG_WARNING"):
-            warp.config.log_level = warp.LOG_WARNING  # warp-lang 1.19 replaced ``quiet`` by a log level
-        from mujoco import mjx
-    else:
-        with contextlib.redirect_stdout(io.StringIO()):
-            from mujoco import mjx
-    return mjx
-
-
 _mjx_import_started = time.perf_counter()
-mjx = _import_mjx()
+mjx, _MJX_HAS_WARP = mjx_import.import_mjx()
 # ``time.perf_counter()`` around the import, for the end-of-run report (``jaxpg.run.startup_times``).
 MJX_IMPORT_SPAN = (_mjx_import_started, time.perf_counter())
+
+
+def warp_available() -> bool:
+    """True when MuJoCo Warp can step MJX in this process: warp-lang is installed and MJX was
+    imported with it (not left out by ``JAXPG_MJX_WARP=off``: ``jaxpg.envs.mjx_import``)."""
+    return _MJX_HAS_WARP
 
 
 def default_impl() -> Impl:
@@ -172,6 +152,11 @@ class MjxEnv(Env):
         if impl not in ("jax", "warp"):
             raise ValueError(f"unknown impl {impl!r}: expected 'jax' or 'warp'")
         if impl == "warp" and not warp_available():
+            if mjx_import.warp_installed():
+                raise ValueError(
+                    f"impl='warp': this process imported MJX without MuJoCo Warp ({mjx_import.WARP_VARIABLE}=off); "
+                    "start it without that setting"
+                )
             raise ValueError("impl='warp' needs the warp-lang package: pip install 'jaxpg[warp]'")
         self.fidelity = fidelity
         self.impl = impl

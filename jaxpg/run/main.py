@@ -20,12 +20,15 @@ from jaxpg.run import planning, session, startup
 from jaxpg.run.command_line import DEFAULT_EPILOG, Experiment
 
 
-def main(argv: Sequence[str] | None = None, experiment: Experiment | None = None) -> int:
-    """Entry point of ``python -m jaxpg.cli`` and the experiment scripts; returns the exit status."""
+def main(argv: Sequence[str] | None = None, experiment: Experiment | None = None, owns_process: bool = False) -> int:
+    """Entry point of ``python -m jaxpg.cli`` and the experiment scripts; returns the exit status.
+
+    ``owns_process``: nothing but this command will run in the process (the scripts' own call), so
+    process-wide choices made for it alone are safe (``jaxpg.run.startup.start``)."""
     experiment = experiment or Experiment(prog="python -m jaxpg.cli", epilog=DEFAULT_EPILOG)
     argv = list(sys.argv[1:] if argv is None else argv)
     try:
-        pre = startup.start(argv, experiment)
+        pre = startup.start(argv, experiment, owns_process)
         plan_ = planning.plan(argv, experiment, pre)
     except ValueError as e:  # UsageError, RunDirError, CheckpointError, Config.validate, DistributedError
         message = str(e).strip().splitlines()

@@ -21,7 +21,7 @@ class PreFlags:
     """What a command asks for before its full parse (``None``: not given).
 
     Attributes:
-      algo, preset: the flags of those names.
+      algo, preset, impl: the flags of those names.
       resume: the run directory ``--resume`` continues; run_dir: ``--run-dir``.
       videos: whether the command may draw videos: ``--video-every`` > 0 (given, or the
         experiment's default) or a ``--resume``, whose run may have asked for them.
@@ -31,6 +31,7 @@ class PreFlags:
 
     algo: str | None = None
     preset: str | None = None
+    impl: str | None = None
     resume: str | None = None
     run_dir: str | None = None
     videos: bool = False
@@ -58,6 +59,7 @@ def parse_pre_flags(argv: Sequence[str], experiment: Experiment) -> PreFlags:
     parser.add_argument("--preset")
     parser.add_argument("--resume")
     parser.add_argument("--run-dir")
+    parser.add_argument("--impl")
     parser.add_argument("--video-every")
     add_distributed_flags(parser)
     args, _ = parser.parse_known_args(list(argv))
@@ -68,6 +70,7 @@ def parse_pre_flags(argv: Sequence[str], experiment: Experiment) -> PreFlags:
     return PreFlags(
         algo=args.algo,
         preset=args.preset,
+        impl=args.impl,
         resume=args.resume,
         run_dir=args.run_dir,
         videos=args.resume is not None or video_every > 0,

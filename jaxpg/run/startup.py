@@ -1,34 +1,54 @@
 """What a command does first, before it plans: choose MuJoCo's GL backend when it may draw a video,
-turn the compilation cache on, join the other processes, check that JAX has a device, and put
-back a run directory that a killed ``--overwrite`` left moved aside (``start``)."""
+turn the compilation cache on, join the other processes, check that JAX has a device, leave MuJoCo
+Warp out of a process that will not use it, and put back a run directory that a killed
+``--overwrite`` left moved aside (``start``)."""
 
 from __future__ import annotations
 
+import os
 import sys
 from collections.abc import Sequence
 
+import jax
+
 from jaxpg import video as video_lib
+from jaxpg.envs import mjx_import
 from jaxpg.run import compile_cache, processes, replacing
 from jaxpg.run.command_line import Experiment
 from jaxpg.run.flags import check_backend
 from jaxpg.run.pre_flags import PreFlags, parse_pre_flags
 
 
-def start(argv: Sequence[str], experiment: Experiment) -> PreFlags:
+def start(argv: Sequence[str], experiment: Experiment, owns_process: bool = False) -> PreFlags:
     """Prepare this process for the command ``argv``; returns the flags it read (``PreFlags``),
     for planning. Each step comes where it must: the GL backend before MuJoCo is imported, the
     cache before the first compilation, ``jax.distributed`` before anything touches JAX's devices,
-    the run directory's recovery before planning reads it. Raises ``ValueError`` (one line) on bad
-    flags or distributed settings or when JAX has no device, and ``OSError`` when the run
-    directory cannot be put back in order."""
+    the choice to import MJX without MuJoCo Warp (only when the command ``owns_process``: nothing
+    else will run in it) before MJX is imported, the run directory's recovery before planning reads
+    it. Raises ``ValueError`` (one line) on bad flags or distributed settings or when JAX has no
+    device, and ``OSError`` when the run directory cannot be put back in order."""
     pre = parse_pre_flags(argv, experiment)
     if pre.videos:
         video_lib.configure_gl()  # before MuJoCo is imported, and only when a video may be drawn
     compile_cache.enable()  # a second run of the same program loads it instead of compiling
     start_processes(pre)
     check_backend()
+    undecided = mjx_import.WARP_VARIABLE not in os.environ and "mujoco.mjx" not in sys.modules
+    if owns_process and undecided and steps_mjx_on_jax_only(pre, experiment, jax.default_backend()):
+        os.environ[mjx_import.WARP_VARIABLE] = "off"  # about 2 s less of `import mujoco.mjx` on a CPU
     recover_run_dir(pre)
     return pre
+
+
+def steps_mjx_on_jax_only(pre: PreFlags, experiment: Experiment, backend: str) -> bool:
+    """Whether the command will step MJX with its JAX implementation only, so that MJX can be
+    imported without MuJoCo Warp (``jaxpg.envs.mjx_import``): ``--impl jax``, or a fresh run with no
+    ``impl`` from the flags or the experiment on a ``backend`` (JAX's default) other than ``"gpu"``,
+    where the default is jax. A resumed run's ``impl`` is in its run directory: it keeps Warp."""
+    impl = pre.impl or experiment.env_kwargs.get("impl")
+    if impl is None and pre.resume is None:
+        impl = "warp" if backend == "gpu" else "jax"
+    return impl == "jax"
 
 
 def start_processes(pre: PreFlags) -> None:

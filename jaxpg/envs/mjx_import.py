@@ -1,0 +1,67 @@
+"""How ``mujoco.mjx`` is imported: with MuJoCo Warp (MJX's GPU physics, ``impl="warp"``) or without.
+
+Importing MJX imports MuJoCo Warp whenever the ``warp-lang`` package is installed, whether or not
+the process will use it: on two CPU cores that is about 2 of the 3 s that ``import mujoco.mjx``
+takes (0.8-1.0 s without). A process that will only step MJX's JAX implementation (a command on a
+machine without a GPU, or ``--impl jax``) can leave it out by setting the environment variable
+``JAXPG_MJX_WARP=off`` before MJX is first imported; jaxpg's command lines do so themselves
+(``jaxpg.run.startup``). MJX then runs as it does without ``warp-lang``, and asking that process
+for ``impl="warp"`` is a ``ValueError`` that says why.
+
+Kept free of MuJoCo imports, so that a command can decide before MJX is imported.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import importlib.util
+import io
+import os
+import sys
+from collections.abc import Mapping
+from typing import Any
+
+WARP_VARIABLE = "JAXPG_MJX_WARP"
+_OFF = ("off", "0", "no", "false")
+
+
+def warp_installed() -> bool:
+    """True when the ``warp-lang`` package (MuJoCo Warp's runtime) can be imported."""
+    return importlib.util.find_spec("warp") is not None
+
+
+def warp_left_out(environ: Mapping[str, str] | None = None) -> bool:
+    """Whether ``environ`` (default: this process's environment) asks MJX to be imported without
+    MuJoCo Warp (``JAXPG_MJX_WARP=off``)."""
+    environ = os.environ if environ is None else environ
+    return environ.get(WARP_VARIABLE, "").strip().lower() in _OFF
+
+
+def import_mjx() -> tuple[Any, bool]:
+    """``(mujoco.mjx, with_warp)``, imported quietly: without warp-lang MJX prints "Failed to
+    import warp" on import (its JAX implementation works regardless), and with it Warp prints a
+    banner and a line per compiled module unless ``warp.config.quiet`` is set. ``with_warp`` is
+    False when warp-lang is missing or ``warp_left_out()`` (and warp was not imported already)."""
+    if "mujoco.mjx" in sys.modules:  # imported before jaxpg: as it was
+        mjx_warp = sys.modules.get("mujoco.mjx.warp")
+        return sys.modules["mujoco.mjx"], bool(getattr(mjx_warp, "WARP_INSTALLED", False))
+    leave_out = warp_left_out() and "warp" not in sys.modules
+    if warp_installed() and not leave_out:
+        import warp
+
+        warp.config.quiet = True  # warp-lang 1.18
+        if hasattr(warp, "LOG_WARNING"):
+            warp.config.log_level = warp.LOG_WARNING  # warp-lang 1.19 replaced ``quiet`` by a log level
+        from mujoco import mjx
+
+        return mjx, True
+    hidden = leave_out and warp_installed()
+    if hidden:
+        sys.modules["warp"] = None  # type: ignore[assignment]  # `import warp` raises ImportError
+    try:
+        with contextlib.redirect_stdout(io.StringIO()):
+            from mujoco import mjx
+    finally:
+        if hidden:
+            del sys.modules["warp"]  # a later `import warp` (not MJX's) works as usual
+    return mjx, False

@@ -1,0 +1,91 @@
+"""MJX imported without MuJoCo Warp where a command will not use it (``jaxpg.envs.mjx_import``,
+``jaxpg.run.startup.steps_mjx_on_jax_only``). Which modules a process imported is process state, so
+the checks that import MJX run in fresh interpreters."""
+
+import os
+import re
+import subprocess
+import sys
+
+import pytest
+
+from jaxpg.envs import mjx_import
+from jaxpg.run import startup
+from jaxpg.run.command_line import Experiment
+from jaxpg.run.pre_flags import PreFlags
+
+
+def test_the_variable_says_off_in_the_usual_ways():
+    assert mjx_import.warp_left_out({"JAXPG_MJX_WARP": "off"})
+    assert mjx_import.warp_left_out({"JAXPG_MJX_WARP": " OFF "})
+    assert mjx_import.warp_left_out({"JAXPG_MJX_WARP": "0"})
+    assert not mjx_import.warp_left_out({"JAXPG_MJX_WARP": "on"})
+    assert not mjx_import.warp_left_out({})
+
+
+def test_a_command_leaves_warp_out_only_when_it_will_step_mjx_on_jax():
+    fresh, experiment = PreFlags(), Experiment()
+    assert startup.steps_mjx_on_jax_only(fresh, experiment, "cpu")  # the default on a CPU is jax
+    assert not startup.steps_mjx_on_jax_only(fresh, experiment, "gpu")  # and warp on a GPU
+    assert startup.steps_mjx_on_jax_only(PreFlags(impl="jax"), experiment, "gpu")
+    assert not startup.steps_mjx_on_jax_only(PreFlags(impl="warp"), experiment, "cpu")
+    assert not startup.steps_mjx_on_jax_only(fresh, Experiment(env_kwargs={"impl": "warp"}), "cpu")
+    assert startup.steps_mjx_on_jax_only(fresh, Experiment(env_kwargs={"impl": "jax"}), "gpu")
+    # A resumed run's impl is in its run directory, not in the flags: it keeps Warp.
+    assert not startup.steps_mjx_on_jax_only(PreFlags(resume="runs/x"), experiment, "cpu")
+
+
+def python(code: str, **environ: str) -> str:
+    """``code`` run by a fresh interpreter of this environment (plus ``environ``): its stdout."""
+    env = {k: v for k, v in os.environ.items() if k != mjx_import.WARP_VARIABLE} | environ
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=300)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    return proc.stdout
+
+
+LEFT_OUT = """
+import sys
+from jaxpg import envs
+from jaxpg.envs import mjx_env, mjx_import
+warp_modules = ("warp.", "mujoco.mjx.third_party.mujoco_warp._src.")  # the package stubs above them load
+loaded = sorted(m for m in sys.modules if m == "warp" or m.startswith(warp_modules))
+print("loaded:", loaded, "available:", mjx_env.warp_available())
+env = envs.make_task("hopper", impl="jax")  # MJX's JAX implementation is there
+print("jax:", env.impl, env.nq)
+try:
+    envs.make_task("hopper", impl="warp")
+except ValueError as e:
+    print("warp:", e)
+if mjx_import.warp_installed():
+    import warp  # only MJX's import was spared it
+    print("import warp: ok")
+"""
+
+
+def test_mjx_without_warp_steps_on_jax_and_says_why_warp_is_missing():
+    out = python(LEFT_OUT, JAXPG_MJX_WARP="off")
+    assert "loaded: [] available: False" in out
+    assert "jax: jax 6" in out
+    if mjx_import.warp_installed():
+        assert "warp: impl='warp': this process imported MJX without MuJoCo Warp (JAXPG_MJX_WARP=off)" in out
+        assert "import warp: ok" in out
+    else:
+        assert "needs the warp-lang package" in out
+
+
+@pytest.mark.skipif(not mjx_import.warp_installed(), reason="warp-lang is not installed (pip install 'jaxpg[warp]')")
+def test_the_command_line_imports_warp_only_when_asked_for_it():
+    """A command that stops with a usage error right after importing MJX (a bad task option),
+    under ``python -X importtime``: on a CPU MuJoCo Warp's modules are not imported, unless the
+    command asks for ``--impl warp``."""
+
+    def warp_modules(*flags: str) -> int:
+        argv = [sys.executable, "-X", "importtime", "-m", "jaxpg.cli", "--env", "hopper", *flags]
+        env = {k: v for k, v in os.environ.items() if k != mjx_import.WARP_VARIABLE} | {"JAX_PLATFORMS": "cpu"}
+        proc = subprocess.run([*argv, "--env-kwargs", "bogus=1"], capture_output=True, text=True, env=env)
+        assert proc.returncode == 2 and "has no option 'bogus'" in proc.stderr, proc.stderr[-2000:]
+        assert re.search(r"\| +mujoco\.mjx\n", proc.stderr)  # MJX itself was imported
+        return proc.stderr.count("mujoco.mjx.third_party.mujoco_warp._src.")
+
+    assert warp_modules() <= 1  # the first of them, started and abandoned: "import warp" failed
+    assert warp_modules("--impl", "warp") > 20

@@ -11,4 +11,4 @@ from jaxpg.run.evaluate_cli import main
 __all__ = ["main"]
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    raise SystemExit(main(owns_process=True))

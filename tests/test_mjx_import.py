@@ -89,3 +89,38 @@ def test_the_command_line_imports_warp_only_when_asked_for_it():
 
     assert warp_modules() <= 1  # the first of them, started and abandoned: "import warp" failed
     assert warp_modules("--impl", "warp") > 20
+
+
+def test_runs_jax_only_follows_the_default_implementation():
+    assert mjx_import.runs_jax_only(None, "cpu") and mjx_import.runs_jax_only("jax", "gpu")
+    assert not mjx_import.runs_jax_only(None, "gpu") and not mjx_import.runs_jax_only("warp", "cpu")
+
+
+@pytest.mark.skipif(not mjx_import.warp_installed(), reason="warp-lang is not installed (pip install 'jaxpg[warp]')")
+def test_evaluating_a_run_on_the_cpu_leaves_warp_out(tmp_path):
+    """``python -m jaxpg.evaluate RUN --gymnasium`` of an inverted-pendulum run (an untrained
+    policy's checkpoint: nothing is trained) imports MJX without MuJoCo Warp's modules on a CPU."""
+    import jax
+
+    from jaxpg import algos
+    from jaxpg.run import config_io, layout
+    from jaxpg.run.checkpointer import Checkpointer
+
+    module = algos.get("npg")
+    config = module.Config(num_envs=4, horizon=8, policy_hidden=(8,), value_hidden=(8,), value_batch_size=8)
+    run = config_io.RunConfig(
+        task="inverted_pendulum", algo="npg", config=config_io.config_to_dict(config), seeds=[0], iterations=1
+    )
+    run_dir = tmp_path / "run"
+    run_dir.mkdir()
+    run.save(run_dir)
+    state = module.init(jax.random.PRNGKey(0), run.make_env(), config)
+    Checkpointer(run_dir / layout.CHECKPOINT_DIR, keep=None, create=True).save(
+        1, state, score=0.0, info={"task": run.task, "algo": run.algo, "seeds": [0]}
+    )
+    argv = [sys.executable, "-X", "importtime", "-m", "jaxpg.evaluate", str(run_dir), "--gymnasium", "--episodes", "1"]
+    env = {k: v for k, v in os.environ.items() if k != mjx_import.WARP_VARIABLE} | {"JAX_PLATFORMS": "cpu"}
+    proc = subprocess.run(argv, capture_output=True, text=True, env=env, timeout=300)
+    assert proc.returncode == 0 and "Gymnasium InvertedPendulum-v5" in proc.stdout, proc.stderr[-2000:]
+    assert re.search(r"\| +mujoco\.mjx\n", proc.stderr)  # MJX was imported, for the run's env
+    assert proc.stderr.count("mujoco.mjx.third_party.mujoco_warp._src.") <= 1

@@ -37,6 +37,22 @@ def warp_left_out(environ: Mapping[str, str] | None = None) -> bool:
     return environ.get(WARP_VARIABLE, "").strip().lower() in _OFF
 
 
+def runs_jax_only(impl: str | None, backend: str) -> bool:
+    """Whether MJX will step with its JAX implementation: ``impl`` as asked, or with ``None`` the
+    default (``jaxpg.envs.mjx_env.default_impl``: warp on a ``backend``, JAX's, of ``"gpu"``)."""
+    return (impl or ("warp" if backend == "gpu" else "jax")) == "jax"
+
+
+def leave_out_warp() -> bool:
+    """Set ``JAXPG_MJX_WARP=off`` for this process (and those it starts), unless it is set already
+    or MJX is imported (the choice is made then); returns whether it was set. For a command that
+    nothing else runs beside, once it knows it will step MJX on JAX only."""
+    if WARP_VARIABLE in os.environ or "mujoco.mjx" in sys.modules:
+        return False
+    os.environ[WARP_VARIABLE] = "off"
+    return True
+
+
 def import_mjx() -> tuple[Any, bool]:
     """``(mujoco.mjx, with_warp)``, imported quietly: without warp-lang MJX prints "Failed to
     import warp" on import (its JAX implementation works regardless), and with it Warp prints a

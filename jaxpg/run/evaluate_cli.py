@@ -44,6 +44,24 @@ def _video_problem(run: Any, gymnasium: bool) -> str | None:
     return video_lib.gl_problem() if needs_gl else None
 
 
+def leave_out_warp_if_unused(run_dir: str) -> None:
+    """Before MJX is imported: import it without MuJoCo Warp (``jaxpg.envs.mjx_import``) when the
+    run's env will step on MJX's JAX implementation here (the run asked for ``impl="jax"``, or for
+    none and JAX has no GPU). A run directory that cannot be read is left to the evaluation to
+    report. Imports what it needs itself: ``--help`` stays quick."""
+    import jax
+
+    from jaxpg.envs import mjx_import
+    from jaxpg.run import config_io
+
+    try:
+        impl = config_io.RunConfig.load(run_dir).env_kwargs.get("impl")
+    except (OSError, ValueError):
+        return
+    if mjx_import.runs_jax_only(impl, jax.default_backend()):
+        mjx_import.leave_out_warp()
+
+
 def output_problem(path: Path) -> str | None:
     """Why no file can be written at ``path`` (one short line), or ``None`` when one can: its
     nearest existing ancestor must be a writable directory (tried by creating and removing a
@@ -70,7 +88,10 @@ def output_problem(path: Path) -> str | None:
     return None
 
 
-def main(argv: Sequence[str] | None = None) -> int:
+def main(argv: Sequence[str] | None = None, owns_process: bool = False) -> int:
+    """``python -m jaxpg.evaluate``; returns the exit status. ``owns_process``: nothing but this
+    command runs in the process (its script's own call), so that MJX may be imported without
+    MuJoCo Warp when the evaluation will not use it (``leave_out_warp_if_unused``)."""
     parser = argparse.ArgumentParser(
         prog="python -m jaxpg.evaluate",
         description=__doc__.split("\n\n")[0].split(": ", 1)[-1] if __doc__ else None,
@@ -120,6 +141,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     except UsageError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
+    if owns_process:
+        leave_out_warp_if_unused(args.run_dir)
     try:
         if args.ale:
             atari.require_ale()

@@ -5,7 +5,6 @@ Warp out of a process that will not use it, and put back a run directory that a 
 
 from __future__ import annotations
 
-import os
 import sys
 from collections.abc import Sequence
 
@@ -33,9 +32,8 @@ def start(argv: Sequence[str], experiment: Experiment, owns_process: bool = Fals
     compile_cache.enable()  # a second run of the same program loads it instead of compiling
     start_processes(pre)
     check_backend()
-    undecided = mjx_import.WARP_VARIABLE not in os.environ and "mujoco.mjx" not in sys.modules
-    if owns_process and undecided and steps_mjx_on_jax_only(pre, experiment, jax.default_backend()):
-        os.environ[mjx_import.WARP_VARIABLE] = "off"  # about 2 s less of `import mujoco.mjx` on a CPU
+    if owns_process and steps_mjx_on_jax_only(pre, experiment, jax.default_backend()):
+        mjx_import.leave_out_warp()  # about 2 s less of `import mujoco.mjx` on a CPU
     recover_run_dir(pre)
     return pre
 
@@ -46,9 +44,7 @@ def steps_mjx_on_jax_only(pre: PreFlags, experiment: Experiment, backend: str) -
     ``impl`` from the flags or the experiment on a ``backend`` (JAX's default) other than ``"gpu"``,
     where the default is jax. A resumed run's ``impl`` is in its run directory: it keeps Warp."""
     impl = pre.impl or experiment.env_kwargs.get("impl")
-    if impl is None and pre.resume is None:
-        impl = "warp" if backend == "gpu" else "jax"
-    return impl == "jax"
+    return (impl is not None or pre.resume is None) and mjx_import.runs_jax_only(impl, backend)
 
 
 def start_processes(pre: PreFlags) -> None:

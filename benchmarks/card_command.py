@@ -568,7 +568,9 @@ def capture_main(argv: Sequence[str]) -> None:
 
 # Each snippet runs in a fresh process and prints its seconds as JSON: ``import jax``, JAX's
 # backend start (``jax.devices()``) and ``import mujoco.mjx`` (MuJoCo Warp's modules included),
-# in turn or with the import on a thread while the backend starts.
+# in turn or with the import on a thread while the backend starts; then jaxpg's import of MJX
+# (``jaxpg.envs.mjx_import``, jaxpg's own import counted in the total only), with MuJoCo Warp and
+# with it left out (``JAXPG_MJX_WARP=off``, what a command that steps on JAX only does).
 STARTUP_SNIPPETS = {
     "in turn": """
 import json, time
@@ -584,6 +586,25 @@ t0 = time.perf_counter(); import jax
 t1 = time.perf_counter()
 thread = threading.Thread(target=__import__, args=("mujoco.mjx",)); thread.start(); jax.devices()
 t2 = time.perf_counter(); thread.join()
+t3 = time.perf_counter()
+print(json.dumps({"import jax": t1 - t0, "backend": t2 - t1, "import mjx": t3 - t2, "total": t3 - t0}))
+""",
+    "jaxpg, with Warp": """
+import json, time
+t0 = time.perf_counter(); import jax
+t1 = time.perf_counter(); jax.devices()
+from jaxpg.envs import mjx_import
+t2 = time.perf_counter(); mjx_import.import_mjx()
+t3 = time.perf_counter()
+print(json.dumps({"import jax": t1 - t0, "backend": t2 - t1, "import mjx": t3 - t2, "total": t3 - t0}))
+""",
+    "jaxpg, Warp left out": """
+import json, os, time
+os.environ["JAXPG_MJX_WARP"] = "off"
+t0 = time.perf_counter(); import jax
+t1 = time.perf_counter(); jax.devices()
+from jaxpg.envs import mjx_import
+t2 = time.perf_counter(); mjx_import.import_mjx()
 t3 = time.perf_counter()
 print(json.dumps({"import jax": t1 - t0, "backend": t2 - t1, "import mjx": t3 - t2, "total": t3 - t0}))
 """,
@@ -652,7 +673,8 @@ def startup_main(argv: Sequence[str]) -> None:
     parser = argparse.ArgumentParser(
         prog="card_command.py startup",
         description="Fresh-process start-up: JAX's backend and `import mujoco.mjx`, in turn or overlapped "
-        "(`import mjx` is then what is left of the import after the backend started).",
+        "(`import mjx` is then what is left of the import after the backend started), and jaxpg's import of "
+        "MJX with MuJoCo Warp and without (`backend` then includes importing jaxpg).",
     )
     parser.add_argument("--repeats", type=int, default=3, help="processes per order, alternating (default: 3)")
     parser.add_argument("--sample", type=int, default=0, help="instead: this many sampled warm runs of the card")

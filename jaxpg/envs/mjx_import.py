@@ -1,12 +1,13 @@
 """How ``mujoco.mjx`` is imported: with MuJoCo Warp (MJX's GPU physics, ``impl="warp"``) or without.
 
 Importing MJX imports MuJoCo Warp whenever the ``warp-lang`` package is installed, whether or not
-the process will use it: on two CPU cores that is about 2 of the 3 s that ``import mujoco.mjx``
-takes (0.8-1.0 s without). A process that will only step MJX's JAX implementation (a command on a
-machine without a GPU, or ``--impl jax``) can leave it out by setting the environment variable
-``JAXPG_MJX_WARP=off`` before MJX is first imported; jaxpg's command lines do so themselves
-(``jaxpg.run.startup``). MJX then runs as it does without ``warp-lang``, and asking that process
-for ``impl="warp"`` is a ``ValueError`` that says why.
+the process will use it: on two CPU cores that is about 3 of the 4 s that ``import mujoco.mjx``
+takes (3.4-4.1 s with it, 0.8-1.1 s without: ``benchmarks/card_command.py startup``). A process
+that will only step MJX's JAX implementation (a command on a machine without a GPU, or
+``--impl jax``) can leave it out by setting the environment variable ``JAXPG_MJX_WARP=off`` before
+MJX is first imported; jaxpg's command lines do so themselves (``jaxpg.run.startup``). MJX then
+runs as it does without ``warp-lang``, and asking that process for ``impl="warp"`` is a
+``ValueError`` that says why.
 
 Kept free of MuJoCo imports, so that a command can decide before MJX is imported.
 """

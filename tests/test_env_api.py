@@ -216,9 +216,10 @@ def test_evaluate_video_checks_gl_only_for_mujoco_tasks(hopper, monkeypatch):
 
 
 def test_warp_without_warp_lang(monkeypatch):
-    from jaxpg.envs import mjx_env
+    from jaxpg.envs import mjx_env, mjx_import
 
     monkeypatch.setattr(mjx_env, "warp_available", lambda: False)
+    monkeypatch.setattr(mjx_import, "warp_installed", lambda: False)
     with pytest.raises(ValueError, match=r"^impl='warp' needs the warp-lang package: pip install 'jaxpg\[warp\]'$"):
         envs.make_task("hopper", impl="warp")
 

@@ -44,14 +44,12 @@ def runs_jax_only(impl: str | None, backend: str) -> bool:
     return (impl or ("warp" if backend == "gpu" else "jax")) == "jax"
 
 
-def leave_out_warp() -> bool:
+def leave_out_warp() -> None:
     """Set ``JAXPG_MJX_WARP=off`` for this process (and those it starts), unless it is set already
-    or MJX is imported (the choice is made then); returns whether it was set. For a command that
-    nothing else runs beside, once it knows it will step MJX on JAX only."""
-    if WARP_VARIABLE in os.environ or "mujoco.mjx" in sys.modules:
-        return False
-    os.environ[WARP_VARIABLE] = "off"
-    return True
+    or MJX is imported (the choice is made then). For a command that nothing else runs beside,
+    once it knows it will step MJX on JAX only."""
+    if WARP_VARIABLE not in os.environ and "mujoco.mjx" not in sys.modules:
+        os.environ[WARP_VARIABLE] = "off"
 
 
 def import_mjx() -> tuple[Any, bool]:

@@ -31,8 +31,32 @@ def test_a_command_leaves_warp_out_only_when_it_will_step_mjx_on_jax():
     assert not startup.steps_mjx_on_jax_only(PreFlags(impl="warp"), experiment, "cpu")
     assert not startup.steps_mjx_on_jax_only(fresh, Experiment(env_kwargs={"impl": "warp"}), "cpu")
     assert startup.steps_mjx_on_jax_only(fresh, Experiment(env_kwargs={"impl": "jax"}), "gpu")
-    # A resumed run's impl is in its run directory, not in the flags: it keeps Warp.
-    assert not startup.steps_mjx_on_jax_only(PreFlags(resume="runs/x"), experiment, "cpu")
+
+
+def test_a_resumed_run_leaves_warp_out_when_its_saved_impl_steps_on_jax(tmp_path):
+    """``--resume RUN`` without ``--impl``: the ``impl`` RUN's ``config.json`` saved decides; a
+    directory whose configuration cannot be read keeps Warp (planning reports it)."""
+    from jaxpg.run import config_io
+
+    def saved(name: str, impl: str | None) -> PreFlags:
+        run_dir = tmp_path / name
+        run_dir.mkdir()
+        env_kwargs = {} if impl is None else {"impl": impl}
+        config_io.RunConfig(task="hopper", algo="npg", config={}, seeds=[0], iterations=1, env_kwargs=env_kwargs).save(
+            run_dir
+        )
+        return PreFlags(resume=str(run_dir))
+
+    experiment = Experiment()
+    assert startup.steps_mjx_on_jax_only(saved("none", None), experiment, "cpu")
+    assert not startup.steps_mjx_on_jax_only(saved("none_gpu", None), experiment, "gpu")
+    assert startup.steps_mjx_on_jax_only(saved("jax", "jax"), experiment, "gpu")
+    assert not startup.steps_mjx_on_jax_only(saved("warp", "warp"), experiment, "cpu")
+    assert startup.steps_mjx_on_jax_only(PreFlags(resume=saved("warp2", "warp").resume, impl="jax"), experiment, "cpu")
+    assert not startup.steps_mjx_on_jax_only(PreFlags(resume=str(tmp_path / "missing")), experiment, "cpu")
+    (tmp_path / "broken").mkdir()
+    (tmp_path / "broken" / "config.json").write_text("{not json")
+    assert not startup.steps_mjx_on_jax_only(PreFlags(resume=str(tmp_path / "broken")), experiment, "cpu")
 
 
 def python(code: str, **environ: str) -> str:

@@ -1,7 +1,7 @@
 """What a command does first, before it plans: choose MuJoCo's GL backend when it may draw a video,
-turn the compilation cache on, join the other processes, check that JAX has a device, leave MuJoCo
-Warp out of a process that will not use it, and put back a run directory that a killed
-``--overwrite`` left moved aside (``start``)."""
+turn the compilation cache on, join the other processes, check that JAX has a device, put back a
+run directory that a killed ``--overwrite`` left moved aside, and leave MuJoCo Warp out of a
+process that will not use it (``start``)."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ import jax
 
 from jaxpg import video as video_lib
 from jaxpg.envs import mjx_import
-from jaxpg.run import compile_cache, processes, replacing
+from jaxpg.run import compile_cache, config_io, processes, replacing
 from jaxpg.run.command_line import Experiment
 from jaxpg.run.flags import check_backend
 from jaxpg.run.pre_flags import PreFlags, parse_pre_flags
@@ -22,9 +22,9 @@ def start(argv: Sequence[str], experiment: Experiment, owns_process: bool = Fals
     """Prepare this process for the command ``argv``; returns the flags it read (``PreFlags``),
     for planning. Each step comes where it must: the GL backend before MuJoCo is imported, the
     cache before the first compilation, ``jax.distributed`` before anything touches JAX's devices,
-    the choice to import MJX without MuJoCo Warp (only when the command ``owns_process``: nothing
-    else will run in it) before MJX is imported, the run directory's recovery before planning reads
-    it. Raises ``ValueError`` (one line) on bad flags or distributed settings or when JAX has no
+    the run directory's recovery before planning or the choice below reads it, the choice to
+    import MJX without MuJoCo Warp (only when the command ``owns_process``: nothing else will run in
+    it) before MJX is imported. Raises ``ValueError`` (one line) on bad flags or distributed settings or when JAX has no
     device, and ``OSError`` when the run directory cannot be put back in order."""
     pre = parse_pre_flags(argv, experiment)
     if pre.videos:
@@ -32,9 +32,9 @@ def start(argv: Sequence[str], experiment: Experiment, owns_process: bool = Fals
     compile_cache.enable()  # a second run of the same program loads it instead of compiling
     start_processes(pre)
     check_backend()
+    recover_run_dir(pre)  # before a resumed run's impl is read from its directory
     if owns_process and steps_mjx_on_jax_only(pre, experiment, jax.default_backend()):
         mjx_import.leave_out_warp()  # about 3 s less of `import mujoco.mjx` on two CPU cores
-    recover_run_dir(pre)
     return pre
 
 
@@ -42,9 +42,16 @@ def steps_mjx_on_jax_only(pre: PreFlags, experiment: Experiment, backend: str) -
     """Whether the command will step MJX with its JAX implementation only, so that MJX can be
     imported without MuJoCo Warp (``jaxpg.envs.mjx_import``): ``--impl jax``, or a fresh run with no
     ``impl`` from the flags or the experiment on a ``backend`` (JAX's default) other than ``"gpu"``,
-    where the default is jax. A resumed run's ``impl`` is in its run directory: it keeps Warp."""
+    where the default is jax. A resumed run (``--resume``) without ``--impl`` reads the ``impl`` its
+    run directory saved; one whose configuration cannot be read keeps Warp (planning then reports
+    what is wrong with it)."""
     impl = pre.impl or experiment.env_kwargs.get("impl")
-    return (impl is not None or pre.resume is None) and mjx_import.runs_jax_only(impl, backend)
+    if impl is None and pre.resume is not None:
+        try:
+            impl = config_io.RunConfig.load(pre.resume).env_kwargs.get("impl")
+        except (OSError, ValueError):
+            return False
+    return mjx_import.runs_jax_only(impl, backend)
 
 
 def start_processes(pre: PreFlags) -> None:

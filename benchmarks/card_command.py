@@ -570,7 +570,8 @@ def capture_main(argv: Sequence[str]) -> None:
 # backend start (``jax.devices()``) and ``import mujoco.mjx`` (MuJoCo Warp's modules included),
 # in turn or with the import on a thread while the backend starts; then jaxpg's import of MJX
 # (``jaxpg.envs.mjx_import``, jaxpg's own import counted in the total only), with MuJoCo Warp and
-# with it left out (``JAXPG_MJX_WARP=off``, what a command that steps on JAX only does).
+# with it left out (``JAXPG_MJX_WARP=off``, what a command that steps on JAX only does); "trimesh
+# imported": trimesh imported first, as MJX did before jaxpg deferred it (``mjx_import.DeferredTrimesh``).
 STARTUP_SNIPPETS = {
     "in turn": """
 import json, time
@@ -598,6 +599,15 @@ t2 = time.perf_counter(); mjx_import.import_mjx()
 t3 = time.perf_counter()
 print(json.dumps({"import jax": t1 - t0, "backend": t2 - t1, "import mjx": t3 - t2, "total": t3 - t0}))
 """,
+    "jaxpg, with Warp, trimesh imported": """
+import json, time
+t0 = time.perf_counter(); import jax
+t1 = time.perf_counter(); jax.devices()
+from jaxpg.envs import mjx_import
+t2 = time.perf_counter(); import trimesh; mjx_import.import_mjx()
+t3 = time.perf_counter()
+print(json.dumps({"import jax": t1 - t0, "backend": t2 - t1, "import mjx": t3 - t2, "total": t3 - t0}))
+""",
     "jaxpg, Warp left out": """
 import json, os, time
 os.environ["JAXPG_MJX_WARP"] = "off"
@@ -605,6 +615,16 @@ t0 = time.perf_counter(); import jax
 t1 = time.perf_counter(); jax.devices()
 from jaxpg.envs import mjx_import
 t2 = time.perf_counter(); mjx_import.import_mjx()
+t3 = time.perf_counter()
+print(json.dumps({"import jax": t1 - t0, "backend": t2 - t1, "import mjx": t3 - t2, "total": t3 - t0}))
+""",
+    "jaxpg, Warp left out, trimesh imported": """
+import json, os, time
+os.environ["JAXPG_MJX_WARP"] = "off"
+t0 = time.perf_counter(); import jax
+t1 = time.perf_counter(); jax.devices()
+from jaxpg.envs import mjx_import
+t2 = time.perf_counter(); import trimesh; mjx_import.import_mjx()
 t3 = time.perf_counter()
 print(json.dumps({"import jax": t1 - t0, "backend": t2 - t1, "import mjx": t3 - t2, "total": t3 - t0}))
 """,

@@ -87,6 +87,10 @@ def run_one(args: argparse.Namespace, seed: int) -> dict:
     from jaxpg.run import compile_cache
 
     cache = None if args.no_compilation_cache else compile_cache.enable()
+    from jaxpg.envs import mjx_import
+
+    if mjx_import.runs_jax_only(args.impl, jax.default_backend()):
+        mjx_import.leave_out_warp()  # as jaxpg's command line does: MJX without MuJoCo Warp
 
     from jaxpg import algos, envs
     from jaxpg import train as train_lib

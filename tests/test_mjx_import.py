@@ -148,3 +148,35 @@ def test_evaluating_a_run_on_the_cpu_leaves_warp_out(tmp_path):
     assert proc.returncode == 0 and "Gymnasium InvertedPendulum-v5" in proc.stdout, proc.stderr[-2000:]
     assert re.search(r"\| +mujoco\.mjx\n", proc.stderr)  # MJX was imported, for the run's env
     assert proc.stderr.count("mujoco.mjx.third_party.mujoco_warp._src.") <= 1
+
+
+MESH_MODEL = """
+import hashlib, sys
+{first}
+import jax, mujoco, numpy as np
+from jaxpg import envs
+from jaxpg.envs import mjx_import
+mjx, _ = mjx_import.import_mjx()
+envs.make_task("hopper", impl="jax")
+print("after hopper:", type(sys.modules.get("trimesh")).__name__)
+xml = '''<mujoco><asset><mesh name="box" vertex="0 0 0 1 0 0 0 1 0 1 1 0 0 0 1 1 0 1 0 1 1 1 1 1"/></asset>
+<worldbody><geom type="plane" size="5 5 .1"/><body><freejoint/><geom type="mesh" mesh="box"/></body></worldbody>
+</mujoco>'''
+model = mjx.put_model(mujoco.MjModel.from_xml_string(xml), impl="jax")  # MJX takes the mesh's convex hull
+arrays = [np.asarray(x) for x in jax.tree.leaves(model) if hasattr(x, "shape")]
+print("model:", hashlib.sha256(b"".join(x.tobytes() for x in arrays)).hexdigest())
+import trimesh
+print("after mesh:", type(trimesh).__name__, trimesh.Trimesh.__module__)
+"""
+
+
+def test_mjx_imports_trimesh_only_for_a_model_with_meshes():
+    """MJX is imported with trimesh deferred: building a task (no meshes) leaves it unimported; a
+    model with a mesh imports it and gets the same MJX model as a process that imported trimesh
+    before MJX; ``import trimesh`` then gives the package itself."""
+    deferred = python(MESH_MODEL.format(first=""), JAXPG_MJX_WARP="off")
+    imported_first = python(MESH_MODEL.format(first="import trimesh"), JAXPG_MJX_WARP="off")
+    assert "after hopper: NoneType" in deferred and "after hopper: module" in imported_first
+    digest = [line for line in deferred.splitlines() if line.startswith("model:")]
+    assert digest and digest[0] in imported_first.splitlines()
+    assert "after mesh: module trimesh.base" in deferred

@@ -9,6 +9,12 @@ MJX is first imported; jaxpg's command lines do so themselves (``jaxpg.run.start
 runs as it does without ``warp-lang``, and asking that process for ``impl="warp"`` is a
 ``ValueError`` that says why.
 
+MJX also imports ``trimesh``, which it uses only to take the convex hull of a model's meshes; no
+task of jaxpg's has one. That import took about 0.35 s of a command's start on two CPU cores
+(``benchmarks/card_command.py startup``) and 1.3 s on a GPU host (``python -X importtime``). ``import_mjx`` imports MJX
+with a stand-in for it (``DeferredTrimesh``) that imports the real package the first time MJX uses
+it, so a process that converts no mesh never imports it.
+
 Kept free of MuJoCo imports, so that a command can decide before MJX is imported.
 """
 
@@ -19,7 +25,8 @@ import importlib.util
 import io
 import os
 import sys
-from collections.abc import Mapping
+import types
+from collections.abc import Iterator, Mapping
 from typing import Any
 
 WARP_VARIABLE = "JAXPG_MJX_WARP"
@@ -52,6 +59,52 @@ def leave_out_warp() -> None:
         os.environ[WARP_VARIABLE] = "off"
 
 
+class DeferredTrimesh(types.ModuleType):
+    """What MJX's ``import trimesh`` finds while ``import_mjx`` imports MJX: any attribute is the real
+    package's, imported on first use, except ``Trimesh``, which MJX's ``mesh.py`` names in an
+    annotation when it is imported: a class whose instances (and ``isinstance`` checks) are the
+    real ``trimesh.Trimesh``'s."""
+
+    def __init__(self) -> None:
+        super().__init__("trimesh")
+        self.Trimesh = _DeferredClass("Trimesh", (), {"module": self})
+
+    def __getattr__(self, name: str) -> Any:  # attributes other than Trimesh
+        return getattr(self.real(), name)
+
+    def real(self) -> types.ModuleType:
+        """The ``trimesh`` package, imported now if it was not."""
+        real = sys.modules.get("trimesh")
+        if real is None or real is self:
+            sys.modules.pop("trimesh", None)
+            import trimesh as real
+        return real
+
+
+class _DeferredClass(type):
+    """``DeferredTrimesh.Trimesh``: calling it builds, and ``isinstance`` asks, the real class."""
+
+    def __call__(cls, *args: Any, **kwargs: Any) -> Any:
+        return getattr(cls.module.real(), cls.__name__)(*args, **kwargs)
+
+    def __instancecheck__(cls, instance: Any) -> bool:
+        return isinstance(instance, getattr(cls.module.real(), cls.__name__))
+
+
+@contextlib.contextmanager
+def _trimesh_deferred() -> Iterator[None]:
+    """While MJX is imported, ``import trimesh`` finds a ``DeferredTrimesh`` (unless trimesh is
+    imported already or not installed); afterwards ``import trimesh`` imports the package."""
+    defer = "trimesh" not in sys.modules and importlib.util.find_spec("trimesh") is not None
+    if defer:
+        sys.modules["trimesh"] = DeferredTrimesh()
+    try:
+        yield
+    finally:
+        if defer and isinstance(sys.modules.get("trimesh"), DeferredTrimesh):
+            del sys.modules["trimesh"]
+
+
 def import_mjx() -> tuple[Any, bool]:
     """``(mujoco.mjx, with_warp)``, imported quietly: without warp-lang MJX prints "Failed to
     import warp" on import (its JAX implementation works regardless), and with it Warp prints a
@@ -67,14 +120,15 @@ def import_mjx() -> tuple[Any, bool]:
         warp.config.quiet = True  # warp-lang 1.18
         if hasattr(warp, "LOG_WARNING"):
             warp.config.log_level = warp.LOG_WARNING  # warp-lang 1.19 replaced ``quiet`` by a log level
-        from mujoco import mjx
+        with _trimesh_deferred():
+            from mujoco import mjx
 
         return mjx, True
     hidden = leave_out and warp_installed()
     if hidden:
         sys.modules["warp"] = None  # type: ignore[assignment]  # `import warp` raises ImportError
     try:
-        with contextlib.redirect_stdout(io.StringIO()):
+        with contextlib.redirect_stdout(io.StringIO()), _trimesh_deferred():
             from mujoco import mjx
     finally:
         if hidden:

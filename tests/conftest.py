@@ -16,8 +16,8 @@ from jaxpg.run import config_io, layout
 from jaxpg.run.checkpointer import Checkpointer
 
 # Two XLA:CPU options for every test process and every process a test starts (they inherit the
-# environment; the notebooks' kernels excepted: they get READER_XLA_FLAGS, test_notebooks.py). The
-# tests are compilation-bound on the CPU, and both make compilation faster:
+# environment; the notebooks' kernels too). The tests are compilation-bound on the CPU, and both make
+# compilation faster:
 # - the legacy emitters in place of the fusion emitters: on two cores they compiled MJX's Hopper step
 #   in 9.1 s against 15.5 s, the inverted pendulum's in 4.4 s against 6.3 s and Walker2d's
 #   command-line training block in 21.3 s against 27.1 s; the whole run took 2804 s against 3441 s.
@@ -30,8 +30,7 @@ from jaxpg.run.checkpointer import Checkpointer
 # Set before JAX starts a backend, which reads XLA_FLAGS once (the imports above start none).
 
 TEST_XLA_OPTIONS = (("xla_cpu_use_fusion_emitters", "false"), ("xla_backend_optimization_level", "1"))
-READER_XLA_FLAGS = os.environ.get("XLA_FLAGS", "")  # as the session found it: a reader's own settings
-os.environ["XLA_FLAGS"] = xla_flags.with_options(READER_XLA_FLAGS, TEST_XLA_OPTIONS)
+os.environ["XLA_FLAGS"] = xla_flags.with_options(os.environ.get("XLA_FLAGS", ""), TEST_XLA_OPTIONS)
 
 
 # MuJoCo picks its OpenGL backend at first import (none of the imports above imports it:

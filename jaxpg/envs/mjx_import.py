@@ -10,10 +10,10 @@ runs as it does without ``warp-lang``, and asking that process for ``impl="warp"
 ``ValueError`` that says why.
 
 MJX also imports ``trimesh``, which it uses only to take the convex hull of a model's meshes; no
-task of jaxpg's has one. That import took about 0.35 s of a command's start on two CPU cores
-(``benchmarks/card_command.py startup``) and 1.3 s on a GPU host (``python -X importtime``). ``import_mjx`` imports MJX
-with a stand-in for it (``DeferredTrimesh``) that imports the real package the first time MJX uses
-it, so a process that converts no mesh never imports it.
+task of jaxpg's has one. That import took about 0.35 s of a command's start on two CPU cores and
+about 1 s on a GPU host (``benchmarks/card_command.py startup``). ``import_mjx`` imports MJX with a
+stand-in for it (``DeferredTrimesh``) that imports the real package the first time MJX uses it, so
+a process that converts no mesh never imports it.
 
 Kept free of MuJoCo imports, so that a command can decide before MJX is imported.
 """

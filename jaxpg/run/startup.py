@@ -23,9 +23,10 @@ def start(argv: Sequence[str], experiment: Experiment, owns_process: bool = Fals
     for planning. Each step comes where it must: the GL backend before MuJoCo is imported, the
     cache before the first compilation, ``jax.distributed`` before anything touches JAX's devices,
     the run directory's recovery before planning or the choice below reads it, the choice to
-    import MJX without MuJoCo Warp (only when the command ``owns_process``: nothing else will run in
-    it) before MJX is imported. Raises ``ValueError`` (one line) on bad flags or distributed settings or when JAX has no
-    device, and ``OSError`` when the run directory cannot be put back in order."""
+    import MJX without MuJoCo Warp (only when the command ``owns_process``: nothing else will run
+    in it) before MJX is imported. Raises ``ValueError`` (one line) on bad flags or distributed
+    settings or when JAX has no device, and ``OSError`` when the run directory cannot be put back
+    in order."""
     pre = parse_pre_flags(argv, experiment)
     if pre.videos:
         video_lib.configure_gl()  # before MuJoCo is imported, and only when a video may be drawn

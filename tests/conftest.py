@@ -47,18 +47,19 @@ if "JAXPG_COMPILATION_CACHE" not in os.environ:
     os.environ["JAXPG_COMPILATION_CACHE"] = tempfile.mkdtemp(prefix="jaxpg-xla-cache-")
 
 
-# The modules that took longest on two cores, longest first (a full run's --durations, 2026-11-28:
-# test_envs 1340 s, the notebooks 720 s, test_pong 480 s, test_reliability 385 s, test_learning
-# 330 s, test_gymnasium_api 250 s; the next took 190 s). pytest-xdist hands whole modules
-# (--dist loadfile) to its two workers in collection order: collected alphabetically, test_pong and
-# test_reliability started last and one worker finished them while the other idled.
+# The modules that took longest on two cores, longest first (the test time of a full run's
+# --durations, 2026-11-28: test_envs 1132 s, the notebooks 488 s, test_gymnasium_api 381 s,
+# test_pong 363 s, test_reliability 315 s, test_learning 265 s; the next took 173 s; the run
+# before had test_gymnasium_api third as well). pytest-xdist hands whole modules (--dist loadfile)
+# to its two workers in collection order: collected alphabetically, test_pong and test_reliability
+# started last and one worker finished them while the other idled.
 LONGEST_MODULES = (
     "test_envs.py",
     "test_notebooks.py",
+    "test_gymnasium_api.py",
     "test_pong.py",
     "test_reliability.py",
     "test_learning.py",
-    "test_gymnasium_api.py",
 )
 
 

@@ -52,13 +52,9 @@ def leave_out_warp_if_unused(run_dir: str) -> None:
     import jax
 
     from jaxpg.envs import mjx_import
-    from jaxpg.run import config_io
+    from jaxpg.run import startup
 
-    try:
-        impl = config_io.RunConfig.load(run_dir).env_kwargs.get("impl")
-    except (OSError, ValueError):
-        return
-    if mjx_import.runs_jax_only(impl, jax.default_backend()):
+    if startup.saved_run_steps_mjx_on_jax_only(run_dir, jax.default_backend()):
         mjx_import.leave_out_warp()
 
 

@@ -48,10 +48,18 @@ def steps_mjx_on_jax_only(pre: PreFlags, experiment: Experiment, backend: str) -
     what is wrong with it)."""
     impl = pre.impl or experiment.env_kwargs.get("impl")
     if impl is None and pre.resume is not None:
-        try:
-            impl = config_io.RunConfig.load(pre.resume).env_kwargs.get("impl")
-        except (OSError, ValueError):
-            return False
+        return saved_run_steps_mjx_on_jax_only(pre.resume, backend)
+    return mjx_import.runs_jax_only(impl, backend)
+
+
+def saved_run_steps_mjx_on_jax_only(run_dir: str, backend: str) -> bool:
+    """Whether the run saved in ``run_dir`` steps MJX with its JAX implementation only on a
+    ``backend``: the ``impl`` its ``config.json`` saved, or none and the default there. False when
+    the configuration cannot be read (whatever reads it next reports why)."""
+    try:
+        impl = config_io.RunConfig.load(run_dir).env_kwargs.get("impl")
+    except (OSError, ValueError):
+        return False
     return mjx_import.runs_jax_only(impl, backend)
 
 

@@ -590,44 +590,24 @@ t2 = time.perf_counter(); thread.join()
 t3 = time.perf_counter()
 print(json.dumps({"import jax": t1 - t0, "backend": t2 - t1, "import mjx": t3 - t2, "total": t3 - t0}))
 """,
-    "jaxpg, with Warp": """
-import json, time
-t0 = time.perf_counter(); import jax
-t1 = time.perf_counter(); jax.devices()
-from jaxpg.envs import mjx_import
-t2 = time.perf_counter(); mjx_import.import_mjx()
-t3 = time.perf_counter()
-print(json.dumps({"import jax": t1 - t0, "backend": t2 - t1, "import mjx": t3 - t2, "total": t3 - t0}))
-""",
-    "jaxpg, with Warp, trimesh imported": """
-import json, time
-t0 = time.perf_counter(); import jax
-t1 = time.perf_counter(); jax.devices()
-from jaxpg.envs import mjx_import
-t2 = time.perf_counter(); import trimesh; mjx_import.import_mjx()
-t3 = time.perf_counter()
-print(json.dumps({"import jax": t1 - t0, "backend": t2 - t1, "import mjx": t3 - t2, "total": t3 - t0}))
-""",
-    "jaxpg, Warp left out": """
+}
+
+# jaxpg's import of MJX: ``{warp}`` sets ``JAXPG_MJX_WARP`` or nothing, ``{first}`` imports trimesh
+# inside the timed import or nothing.
+JAXPG_IMPORT_SNIPPET = """
 import json, os, time
-os.environ["JAXPG_MJX_WARP"] = "off"
+{warp}
 t0 = time.perf_counter(); import jax
 t1 = time.perf_counter(); jax.devices()
 from jaxpg.envs import mjx_import
-t2 = time.perf_counter(); mjx_import.import_mjx()
+t2 = time.perf_counter(); {first}mjx_import.import_mjx()
 t3 = time.perf_counter()
-print(json.dumps({"import jax": t1 - t0, "backend": t2 - t1, "import mjx": t3 - t2, "total": t3 - t0}))
-""",
-    "jaxpg, Warp left out, trimesh imported": """
-import json, os, time
-os.environ["JAXPG_MJX_WARP"] = "off"
-t0 = time.perf_counter(); import jax
-t1 = time.perf_counter(); jax.devices()
-from jaxpg.envs import mjx_import
-t2 = time.perf_counter(); import trimesh; mjx_import.import_mjx()
-t3 = time.perf_counter()
-print(json.dumps({"import jax": t1 - t0, "backend": t2 - t1, "import mjx": t3 - t2, "total": t3 - t0}))
-""",
+print(json.dumps({{"import jax": t1 - t0, "backend": t2 - t1, "import mjx": t3 - t2, "total": t3 - t0}}))
+"""
+STARTUP_SNIPPETS |= {
+    f"jaxpg, {name}{trimesh}": JAXPG_IMPORT_SNIPPET.format(warp=warp, first=first)
+    for name, warp in (("with Warp", ""), ("Warp left out", 'os.environ["JAXPG_MJX_WARP"] = "off"'))
+    for trimesh, first in (("", ""), (", trimesh imported", "import trimesh; "))
 }
 
 

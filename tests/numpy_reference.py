@@ -311,3 +311,21 @@ def gae(
             running = rewards[t, b] + bootstrap - values[t, b] + gamma * lam * running
             adv[t, b] = running
     return adv
+
+
+def normalized_rewards(
+    rewards: np.ndarray, ended: np.ndarray, valid: np.ndarray, gamma: float, clip: float = 10.0
+) -> np.ndarray:
+    """Stable-Baselines3's ``VecNormalize`` reward path, one step of ``B`` envs at a time, from
+    ``rewards``, ``ended`` and ``valid`` ``[T, B]``: each env's discounted return ``g = gamma g + r``,
+    every valid ``g`` so far kept, the step's reward divided by ``sqrt(var(all of them) + 1e-8)``
+    and clipped, then ``g`` reset where the episode ended. Returns ``[T, B]`` float64."""
+    g = np.zeros(rewards.shape[1])
+    seen: list[float] = []
+    out = np.zeros(rewards.shape)
+    for t in range(rewards.shape[0]):
+        g = gamma * g + rewards[t]
+        seen.extend(g[valid[t] > 0])
+        out[t] = np.clip(rewards[t] / np.sqrt(np.var(seen) + 1e-8), -clip, clip)
+        g = np.where(ended[t], 0.0, g)
+    return out

@@ -3,6 +3,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -300,3 +302,54 @@ def test_ppo_standardised_value_targets_against_numpy(cartpole):
         np.testing.assert_allclose(losses[normalise], want, rtol=1e-4)
     assert targets.std() > 50.0  # the raw targets are far from standardised
     assert losses[True] < 10.0 < 100.0 < losses[False]
+
+
+def test_normalized_rewards_against_numpy():
+    """``core.normalize_rewards`` is SB3's ``VecNormalize`` reward normalisation (NumPy,
+    ``numpy_reference.normalized_rewards``): over 12 steps of 5 envs with episodes ending at random,
+    invalid steps left out of the statistics, rewards large enough that some clip at 10; two calls of
+    6 steps, the second from the first's normalizer, give the same as one call of 12."""
+    rng = np.random.default_rng(0)
+    t, b, gamma = 12, 5, 0.9
+    rewards = rng.normal(1.0, 3.0, (t, b)) * rng.choice([1.0, 30.0], (t, b), p=[0.9, 0.1])
+    ended = rng.random((t, b)) < 0.2
+    valid = (rng.random((t, b)) < 0.9).astype(np.float64)
+    want = ref.normalized_rewards(rewards, ended, valid, gamma)
+    assert np.any(np.abs(want) == 10.0) and np.any(ended)
+
+    args = [jnp.asarray(x, jnp.float32) for x in (rewards, ended, valid)]
+    args[1] = args[1].astype(bool)
+    got, normalizer = jax.jit(core.normalize_rewards, static_argnums=4)(core.RewardNormalizer.create(b), *args, gamma)
+    np.testing.assert_allclose(np.asarray(got), want, rtol=1e-5, atol=1e-6)
+    assert float(normalizer.stats.count) == valid.sum()
+
+    first, mid = core.normalize_rewards(core.RewardNormalizer.create(b), *(x[:6] for x in args), gamma)
+    second, _ = core.normalize_rewards(mid, *(x[6:] for x in args), gamma)
+    np.testing.assert_allclose(np.concatenate([first, second]), want, rtol=1e-5, atol=1e-6)
+
+
+@pytest.mark.parametrize("name", ["ppo", "a2c"])
+def test_normalize_rewards_in_the_update(name, cartpole):
+    """With ``normalize_rewards`` the update learns from the normalised rewards of its samples and
+    carries the normalizer (one statistic per sample drawn); off, the state has no normalizer and no
+    extra leaves, so checkpoints of other runs keep their layout. The metrics report raw rewards."""
+    algo = ALGOS[name]
+    off = TINY_CONFIGS[name]
+    on = dataclasses.replace(off, normalize_rewards=True)
+    ts_off = algo.init(jax.random.PRNGKey(1), cartpole, off)
+    ts_on = algo.init(jax.random.PRNGKey(1), cartpole, on)
+    assert ts_off.reward_normalizer == ()
+    assert len(jax.tree.leaves(ts_on)) == len(jax.tree.leaves(ts_off)) + 4
+
+    new, metrics = jax.jit(algo.update)(ts_on)
+    assert float(new.reward_normalizer.stats.count) == on.num_envs * on.horizon
+    sampled, traj, _ = core.phase_sample(ts_on)
+    ended = np.asarray(traj.terminated | traj.truncated)
+    want = ref.normalized_rewards(np.asarray(traj.rewards), ended, np.asarray(traj.valid), on.gamma)
+    _, learning = actor_critic.phase_rewards(sampled, traj)
+    np.testing.assert_allclose(np.asarray(learning.rewards), want, rtol=1e-5)
+    assert np.all(np.asarray(traj.rewards) == 1.0)  # cartpole's raw reward, which the metrics see
+    np.testing.assert_allclose(float(metrics["mean_reward"]), 1.0)
+    assert float(metrics["update_rejected"]) == 0.0
+    returns = np.asarray(new.reward_normalizer.returns)
+    assert np.all(np.isfinite(returns)) and np.any(returns > 0)

@@ -92,7 +92,8 @@ def update(ts: TrainState) -> tuple[TrainState, dict[str, jax.Array]]:
     """One A2C iteration (module docstring); pure, jittable, vmappable over seeds."""
     old = ts
     ts, traj, _ = core.phase_sample(ts)
-    batch = actor_critic.phase_advantages(ts, traj)
+    ts, learning_traj = actor_critic.phase_rewards(ts, traj)
+    batch = actor_critic.phase_advantages(ts, learning_traj)
     ts, fit_batch = core.standardise_value_targets(ts, batch)
     joint, opt_state, diagnostics = actor_critic.gradient_step(
         ts, optimizer(ts.config), actor_critic.joint_params(ts), ts.opt_state, fit_batch

@@ -41,7 +41,10 @@ class ActorCriticConfig(core.GAEConfig):
     ``anneal_lr_iterations`` > 0 decays the learning rate linearly to 0 over that many iterations
     (``learning_rate_schedule``);
     ``normalize_value_targets`` fits the value network to standardised targets
-    (``core.standardise_value_targets``).
+    (``core.standardise_value_targets``);
+    ``normalize_rewards`` divides rewards by a running std of the discounted return (with
+    ``gamma``), clipped to [-10, 10], before ``reward_scaling`` (``core.normalize_rewards``:
+    Stable-Baselines3's ``VecNormalize(norm_reward=True)``, Gymnasium's ``NormalizeReward``).
     """
 
     value_coef: float = 0.5
@@ -49,6 +52,7 @@ class ActorCriticConfig(core.GAEConfig):
     max_grad_norm: float = 0.5
     reward_scaling: float = 1.0
     anneal_lr_iterations: int = 0
+    normalize_rewards: bool = False
 
     def validate(self, env: Env) -> None:
         super().validate(env)
@@ -81,7 +85,20 @@ def init_state(
 ) -> TrainState:
     """``core.init_state`` plus ``optimizer``'s state over the joint parameters."""
     ts = core.init_state(key, env, config)
-    return ts.replace(opt_state=optimizer.init(joint_params(ts)))
+    ts = ts.replace(opt_state=optimizer.init(joint_params(ts)))
+    if config.normalize_rewards:
+        ts = ts.replace(reward_normalizer=core.RewardNormalizer.create(config.num_envs))
+    return ts
+
+
+def phase_rewards(ts: TrainState, traj: Trajectory) -> tuple[TrainState, Trajectory]:
+    """With ``config.normalize_rewards``: ``traj`` with its rewards normalised
+    (``core.normalize_rewards``) and ``ts`` with the ``reward_normalizer`` after them; otherwise
+    both as they are. The metrics come from the sampled ``traj``, not from this one."""
+    if not ts.config.normalize_rewards:
+        return ts, traj
+    traj, normalizer = core.normalize_trajectory_rewards(ts.reward_normalizer, traj, ts.config.gamma)
+    return ts.replace(reward_normalizer=normalizer), traj
 
 
 def phase_advantages(ts: TrainState, traj: Trajectory) -> core.Batch:

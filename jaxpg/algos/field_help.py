@@ -47,6 +47,8 @@ FIELD_HELP: dict[str, str] = {
     "value_minibatches": "minibatches per value-fit epoch, whatever the batch size (0: use value_batch_size)",
     "value_epoch_samples": "at most this many samples per value-fit epoch, drawn from larger batches (0: all)",
     "reward_scaling": "multiply rewards by this before advantages and value targets",
+    "normalize_rewards": "divide rewards by a running std of the discounted return, clipped to [-10, 10], before "
+    "reward_scaling (SB3's VecNormalize, Gymnasium's NormalizeReward)",
     # natural gradient and trust region
     "kl_delta": "NPG's normalised step: the step's KL in the Fisher metric is kl_delta / 2; its measured KL may "
     "reach kl_delta",

@@ -148,7 +148,8 @@ def update(ts: TrainState) -> tuple[TrainState, dict[str, jax.Array]]:
     old = ts
     ts, traj, key = core.phase_sample(ts)
     epochs_key, _ = jax.random.split(key)
-    batch = actor_critic.phase_advantages(ts, traj)
+    ts, learning_traj = actor_critic.phase_rewards(ts, traj)
+    batch = actor_critic.phase_advantages(ts, learning_traj)
     ts, fit_batch = core.standardise_value_targets(ts, batch)
     ts, diagnostics = phase_epochs(ts, fit_batch, epochs_key)
     # The exact mean KL(pi_old || pi_new) over the batch, as every algorithm reports it.

@@ -29,6 +29,7 @@ from jaxpg.algos.core.batch import Batch, flatten_batch, mean_entropy, mean_kl, 
 from jaxpg.algos.core.config import POLICY_NAMES, BaseConfig, GAEConfig, ValueFitConfig
 from jaxpg.algos.core.iteration import PhaseRunner, accept_if_finite, finish_iteration, run_inline
 from jaxpg.algos.core.placement import shard_state
+from jaxpg.algos.core.reward_normalization import RewardNormalizer, normalize_rewards, normalize_trajectory_rewards
 from jaxpg.algos.core.sampling import (
     REPLICATED,
     apply_sample_budget,
@@ -64,6 +65,7 @@ __all__ = [
     "BaseConfig",
     "Batch",
     "GAEConfig",
+    "RewardNormalizer",
     "RunningStats",
     "TrainState",
     "ValueFitConfig",
@@ -82,6 +84,8 @@ __all__ = [
     "mean_entropy",
     "mean_kl",
     "memory_lower_bound",
+    "normalize_rewards",
+    "normalize_trajectory_rewards",
     "phase_advantages",
     "phase_sample",
     "phase_value_fit",

@@ -80,6 +80,9 @@ class TrainState:
       iteration: ``[]`` int32, iterations completed.
       failures: ``[]`` int32, consecutive updates rejected as non-finite.
       env, config, policy, value_fn: static; not part of the pytree's leaves.
+      reward_normalizer: the ``core.RewardNormalizer`` of an actor-critic config with
+        ``normalize_rewards``; ``()`` otherwise (no leaves, so the checkpoints of every other
+        config keep their layout).
     """
 
     params: Any
@@ -96,6 +99,7 @@ class TrainState:
     config: Any = struct.field(pytree_node=False)
     policy: Any = struct.field(pytree_node=False)
     value_fn: Any = struct.field(pytree_node=False)
+    reward_normalizer: Any = ()
 
 
 def make_networks(env: Env, config: BaseConfig) -> tuple[Any, ValueFunction]:

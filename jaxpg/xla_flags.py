@@ -1,6 +1,6 @@
 """The one process-wide setting jaxpg makes for XLA, when it is imported: with jaxlib 0.10 and
-0.11.0, XLA:CPU's thread pool gets one thread (``NPROC=1``); and ``with_option(s)``, which add
-options to an ``XLA_FLAGS`` value.
+0.11.0, XLA:CPU's thread pool gets one thread (``NPROC=1``); ``with_option(s)``, which add
+options to an ``XLA_FLAGS`` value; and ``accepted_options``, which of some options XLA knows.
 
 Why. MJX factors each env's mass matrix and its Newton solver's Hessian with LAPACK's Cholesky.
 jaxlib 0.10's LAPACK kernels split a large batch (one of more than about 2e5 flops, e.g. 2800 6x6
@@ -39,6 +39,8 @@ from __future__ import annotations
 
 import importlib.metadata
 import os
+import subprocess
+import sys
 from collections.abc import Iterable, MutableMapping
 
 THREADS_VARIABLE = "NPROC"
@@ -57,6 +59,28 @@ def with_options(xla_flags: str, options: Iterable[tuple[str, str]]) -> str:
     for option, value in options:
         xla_flags = with_option(xla_flags, option, value)
     return xla_flags
+
+
+def accepted_options(options: Iterable[tuple[str, str]], python: str = sys.executable) -> tuple[tuple[str, str], ...]:
+    """The ``(option, value)`` pairs of ``options`` that this jaxlib's XLA accepts in ``XLA_FLAGS``.
+
+    XLA ends a process whose ``XLA_FLAGS`` names a flag it does not know (XLA in jaxlib 0.11.2 no
+    longer has ``xla_cpu_use_fusion_emitters``), so each option is tried in its own fresh
+    interpreter (``python``), which compiles a tiny program on the CPU with it; the interpreters
+    run side by side (about 1-2 s in all)."""
+    options = tuple(options)
+    script = "import jax; jax.jit(lambda x: x + 1)(1.0)"
+    environ = {**os.environ, "JAX_PLATFORMS": "cpu"}
+    tries = [
+        subprocess.Popen(
+            [python, "-c", script],
+            env={**environ, "XLA_FLAGS": f"--{option}={value}"},
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+        )
+        for option, value in options
+    ]
+    return tuple(option for option, process in zip(options, tries, strict=True) if process.wait() == 0)
 
 
 def splits_lapack_batches(jaxlib_version: str) -> bool:

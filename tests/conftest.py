@@ -27,10 +27,17 @@ from jaxpg.run.checkpointer import Checkpointer
 #   251 ms); Pong's A2C block (4 seeds x 50 iterations, test_pong's learning test) in 6.2 s against
 #   12.0 s, running in 7.41 s against 7.39 s; Humanoid's command-line smoke run took 52.6 s against 60.3 s.
 # Both decide how XLA generates code, not what it computes, though rounding may differ.
-# Set before JAX starts a backend, which reads XLA_FLAGS once (the imports above start none).
+# Set before JAX starts a backend, which reads XLA_FLAGS once (the imports above start none). Only
+# those this XLA knows: an unknown flag ends the process, and XLA in jaxlib 0.11.2 has no
+# xla_cpu_use_fusion_emitters (every test failed there). Tried once, in pytest's first process; the
+# xdist workers and every process a test starts inherit the result.
 
 TEST_XLA_OPTIONS = (("xla_cpu_use_fusion_emitters", "false"), ("xla_backend_optimization_level", "1"))
-os.environ["XLA_FLAGS"] = xla_flags.with_options(os.environ.get("XLA_FLAGS", ""), TEST_XLA_OPTIONS)
+if os.environ.get("JAXPG_TEST_XLA_OPTIONS_SET") != "1":
+    os.environ["XLA_FLAGS"] = xla_flags.with_options(
+        os.environ.get("XLA_FLAGS", ""), xla_flags.accepted_options(TEST_XLA_OPTIONS)
+    )
+    os.environ["JAXPG_TEST_XLA_OPTIONS_SET"] = "1"
 
 
 # MuJoCo picks its OpenGL backend at first import (none of the imports above imports it:

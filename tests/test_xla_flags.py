@@ -72,3 +72,10 @@ def test_batched_cholesky_calls_side_by_side_return_after_import_jaxpg():
     assert done.returncode == 0, done.stderr[-2000:]
     if xla_flags.splits_lapack_batches(xla_flags.installed_jaxlib()):
         assert done.stdout.startswith("1 ")
+
+
+def test_accepted_options_leaves_out_a_flag_xla_does_not_know():
+    """A made-up flag would end any process that reads it in ``XLA_FLAGS``; ``accepted_options``
+    tries each option in its own interpreter and keeps only the known one."""
+    known = ("xla_backend_optimization_level", "1")
+    assert xla_flags.accepted_options([("xla_no_such_flag_for_jaxpg", "true"), known]) == (known,)

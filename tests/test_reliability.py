@@ -489,3 +489,26 @@ def test_printed_commands_are_shell_quoted(existing, tmp_path, capsys):
     assert resume and shlex.split(resume.group(1))[-1] == str(run_dir), out
     assert main.main([*TINY, "--iterations", "4", "--run-dir", str(run_dir)]) == 2
     assert f"--resume {shlex.quote(str(run_dir))}" in capsys.readouterr().err
+
+
+def test_disk_full_while_writing_metrics_is_one_line_and_keeps_the_checkpoints(existing, tmp_path, monkeypatch, capsys):
+    """The metrics are written on a thread of their own (``jaxpg.run.host_work``): a full disk there
+    still ends the run with one ``error:`` line and status 2, and the checkpoints written before it
+    (whose metrics were on disk first) resume."""
+    import errno
+
+    copy = copy_run(existing, tmp_path / "copy")
+    real_write = metrics_log.MetricsWriter.write
+
+    def full_after_iteration_2(writer, records):
+        if records and records[0]["iteration"] > 4:
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(writer.run_dir / layout.METRICS_FILE))
+        real_write(writer, records)
+
+    monkeypatch.setattr(metrics_log.MetricsWriter, "write", full_after_iteration_2)
+    assert main.main(["--resume", str(copy), "--iterations", "8"]) == 2
+    one_error_line(capsys.readouterr().err, "writing the run directory failed", "disk full")
+    assert [r["iteration"] for r in metrics_log.read_metrics(copy)] == [1, 2, 3, 4]
+    monkeypatch.setattr(metrics_log.MetricsWriter, "write", real_write)
+    assert main.main(["--resume", str(copy), "--iterations", "6"]) == 0
+    assert [r["iteration"] for r in metrics_log.read_metrics(copy)] == [1, 2, 3, 4, 5, 6]

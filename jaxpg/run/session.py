@@ -47,6 +47,7 @@ from jaxpg.run import (
     run_lock,
 )
 from jaxpg.run.callbacks import BlockClock, HostCallbacks, host_callbacks
+from jaxpg.run.host_work import HostWork
 from jaxpg.run.interrupts import Interrupts, Stop, TimeUp, exit_status
 from jaxpg.run.output import Silent, is_primary, seed_slice, show
 from jaxpg.run.plan import Plan, initial_state
@@ -133,7 +134,18 @@ def execute(plan_: Plan) -> int:
 
 
 def _train(plan_: Plan, ts: Any, wall_offset: float, interrupts: Interrupts) -> int:
-    """The training loop of ``execute``, in a prepared and locked run directory."""
+    """The training loop of ``execute``, in a prepared and locked run directory. Metrics files and
+    curves are written on a thread of their own (``HostWork``) while the next block trains; it has
+    finished before the run directory is put in order after a failure, and before this returns."""
+    work = HostWork()
+    try:
+        return _train_with(plan_, ts, wall_offset, interrupts, work)
+    finally:
+        work.close()
+
+
+def _train_with(plan_: Plan, ts: Any, wall_offset: float, interrupts: Interrupts, work: HostWork) -> int:
+    """``_train`` with its ``HostWork``."""
     run, run_dir = plan_.run, plan_.run_dir
     primary = is_primary()
     processes.barrier("jaxpg: run directory ready")
@@ -177,7 +189,7 @@ def _train(plan_: Plan, ts: Any, wall_offset: float, interrupts: Interrupts) -> 
             )
             writer = metrics_log.MetricsWriter(run_dir, run.seeds, start_iteration=plan_.start) if primary else Silent()
             if plan_.start == 0:
-                writer.add_text("config", "```\n" + json.dumps(run.to_json(), indent=2) + "\n```")
+                work.submit(writer.add_text, "config", "```\n" + json.dumps(run.to_json(), indent=2) + "\n```")
             progress = (
                 console.Progress(
                     run.iterations, initial=plan_.start, enabled=plan_.progress, desc=f"{run.algo} {run.task}"
@@ -185,7 +197,7 @@ def _train(plan_: Plan, ts: Any, wall_offset: float, interrupts: Interrupts) -> 
                 if primary
                 else Silent()
             )
-            callbacks = host_callbacks(plan_, checkpoints, writer, progress, wall_offset, interrupts)
+            callbacks = host_callbacks(plan_, checkpoints, writer, progress, wall_offset, interrupts, work)
             block = run.block_size
             # Blocks start at multiples of block_size, as in an uninterrupted run.
             segments = []
@@ -207,6 +219,7 @@ def _train(plan_: Plan, ts: Any, wall_offset: float, interrupts: Interrupts) -> 
                     final_eval=index == len(segments) - 1,  # the run's last iteration is always evaluated
                     before_first_call=first_block if index == 0 else None,
                 )
+            work.wait()  # the last metrics are written (an error here is the run's error)
     except Stop as stop:
         progress.close()
         print(
@@ -219,6 +232,7 @@ def _train(plan_: Plan, ts: Any, wall_offset: float, interrupts: Interrupts) -> 
         if progress is not None:
             progress.close()
         saved = callbacks.last_saved if callbacks is not None else plan_.start
+        work.close()
         note = finish_run_dir(plan_, checkpointed=saved > 0) if primary else ""
         resume = f"; continue from checkpoint {saved} with: {resume_command(run_dir)}" if saved else ""
         signum = interrupts.requested or signal.SIGINT
@@ -242,13 +256,17 @@ def _train(plan_: Plan, ts: Any, wall_offset: float, interrupts: Interrupts) -> 
         failure, kept = f"writing the run directory failed: {what}{hint}", ""
         status = 2
     finally:
-        for closable in (progress, writer, checkpoints):
+        if writer is not None:
+            work.submit(_close_quietly, writer, checked=False)  # after its last records
+        for closable in (progress, checkpoints):
             if closable is not None:
                 try:
                     closable.close()
                 except Exception:  # noqa: BLE001 - closing after a failure must not hide it
                     pass
     saved = callbacks.last_saved if callbacks is not None else plan_.start
+    if saved == 0:
+        work.close()  # before the run directory is removed or given back to the run it replaced
     note = finish_run_dir(plan_, checkpointed=saved > 0) if primary else ""
     if failure is not None:
         # Without a checkpoint there is nothing to resume: the note says what is on disk instead.
@@ -259,6 +277,14 @@ def _train(plan_: Plan, ts: Any, wall_offset: float, interrupts: Interrupts) -> 
         _report_end(plan_, callbacks.clock, first_block)
     processes.barrier("jaxpg: done")  # the processes leave together (JAX's shutdown waits for all)
     return status
+
+
+def _close_quietly(closable: Any) -> None:
+    """``closable.close()``; an error is dropped (closing after a failure must not hide it)."""
+    try:
+        closable.close()
+    except Exception:  # noqa: BLE001
+        pass
 
 
 def _without_resume_advice(message: str) -> str:

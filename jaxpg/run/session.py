@@ -176,7 +176,7 @@ def _train_with(plan_: Plan, ts: Any, wall_offset: float, interrupts: Interrupts
     # MuJoCo Warp's kernels build on all cores while XLA compiles the first block. Its dry run must
     # not overlap a program that launches them: the initial state's is finished first.
     jax.block_until_ready(ts)
-    first_block = FirstBlock(KernelBuild.start(plan_.env))
+    first_block = FirstBlock(KernelBuild.start(plan_.env), work)
     checkpoints = writer = progress = None
     status = 0
     failure: str | None = None  # the error line, once the run directory is put in order
@@ -184,9 +184,7 @@ def _train_with(plan_: Plan, ts: Any, wall_offset: float, interrupts: Interrupts
     callbacks: HostCallbacks | None = None
     try:
         with interrupts.attributed():
-            checkpoints = checkpointer.Checkpointer(
-                run_dir / layout.CHECKPOINT_DIR, keep=run.keep_checkpoints, create=True
-            )
+            checkpoints = CheckpointerAtFirstSave(run_dir / layout.CHECKPOINT_DIR, keep=run.keep_checkpoints)
             writer = metrics_log.MetricsWriter(run_dir, run.seeds, start_iteration=plan_.start) if primary else Silent()
             if plan_.start == 0:
                 work.submit(writer.add_text, "config", "```\n" + json.dumps(run.to_json(), indent=2) + "\n```")
@@ -292,14 +290,38 @@ def _without_resume_advice(message: str) -> str:
     return re.sub(r"[,;]?\s*(then )?continue with --resume\b.*$", "", message)
 
 
+class CheckpointerAtFirstSave:
+    """The run's ``checkpointer.Checkpointer``, made when the first checkpoint is saved. Orbax takes
+    0.2-0.4 s to import: ``FirstBlock`` has ``HostWork``'s thread import it while the first block
+    trains, instead of the run waiting for it before. A directory that cannot be made is the
+    first save's ``CheckpointError``."""
+
+    def __init__(self, directory: Any, keep: int | None) -> None:
+        self.directory, self.keep = directory, keep
+        self.made: checkpointer.Checkpointer | None = None
+
+    def save(self, *args: Any, **kwargs: Any) -> None:
+        if self.made is None:
+            self.made = checkpointer.Checkpointer(self.directory, keep=self.keep, create=True)
+        self.made.save(*args, **kwargs)
+
+    def close(self) -> None:
+        if self.made is not None:
+            self.made.close()
+
+
+def _import_orbax() -> None:
+    import orbax.checkpoint  # noqa: F401 - imported ahead of the first checkpoint
+
+
 class FirstBlock:
     """``train``'s ``before_first_call`` for the run's first block: notes when its program is
     compiled (or loaded from the compilation cache), waits for MuJoCo Warp's kernels
     (``KernelBuild``, built beside the compilation) and notes when they are ready, for the
-    end-of-run report."""
+    end-of-run report; then has ``work``'s thread import Orbax while the block trains."""
 
-    def __init__(self, kernels: KernelBuild) -> None:
-        self.kernels = kernels
+    def __init__(self, kernels: KernelBuild, work: HostWork) -> None:
+        self.kernels, self.work = kernels, work
         self.started = time.perf_counter()
         self.compiled: float | None = None
         self.ready: float | None = None
@@ -308,6 +330,7 @@ class FirstBlock:
         self.compiled = time.perf_counter()
         self.kernels.wait()
         self.ready = time.perf_counter()
+        self.work.submit(_import_orbax, checked=False)
 
     def report(self) -> str | None:
         """``first block: compiled in X s[, then Y s waiting for MuJoCo Warp's kernels (...)]``, or

@@ -492,9 +492,9 @@ def test_printed_commands_are_shell_quoted(existing, tmp_path, capsys):
 
 
 def test_disk_full_while_writing_metrics_is_one_line_and_keeps_the_checkpoints(existing, tmp_path, monkeypatch, capsys):
-    """The metrics are written on a thread of their own (``jaxpg.run.host_work``): a full disk there
-    still ends the run with one ``error:`` line and status 2, and the checkpoints written before it
-    (whose metrics were on disk first) resume."""
+    """A full disk while writing a block's metrics ends the run with one ``error:`` line and status 2,
+    before the checkpoint that would cover those iterations: the checkpoint before it, whose
+    metrics are all on disk, resumes."""
     import errno
 
     copy = copy_run(existing, tmp_path / "copy")

@@ -8,14 +8,12 @@ the order ``host_callbacks`` lists them, after every block of iterations:
                         block is written; from the first block on, interrupts checkpoint first;
   ``BlockClock.start_block``  the block's duration, wall times and training rate (evaluation,
                         which ran between the block's calls, left out);
-  ``write_metrics``     ``metrics.jsonl`` and TensorBoard (written by ``HostWork``'s thread while
-                        the next block trains);
+  ``write_metrics``     ``metrics.jsonl`` and TensorBoard;
   ``show_progress``     the progress bar;
   ``Summaries``         the summary line every ``log_every`` iterations, with its ETA, and the
                         warnings about rolled-back updates and physics overflows;
-  ``Checkpoints``       a checkpoint every ``checkpoint_every`` iterations and at the end, once
-                        the metrics written so far are on disk, then ``curves.png`` (drawn by
-                        ``HostWork``'s thread);
+  ``Checkpoints``       a checkpoint every ``checkpoint_every`` iterations and at the end, then
+                        ``curves.png``;
   ``Videos``            a video of the mean policy every ``video_every`` iterations and at the end;
   ``TimeLimit``         past ``--minutes``: checkpoint, then ``TimeUp``;
   ``StopOnRequest``     after SIGINT / SIGTERM: checkpoint, then ``Stop``;
@@ -33,7 +31,6 @@ import numpy as np
 
 from jaxpg import mesh as mesh_lib
 from jaxpg.run import console, layout, metrics_log, plotting, policy_episodes
-from jaxpg.run.host_work import HostWork
 from jaxpg.run.interrupts import Stop, StopAtOnce, TimeUp
 from jaxpg.run.output import is_primary, seed_slice
 from jaxpg.run.plan import Plan
@@ -136,12 +133,11 @@ class BlockClock:
         return eta
 
 
-def write_metrics(writer: metrics_log.MetricsWriter, clock: BlockClock, seeds: list[int], work: HostWork) -> Callback:
-    """Hand each block's records (``metrics.jsonl``, TensorBoard), with the clock's wall times, to
-    ``work``'s thread; an earlier block's write error is raised here."""
+def write_metrics(writer: metrics_log.MetricsWriter, clock: BlockClock, seeds: list[int]) -> Callback:
+    """Write each block's records (``metrics.jsonl``, TensorBoard), with the clock's wall times."""
 
     def write(ts: Any, metrics: dict[str, np.ndarray], first: int) -> None:
-        work.submit(writer.write, metrics_log.block_records(metrics, first, seeds, clock.wall_times))
+        writer.write(metrics_log.block_records(metrics, first, seeds, clock.wall_times))
 
     return write
 
@@ -226,14 +222,11 @@ class Summaries:
 class Checkpoints:
     """A checkpoint every ``checkpoint_every`` iterations and at the end (every process: the save
     gathers the state; process 0 writes), then ``curves.png``; ``save_now`` for the time limit and
-    interrupts. ``last_saved``: the iteration of the latest checkpoint. Before a checkpoint it waits
-    for ``work`` (the metrics up to it are written first: a resume keeps what precedes its
-    checkpoint); the curves are drawn on ``work``'s thread."""
+    interrupts. ``last_saved``: the iteration of the latest checkpoint."""
 
     plan: Plan
     checkpoints: Any
     progress: Any
-    work: HostWork
     last_saved: int = 0
     primary: bool = dataclasses.field(default_factory=is_primary)
 
@@ -245,7 +238,6 @@ class Checkpoints:
     def save_now(self, ts: Any, step: int, metrics: dict[str, np.ndarray]) -> None:
         """Checkpoint ``ts`` as ``step`` (scored by ``metrics``), then redraw the curves."""
         run = self.plan.run
-        self.work.wait()
         last_metrics = {
             k: float(np.nanmean(v[-1])) if not np.all(np.isnan(v[-1])) else None for k, v in metrics.items()
         }
@@ -258,7 +250,7 @@ class Checkpoints:
         )
         self.last_saved = step
         if self.primary:
-            self.work.submit(self.plot, checked=False)
+            self.plot()
 
     def save_if_behind(self, ts: Any, metrics: dict[str, np.ndarray], first: int) -> None:
         """Checkpoint the block's last iteration unless that is the latest checkpoint already."""
@@ -349,16 +341,14 @@ def host_callbacks(
     progress: console.Progress,
     wall_offset: float,
     interrupts: Any,
-    work: HostWork,
 ) -> HostCallbacks:
-    """The callbacks of a run, in the order they must run (module docstring); ``work`` writes the
-    metrics and draws the curves."""
+    """The callbacks of a run, in the order they must run (module docstring)."""
     clock = BlockClock(plan_, wall_offset)
-    saving = Checkpoints(plan_, checkpoints, progress, work, last_saved=plan_.start)
+    saving = Checkpoints(plan_, checkpoints, progress, last_saved=plan_.start)
     callables: list[Callback] = [
         guard_interrupts(interrupts),
         clock.start_block,
-        write_metrics(writer, clock, plan_.run.seeds, work),
+        write_metrics(writer, clock, plan_.run.seeds),
         show_progress(progress, clock),
         Summaries(plan_, clock, progress),
         saving,

@@ -47,7 +47,6 @@ from jaxpg.run import (
     run_lock,
 )
 from jaxpg.run.callbacks import BlockClock, HostCallbacks, host_callbacks
-from jaxpg.run.host_work import HostWork
 from jaxpg.run.interrupts import Interrupts, Stop, TimeUp, exit_status
 from jaxpg.run.output import Silent, is_primary, seed_slice, show
 from jaxpg.run.plan import Plan, initial_state
@@ -134,18 +133,7 @@ def execute(plan_: Plan) -> int:
 
 
 def _train(plan_: Plan, ts: Any, wall_offset: float, interrupts: Interrupts) -> int:
-    """The training loop of ``execute``, in a prepared and locked run directory. Metrics files and
-    curves are written on a thread of their own (``HostWork``) while the next block trains; it has
-    finished before the run directory is put in order after a failure, and before this returns."""
-    work = HostWork()
-    try:
-        return _train_with(plan_, ts, wall_offset, interrupts, work)
-    finally:
-        work.close()
-
-
-def _train_with(plan_: Plan, ts: Any, wall_offset: float, interrupts: Interrupts, work: HostWork) -> int:
-    """``_train`` with its ``HostWork``."""
+    """The training loop of ``execute``, in a prepared and locked run directory."""
     run, run_dir = plan_.run, plan_.run_dir
     primary = is_primary()
     processes.barrier("jaxpg: run directory ready")
@@ -176,7 +164,7 @@ def _train_with(plan_: Plan, ts: Any, wall_offset: float, interrupts: Interrupts
     # MuJoCo Warp's kernels build on all cores while XLA compiles the first block. Its dry run must
     # not overlap a program that launches them: the initial state's is finished first.
     jax.block_until_ready(ts)
-    first_block = FirstBlock(KernelBuild.start(plan_.env), work)
+    first_block = FirstBlock(KernelBuild.start(plan_.env))
     checkpoints = writer = progress = None
     status = 0
     failure: str | None = None  # the error line, once the run directory is put in order
@@ -184,10 +172,12 @@ def _train_with(plan_: Plan, ts: Any, wall_offset: float, interrupts: Interrupts
     callbacks: HostCallbacks | None = None
     try:
         with interrupts.attributed():
-            checkpoints = CheckpointerAtFirstSave(run_dir / layout.CHECKPOINT_DIR, keep=run.keep_checkpoints)
+            checkpoints = checkpointer.Checkpointer(
+                run_dir / layout.CHECKPOINT_DIR, keep=run.keep_checkpoints, create=True
+            )
             writer = metrics_log.MetricsWriter(run_dir, run.seeds, start_iteration=plan_.start) if primary else Silent()
             if plan_.start == 0:
-                work.submit(writer.add_text, "config", "```\n" + json.dumps(run.to_json(), indent=2) + "\n```")
+                writer.add_text("config", "```\n" + json.dumps(run.to_json(), indent=2) + "\n```")
             progress = (
                 console.Progress(
                     run.iterations, initial=plan_.start, enabled=plan_.progress, desc=f"{run.algo} {run.task}"
@@ -195,7 +185,7 @@ def _train_with(plan_: Plan, ts: Any, wall_offset: float, interrupts: Interrupts
                 if primary
                 else Silent()
             )
-            callbacks = host_callbacks(plan_, checkpoints, writer, progress, wall_offset, interrupts, work)
+            callbacks = host_callbacks(plan_, checkpoints, writer, progress, wall_offset, interrupts)
             block = run.block_size
             # Blocks start at multiples of block_size, as in an uninterrupted run.
             segments = []
@@ -217,7 +207,6 @@ def _train_with(plan_: Plan, ts: Any, wall_offset: float, interrupts: Interrupts
                     final_eval=index == len(segments) - 1,  # the run's last iteration is always evaluated
                     before_first_call=first_block if index == 0 else None,
                 )
-            work.wait()  # the last metrics are written (an error here is the run's error)
     except Stop as stop:
         progress.close()
         print(
@@ -230,7 +219,6 @@ def _train_with(plan_: Plan, ts: Any, wall_offset: float, interrupts: Interrupts
         if progress is not None:
             progress.close()
         saved = callbacks.last_saved if callbacks is not None else plan_.start
-        work.close()
         note = finish_run_dir(plan_, checkpointed=saved > 0) if primary else ""
         resume = f"; continue from checkpoint {saved} with: {resume_command(run_dir)}" if saved else ""
         signum = interrupts.requested or signal.SIGINT
@@ -254,17 +242,13 @@ def _train_with(plan_: Plan, ts: Any, wall_offset: float, interrupts: Interrupts
         failure, kept = f"writing the run directory failed: {what}{hint}", ""
         status = 2
     finally:
-        if writer is not None:
-            work.submit(_close_quietly, writer, checked=False)  # after its last records
-        for closable in (progress, checkpoints):
+        for closable in (progress, writer, checkpoints):
             if closable is not None:
                 try:
                     closable.close()
                 except Exception:  # noqa: BLE001 - closing after a failure must not hide it
                     pass
     saved = callbacks.last_saved if callbacks is not None else plan_.start
-    if saved == 0:
-        work.close()  # before the run directory is removed or given back to the run it replaced
     note = finish_run_dir(plan_, checkpointed=saved > 0) if primary else ""
     if failure is not None:
         # Without a checkpoint there is nothing to resume: the note says what is on disk instead.
@@ -277,51 +261,19 @@ def _train_with(plan_: Plan, ts: Any, wall_offset: float, interrupts: Interrupts
     return status
 
 
-def _close_quietly(closable: Any) -> None:
-    """``closable.close()``; an error is dropped (closing after a failure must not hide it)."""
-    try:
-        closable.close()
-    except Exception:  # noqa: BLE001
-        pass
-
-
 def _without_resume_advice(message: str) -> str:
     """``message`` without a closing advice to continue with ``--resume``."""
     return re.sub(r"[,;]?\s*(then )?continue with --resume\b.*$", "", message)
-
-
-class CheckpointerAtFirstSave:
-    """The run's ``checkpointer.Checkpointer``, made when the first checkpoint is saved. Orbax takes
-    0.2-0.4 s to import: ``FirstBlock`` has ``HostWork``'s thread import it while the first block
-    trains, instead of the run waiting for it before. A directory that cannot be made is the
-    first save's ``CheckpointError``."""
-
-    def __init__(self, directory: Any, keep: int | None) -> None:
-        self.directory, self.keep = directory, keep
-        self.made: checkpointer.Checkpointer | None = None
-
-    def save(self, *args: Any, **kwargs: Any) -> None:
-        if self.made is None:
-            self.made = checkpointer.Checkpointer(self.directory, keep=self.keep, create=True)
-        self.made.save(*args, **kwargs)
-
-    def close(self) -> None:
-        if self.made is not None:
-            self.made.close()
-
-
-def _import_orbax() -> None:
-    import orbax.checkpoint  # noqa: F401 - imported ahead of the first checkpoint
 
 
 class FirstBlock:
     """``train``'s ``before_first_call`` for the run's first block: notes when its program is
     compiled (or loaded from the compilation cache), waits for MuJoCo Warp's kernels
     (``KernelBuild``, built beside the compilation) and notes when they are ready, for the
-    end-of-run report; then has ``work``'s thread import Orbax while the block trains."""
+    end-of-run report."""
 
-    def __init__(self, kernels: KernelBuild, work: HostWork) -> None:
-        self.kernels, self.work = kernels, work
+    def __init__(self, kernels: KernelBuild) -> None:
+        self.kernels = kernels
         self.started = time.perf_counter()
         self.compiled: float | None = None
         self.ready: float | None = None
@@ -330,7 +282,6 @@ class FirstBlock:
         self.compiled = time.perf_counter()
         self.kernels.wait()
         self.ready = time.perf_counter()
-        self.work.submit(_import_orbax, checked=False)
 
     def report(self) -> str | None:
         """``first block: compiled in X s[, then Y s waiting for MuJoCo Warp's kernels (...)]``, or

@@ -6,7 +6,7 @@ Layout of a run directory (``jaxpg.cli`` writes it, ``jaxpg.load_policy`` and
 
     config.json      everything to rerun: task, env kwargs, algorithm, full Config, seeds, versions
     metrics.jsonl    one JSON object per iteration (and seed); NaN ("not measured") is written as null
-    tensorboard/     tensorboardX event files of the same scalars, one sub-directory per seed
+    tensorboard/     TensorBoard event files of the same scalars, one sub-directory per seed
     curves.png       returns over iterations (jaxpg.run.plotting)
     checkpoints/     Orbax checkpoints of the whole TrainState (jaxpg.run.checkpointer)
     videos/          rollouts of the mean policy (jaxpg.video), only with --video-every

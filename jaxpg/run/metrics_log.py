@@ -6,7 +6,6 @@ from __future__ import annotations
 import json
 import math
 import os
-import sys
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -14,6 +13,7 @@ from typing import Any
 import numpy as np
 
 from jaxpg.run.layout import METRICS_FILE, TENSORBOARD_DIR
+from jaxpg.run.tensorboard import EventWriter
 
 # Keys every record starts with, in this order; the algorithm's diagnostics follow sorted.
 LEADING_KEYS = (
@@ -128,7 +128,8 @@ def truncate_metrics(run_dir: str | os.PathLike, last_iteration: int) -> float:
 
 
 class MetricsWriter:
-    """Appends records to ``metrics.jsonl`` and the same scalars to TensorBoard.
+    """Appends records to ``metrics.jsonl`` and the same scalars to TensorBoard event files
+    (``jaxpg.run.tensorboard``).
 
     TensorBoard gets one sub-directory per seed (``tensorboard/seed_<s>``), scalars keyed by the
     metric name against the iteration; NaN (not measured) is skipped. ``start_iteration`` > 0
@@ -145,19 +146,12 @@ class MetricsWriter:
         self.run_dir = Path(run_dir)
         self.seeds = list(seeds)
         self._file = (self.run_dir / METRICS_FILE).open("a")
-        self._writers: dict[int, Any] = {}
+        self._writers: dict[int, EventWriter] = {}
         if tensorboard:
-            try:  # here: without tensorboardX a run goes on, writing metrics.jsonl alone
-                from tensorboardX import SummaryWriter
-            except ImportError:
-                print("warning: tensorboardX is not installed: no TensorBoard event files", file=sys.stderr)
-                seeds = []
-            else:
-                seeds = self.seeds
-            for seed in seeds:
+            purge = start_iteration + 1 if start_iteration > 0 else None
+            for seed in self.seeds:
                 logdir = self.run_dir / TENSORBOARD_DIR / f"seed_{seed}"
-                kwargs = {"purge_step": start_iteration + 1} if start_iteration > 0 else {}
-                self._writers[seed] = SummaryWriter(str(logdir), flush_secs=30, **kwargs)
+                self._writers[seed] = EventWriter(logdir, purge_step=purge)
 
     def write(self, records: Sequence[dict[str, Any]]) -> None:
         for record in records:
@@ -169,14 +163,14 @@ class MetricsWriter:
             for key, value in record.items():
                 if key in ("iteration", "seed") or value is None:
                     continue
-                writer.add_scalar(key, value, global_step=step)
+                writer.add_scalar(key, value, step=step)
         self._file.flush()
         for writer in self._writers.values():
             writer.flush()
 
     def add_text(self, tag: str, text: str) -> None:
         for writer in self._writers.values():
-            writer.add_text(tag, text, global_step=0)
+            writer.add_text(tag, text, step=0)
 
     def close(self) -> None:
         self._file.close()

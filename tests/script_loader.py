@@ -5,6 +5,7 @@ The scripts are not a package: a test loads one by its path from the repository 
 from __future__ import annotations
 
 import importlib.util
+import os
 import sys
 import types
 from pathlib import Path
@@ -23,3 +24,10 @@ def load_script(script: str) -> types.ModuleType:
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
+
+
+def python_path() -> str:
+    """``PYTHONPATH`` for a test's subprocess: the repository first (the jaxpg under test), then the
+    path this process was given (where an install put its packages there, as on a machine without
+    pip's site-packages for them)."""
+    return os.pathsep.join(p for p in (str(ROOT), os.environ.get("PYTHONPATH")) if p)

@@ -22,6 +22,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+import script_loader
 
 import jaxpg.envs as envs
 from jaxpg import video
@@ -193,7 +194,7 @@ def test_evaluate_gymnasium_without_gymnasium_in_a_subprocess(tmp_path):
         capture_output=True,
         text=True,
         cwd=ROOT,
-        env={**os.environ, "PYTHONPATH": str(ROOT)},
+        env={**os.environ, "PYTHONPATH": script_loader.python_path()},
         timeout=300,
     )
     assert proc.returncode == 2, proc.stderr
@@ -284,7 +285,7 @@ def test_without_osmesa_mujoco_imports_and_rendering_fails_in_one_line(tmp_path)
         [sys.executable, str(script)],
         capture_output=True,
         text=True,
-        env={**env, "PYTHONPATH": str(ROOT)},
+        env={**env, "PYTHONPATH": script_loader.python_path()},
         timeout=300,
     )
     assert proc.returncode == 0, proc.stderr

@@ -21,6 +21,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import script_loader
 
 import jaxpg
 from jaxpg import algos, envs
@@ -214,7 +215,7 @@ PLATFORM_SCRIPT = textwrap.dedent(
 
 
 def test_unavailable_jax_platform_is_one_line(run_dir, tmp_path):
-    env = {**os.environ, "JAX_PLATFORMS": "cuda", "PYTHONPATH": str(ROOT)}
+    env = {**os.environ, "JAX_PLATFORMS": "cuda", "PYTHONPATH": script_loader.python_path()}
     proc = subprocess.run(
         [sys.executable, "-c", PLATFORM_SCRIPT, str(tmp_path)], capture_output=True, text=True, env=env, timeout=600
     )
@@ -260,7 +261,7 @@ def test_a_run_stuck_in_a_compiled_call_still_stops_on_sigint(tmp_path):
     """Python cannot run its signal handler while the main thread waits in a compiled call; the
     watcher thread ends the process once the handler has not run for a few seconds."""
     run_dir = tmp_path / "run"
-    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    env = {**os.environ, "PYTHONPATH": script_loader.python_path()}
     proc = subprocess.Popen(
         [sys.executable, "-c", STUCK_SCRIPT, str(run_dir)],
         stdout=subprocess.PIPE,

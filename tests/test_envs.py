@@ -795,6 +795,29 @@ WARP_ENVS = 2
 WARP_STEPS = 20
 
 
+def test_programs_stepping_one_env_trace_its_physics_step_once(monkeypatch):
+    """``MjxEnv.substep`` is one function object per env and model, so JAX traces the MJX step once
+    for every program that steps the env (here: batches of 4 and 16 envs, a jitted rollout step and
+    a jitted ``vmap``), and again, with the new model, once a task replaces its ``mjx_model``."""
+    from jaxpg.envs import mjx_env
+
+    env = envs.make_task("inverted_pendulum", impl="jax")
+    traced = []
+    real_step = mjx_env.mjx.step
+    monkeypatch.setattr(mjx_env.mjx, "step", lambda model, data: (traced.append(model), real_step(model, data))[1])
+    assert env.substep() is env.substep()
+    keys = jax.random.split(jax.random.PRNGKey(0), 16)
+    for batch in (4, 16):
+        states = jax.vmap(env.reset)(keys[:batch])
+        jax.jit(jax.vmap(env.step)).trace(states, jnp.zeros((batch, env.action_size)))
+    assert len(traced) == 1 and traced[0] is env.mjx_model
+    old_step = env.substep()
+    env.mjx_model = env.mjx_model.replace(opt=env.mjx_model.opt.replace(timestep=0.01))
+    assert env.substep() is not old_step
+    jax.jit(jax.vmap(env.step)).trace(states, jnp.zeros((16, env.action_size)))
+    assert len(traced) == 2 and traced[1] is env.mjx_model
+
+
 @pytest.mark.skipif(not warp_available(), reason="warp-lang is not installed (pip install 'jaxpg[warp]')")
 def test_warp_matches_jax_on_hopper():
     """Hopper (fast fidelity) under vmap with AutoReset: impl="warp" and impl="jax" give the same

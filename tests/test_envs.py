@@ -700,10 +700,10 @@ def test_command_line_plans_a_task_run(task, tmp_path, monkeypatch):
 def test_pusher_programs_are_compiled_with_the_legacy_cpu_emitters():
     """Pusher's deep arm makes XLA:CPU's fusion emitters exponentially slow on its kinematics
     (``jaxpg.envs.compile_options``): its programs on the CPU, and only its, are compiled with the
-    legacy emitters, through its wrappers too (where this jaxlib still has them: XLA in jaxlib 0.11
-    no longer has the option: there Pusher compiles with the defaults); so compiled, its kinematic pass still agrees
-    with MuJoCo's own (C, float64) on random arm poses, to float32 rounding of positions within a
-    metre."""
+    legacy emitters, through its wrappers too (where XLA still has the option; XLA in jaxlib 0.11
+    has not, and there Pusher compiles with the defaults); so compiled, its kinematic pass still
+    agrees with MuJoCo's own (C, float64) on random arm poses, to float32 rounding of positions
+    within a metre."""
     from jaxpg.envs import compile_options
 
     pusher = envs.make("pusher", impl="jax")

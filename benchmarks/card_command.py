@@ -1,7 +1,7 @@
 """The command jaxpg is known by, ``python experiments/hopper.py --num-envs 256``, run as a user
 runs it: each run a fresh process, timed as a whole.
 
-Four modes (``python benchmarks/card_command.py MODE --help`` for each):
+Six modes (``python benchmarks/card_command.py MODE --help`` for each):
 
   card         time the command per seed with empty caches (cold) and with caches a first run
                filled (warm), then score each run's policy in Gymnasium's CPU Hopper-v5;
@@ -15,6 +15,9 @@ Four modes (``python benchmarks/card_command.py MODE --help`` for each):
                other, and the import on a thread while the backend starts: does overlapping help?
                With --sample: the card's command itself, its main thread's stack sampled every
                50 ms up to the `training:` line, summed by what jaxpg was doing.
+  memory       in fresh processes, JAX's GPU backend start and its first buffers, with JAX's
+               default (75 % of the GPU's memory reserved at the first buffer) and with memory
+               taken on demand (XLA_PYTHON_CLIENT_PREALLOCATE=false, what jaxpg's commands set).
 
     python benchmarks/card_command.py card --seeds 0 1 2 --modes cold warm --json card.json
     python benchmarks/card_command.py determinism --settings default deterministic jax --runs 3
@@ -22,6 +25,7 @@ Four modes (``python benchmarks/card_command.py MODE --help`` for each):
     python benchmarks/card_command.py capture --seconds 60
     python benchmarks/card_command.py startup --repeats 3
     python benchmarks/card_command.py startup --sample 2 --extra --preset hopper_1m
+    python benchmarks/card_command.py memory --repeats 3
 """
 
 from __future__ import annotations
@@ -711,12 +715,69 @@ def startup_main(argv: Sequence[str]) -> None:
         print(f"{order}: median {statistics.median(totals):.2f} s over {len(totals)} processes")
 
 
+# ========================================================================================== memory
+
+# A fresh process's GPU start, in seconds (JSON): ``import jax``, the backend (``jax.devices()``),
+# the first buffer (where JAX's client reserves its memory pool unless told not to), 500 more small
+# buffers, ``import mujoco.mjx`` (MuJoCo Warp's modules included) and MJX's Warp ``put_model`` of
+# the card's Hopper, twice.
+MEMORY_SNIPPET = """
+import json, sys, time
+import numpy as np
+t0 = time.perf_counter(); import jax, jax.numpy as jnp
+t1 = time.perf_counter(); jax.devices()
+t2 = time.perf_counter(); jnp.zeros(1).block_until_ready()
+t3 = time.perf_counter(); jax.block_until_ready(jax.device_put([np.ones(3, np.float32) for _ in range(500)]))
+t4 = time.perf_counter(); import mujoco; from mujoco import mjx
+t5 = time.perf_counter(); model = mujoco.MjModel.from_xml_path(sys.argv[1])
+jax.block_until_ready(mjx.put_model(model, impl="warp"))
+t6 = time.perf_counter(); jax.block_until_ready(mjx.put_model(model, impl="warp"))
+t7 = time.perf_counter()
+print(json.dumps({"import jax": t1 - t0, "backend": t2 - t1, "first buffer": t3 - t2, "500 buffers": t4 - t3,
+                  "import mjx": t5 - t4, "put_model": t6 - t5, "put_model again": t7 - t6}))
+"""
+MEMORY_PARTS = ("import jax", "backend", "first buffer", "500 buffers", "import mjx", "put_model", "put_model again")
+MEMORY_SETTINGS = {"JAX's default (preallocate)": "true", "on demand (jaxpg's)": "false"}
+
+
+def memory_main(argv: Sequence[str]) -> None:
+    parser = argparse.ArgumentParser(
+        prog="card_command.py memory",
+        description="Fresh-process GPU start with JAX's memory reserved at the first buffer (its default) and "
+        "taken on demand (XLA_PYTHON_CLIENT_PREALLOCATE=false), alternating; the card's Hopper put on the GPU "
+        "by MJX's Warp put_model. A GPU and MuJoCo Warp are needed. For the whole card both ways: "
+        "XLA_PYTHON_CLIENT_PREALLOCATE=true python benchmarks/card_command.py card ... (a value you set is kept).",
+    )
+    parser.add_argument("--repeats", type=int, default=3, help="processes per setting, alternating (default: 3)")
+    parser.add_argument("--json", default=None)
+    args = parser.parse_args(argv)
+    xml = str(ROOT / "jaxpg" / "envs" / "assets" / "hopper.xml")
+    rows = []
+    for repeat in range(args.repeats):
+        for setting, value in MEMORY_SETTINGS.items():
+            env = {**os.environ, "XLA_PYTHON_CLIENT_PREALLOCATE": value}
+            done = subprocess.run(
+                [sys.executable, "-c", MEMORY_SNIPPET, xml], cwd=ROOT, env=env, capture_output=True, text=True
+            )
+            if done.returncode != 0:
+                raise SystemExit(f"error: the {setting} process failed: {done.stderr.strip().splitlines()[-1:]}")
+            rows.append({"setting": setting, "repeat": repeat, **json.loads(done.stdout.strip().splitlines()[-1])})
+    harness.write_json(args.json, rows, argv=list(argv))
+    print(f"\n{harness.describe()}")
+    columns = [(part, lambda r, part=part: f"{r[part]:.2f}") for part in MEMORY_PARTS]
+    print(harness.table(rows, [("memory", lambda r: r["setting"])] + columns))
+    for setting in MEMORY_SETTINGS:
+        first = [r["first buffer"] for r in rows if r["setting"] == setting]
+        print(f"{setting}: first buffer median {statistics.median(first):.2f} s over {len(first)} processes")
+
+
 MODES = {
     "card": card_main,
     "determinism": determinism_main,
     "kernels": kernels_main,
     "capture": capture_main,
     "startup": startup_main,
+    "memory": memory_main,
 }
 
 

@@ -33,6 +33,7 @@ from jaxpg.run import (
     pre_flags,
     session,
 )
+from jaxpg.run import startup as startup_module
 from jaxpg.run.flags import UsageError
 from jaxpg.run.plan import Plan
 
@@ -713,6 +714,35 @@ exit_process(3)
     assert proc.returncode == 3, proc.stderr
     assert proc.stdout == "buffered, no newline"
     assert (tmp_path / "thread").read_text() == "done" and (tmp_path / "atexit").read_text() == "ran"
+
+
+def test_a_command_that_owns_its_process_takes_gpu_memory_on_demand(tmp_path):
+    """``python -m jaxpg.cli``, the experiment scripts and ``python -m jaxpg.evaluate`` (each the
+    whole process) set ``XLA_PYTHON_CLIENT_PREALLOCATE=false`` before JAX starts its backend, so
+    that JAX does not reserve 75 % of a GPU's memory at its first buffer; a value set by the user
+    is kept, and a command called from someone else's program (``owns_process`` False) leaves the
+    variable alone. Each command here stops with a usage error after its start."""
+    script = f"""
+import os
+from jaxpg.run import evaluate_cli, main, startup
+VARIABLE, seen = startup.PREALLOCATE_VARIABLE, []
+check_backend = startup.check_backend
+startup.check_backend = lambda: (seen.append(os.environ.get(VARIABLE)), check_backend())[1]
+bogus = ["--env", "inverted_pendulum", "--env-kwargs", "bogus=1"]
+os.environ.pop(VARIABLE, None)
+print(main.main(bogus), os.environ.get(VARIABLE), seen)
+print(main.main(bogus, owns_process=True), os.environ.get(VARIABLE), seen)
+os.environ[VARIABLE] = "true"
+print(main.main(bogus, owns_process=True), os.environ.get(VARIABLE))
+os.environ.pop(VARIABLE)
+print(evaluate_cli.main([{str(tmp_path / "no_run")!r}], owns_process=True), os.environ.get(VARIABLE))
+"""
+    env = {k: v for k, v in os.environ.items() if k != "XLA_PYTHON_CLIENT_PREALLOCATE"}
+    proc = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, cwd=ROOT, env=env)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert proc.stdout.splitlines() == ["2 None [None]", "2 false [None, 'false']", "2 true", "2 false"]
+    assert startup_module.allocate_gpu_memory_on_demand({}) == "false"
+    assert startup_module.allocate_gpu_memory_on_demand({"XLA_PYTHON_CLIENT_PREALLOCATE": "1"}) == "1"
 
 
 def test_the_end_report_times_the_first_block(runs, capsys):

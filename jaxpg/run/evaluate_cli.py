@@ -87,7 +87,8 @@ def output_problem(path: Path) -> str | None:
 def main(argv: Sequence[str] | None = None, owns_process: bool = False) -> int:
     """``python -m jaxpg.evaluate``; returns the exit status. ``owns_process``: nothing but this
     command runs in the process (its script's own call), so that MJX may be imported without
-    MuJoCo Warp when the evaluation will not use it (``leave_out_warp_if_unused``)."""
+    MuJoCo Warp when the evaluation will not use it (``leave_out_warp_if_unused``) and JAX may take
+    GPU memory on demand (``startup.allocate_gpu_memory_on_demand``)."""
     parser = argparse.ArgumentParser(
         prog="python -m jaxpg.evaluate",
         description=__doc__.split("\n\n")[0].split(": ", 1)[-1] if __doc__ else None,
@@ -132,6 +133,10 @@ def main(argv: Sequence[str] | None = None, owns_process: bool = False) -> int:
     if problem is not None:  # checked before the evaluation, which may take long
         print(f"error: --video {args.video}: {problem}", file=sys.stderr)
         return 2
+    if owns_process:
+        from jaxpg.run import startup
+
+        startup.allocate_gpu_memory_on_demand()  # before JAX starts its GPU backend
     try:
         check_backend()
     except UsageError as e:

@@ -1,12 +1,13 @@
-"""What a command does first, before it plans: choose MuJoCo's GL backend when it may draw a video,
-turn the compilation cache on, join the other processes, check that JAX has a device, put back a
-run directory that a killed ``--overwrite`` left moved aside, and leave MuJoCo Warp out of a
-process that will not use it (``start``)."""
+"""What a command does first, before it plans: let JAX take GPU memory as it needs it, choose
+MuJoCo's GL backend when it may draw a video, turn the compilation cache on, join the other
+processes, check that JAX has a device, put back a run directory that a killed ``--overwrite``
+left moved aside, and leave MuJoCo Warp out of a process that will not use it (``start``)."""
 
 from __future__ import annotations
 
+import os
 import sys
-from collections.abc import Sequence
+from collections.abc import MutableMapping, Sequence
 
 import jax
 
@@ -26,7 +27,10 @@ def start(argv: Sequence[str], experiment: Experiment, owns_process: bool = Fals
     import MJX without MuJoCo Warp (only when the command ``owns_process``: nothing else will run
     in it) before MJX is imported. Raises ``ValueError`` (one line) on bad flags or distributed
     settings or when JAX has no device, and ``OSError`` when the run directory cannot be put back
-    in order."""
+    in order. A command that ``owns_process`` also takes GPU memory on demand
+    (``allocate_gpu_memory_on_demand``)."""
+    if owns_process:
+        allocate_gpu_memory_on_demand()  # before JAX starts its GPU backend (check_backend below)
     pre = parse_pre_flags(argv, experiment)
     if pre.videos:
         video_lib.configure_gl()  # before MuJoCo is imported, and only when a video may be drawn
@@ -37,6 +41,23 @@ def start(argv: Sequence[str], experiment: Experiment, owns_process: bool = Fals
     if owns_process and steps_mjx_on_jax_only(pre, experiment, jax.default_backend()):
         mjx_import.leave_out_warp()  # about 3 s less of `import mujoco.mjx` on two CPU cores
     return pre
+
+
+PREALLOCATE_VARIABLE = "XLA_PYTHON_CLIENT_PREALLOCATE"
+
+
+def allocate_gpu_memory_on_demand(environ: MutableMapping[str, str] = os.environ) -> str:
+    """Set ``XLA_PYTHON_CLIENT_PREALLOCATE=false`` in ``environ`` unless it is set; returns its value.
+
+    By default JAX's GPU client reserves 75 % of the GPU's memory when it makes its first buffer.
+    On an H200 (140 GiB) that first buffer took 2.2-2.4 s, and 0.14-0.17 s with the variable
+    false (``python benchmarks/card_command.py memory``, 3 fresh processes each); the
+    card's warm run went from a median 26.1 s to 23.8 s, and Humanoid's PPO trained at the same
+    env steps/s either way (BENCHMARKS.md, "Where a warm run's time goes"). JAX reads the variable
+    when it starts its GPU backend, so this must come before anything touches a device; processes
+    started from this one inherit it. A value you set yourself is kept."""
+    environ.setdefault(PREALLOCATE_VARIABLE, "false")
+    return environ[PREALLOCATE_VARIABLE]
 
 
 def steps_mjx_on_jax_only(pre: PreFlags, experiment: Experiment, backend: str) -> bool:

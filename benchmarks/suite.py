@@ -1,24 +1,29 @@
 """The Gymnasium MuJoCo suite trained: tasks x presets x seeds, each a fresh process as a user runs
 it, each final mean policy scored in Gymnasium's own v5 env, against the published figures.
 
-Two modes (``python benchmarks/suite.py MODE --help`` for each):
+Four modes (``python benchmarks/suite.py MODE --help`` for each):
 
   run   train every ``TASK:ALGO:PRESET`` for every seed, then replay each run's final mean policy
         in Gymnasium; print the table, write JSON (runs and their metrics);
   plot  mean-policy return against wall clock and against env steps, one panel per task, the
         seeds of each preset as a band, from ``run --json`` files;
   count how many seeds of each setting reached a score, over any number of ``run --json`` files
-        (to judge a setting's failure rate over hundreds of seeds).
+        (to judge a setting's failure rate over hundreds of seeds);
+  physics replay each seed's policy of a run directory in Gymnasium's env under Gymnasium's
+        physics and under jaxpg's fast fidelity: does a policy lose return to the physics change?
 
     python benchmarks/suite.py run --runs walker2d:npg:walker2d_1m half_cheetah:npg:half_cheetah_1m --seeds 0 1 2 \\
         --json suite.json
     python benchmarks/suite.py plot suite.json --out docs/suite.png
+    python benchmarks/suite.py physics RUN_DIR --episodes 20 --json physics.json
 """
 
 from __future__ import annotations
 
 import argparse
 import math
+import multiprocessing
+import os
 import shutil
 import statistics
 import sys
@@ -26,6 +31,7 @@ import tempfile
 import threading
 from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import Any
 
 import harness
 
@@ -491,7 +497,109 @@ def count_main(argv: Sequence[str]) -> None:
     )
 
 
-MODES = {"run": run_main, "plot": plot_main, "count": count_main}
+PHYSICS_DOC = """Does a policy trained in jaxpg's fast physics lose return to Gymnasium's physics?
+
+Every training seed's final mean policy (``jaxpg.load_policy``) of each RUN_DIR plays ``--episodes``
+episodes of the task's Gymnasium env, built as ``python -m jaxpg.evaluate RUN --gymnasium`` builds
+it (episode i reset with seed i), on MuJoCo's CPU, with the model's physics set to each variant:
+
+  gymnasium        the model file's own settings (Hopper-v5: RK4, a Newton solve of up to 100
+                   iterations and 50 line-search iterations);
+  fast             jaxpg's fast fidelity (``jaxpg.envs.mjx_env``): Euler, 4 and 8 iterations;
+  euler            Euler, the file's solver settings;
+  rk4_fast_solver  the file's integrator, the fast fidelity's solver iterations.
+
+The same simulator (MuJoCo, not MJX) runs every variant, so a difference is the physics settings'
+alone. Prints each seed's mean return and the episodes that ended early per variant, then a
+summary per variant; ``--json`` gets every episode's return.
+
+    python benchmarks/suite.py physics RUN_DIR --episodes 20 --workers 2 --json physics.json
+"""
+PHYSICS_VARIANTS = ("gymnasium", "fast", "euler", "rk4_fast_solver")
+
+
+def set_physics(model: Any, variant: str) -> None:
+    """Give ``model.opt`` (a Gymnasium env's ``MjModel``) the integrator and solver iterations of ``variant``."""
+    import mujoco
+
+    from jaxpg.envs import mjx_env
+
+    if variant in ("fast", "euler"):
+        model.opt.integrator = mujoco.mjtIntegrator.mjINT_EULER
+    if variant in ("fast", "rk4_fast_solver"):
+        model.opt.iterations = mjx_env.FAST_SOLVER_ITERATIONS
+        model.opt.ls_iterations = mjx_env.FAST_LS_ITERATIONS
+
+
+def mujoco_name(integrator: int) -> str:
+    """MuJoCo's name of an integrator: ``"EULER"``, ``"RK4"``, ..."""
+    import mujoco
+
+    return mujoco.mjtIntegrator(integrator).name.removeprefix("mjINT_")
+
+
+def play_physics(job: tuple[str, int, str, int]) -> dict[str, Any]:
+    """``job = (run_dir, seed, variant, episodes)``: the episodes played in lockstep, one batched
+    policy call per step; returns their returns and whether each ended early (terminated)."""
+    import numpy as np
+
+    import jaxpg
+    from jaxpg.run import replay
+
+    run_dir, seed, variant, episodes = job
+    policy = jaxpg.load_policy(run_dir, seed=seed)
+    envs = [replay.gymnasium_reference_env(policy.run.task, policy.run.env_kwargs) for _ in range(episodes)]
+    for env in envs:
+        set_physics(env.unwrapped.model, variant)
+    obs = np.stack([env.reset(seed=i)[0] for i, env in enumerate(envs)])
+    returns, early, active = np.zeros(episodes), np.zeros(episodes, bool), np.ones(episodes, bool)
+    while active.any():
+        actions = policy(obs)  # the whole batch each step: one shape, compiled once
+        for i in np.flatnonzero(active):
+            obs[i], reward, terminated, truncated, _ = envs[i].step(actions[i])
+            returns[i] += float(reward)
+            early[i], active[i] = bool(terminated), not (terminated or truncated)
+    opt = envs[0].unwrapped.model.opt
+    physics = f"{mujoco_name(opt.integrator)} {int(opt.iterations)}/{int(opt.ls_iterations)} iterations"
+    return {"run_dir": run_dir, "seed": seed, "variant": variant, "returns": returns.tolist(),
+            "early": int(early.sum()), "mean": float(returns.mean()), "opt": physics}  # fmt: skip
+
+
+def physics_main(argv: Sequence[str]) -> None:
+    parser = argparse.ArgumentParser(prog="suite.py physics", description=PHYSICS_DOC, formatter_class=RAW)
+    parser.add_argument("run_dirs", nargs="+", metavar="RUN_DIR")
+    parser.add_argument("--episodes", type=int, default=20, help="episodes per seed and variant (default: 20)")
+    parser.add_argument("--variants", nargs="+", choices=PHYSICS_VARIANTS, default=list(PHYSICS_VARIANTS))
+    parser.add_argument("--workers", type=int, default=2, help="processes playing side by side (default: 2)")
+    parser.add_argument("--bar", type=float, default=3000.0, help="the score counted in the summary (default: 3000)")
+    parser.add_argument("--json", default=None)
+    args = parser.parse_args(argv)
+    os.environ["JAX_PLATFORMS"] = "cpu"  # inherited by the workers: the policies run on the CPU
+    from jaxpg.run import policy_io
+
+    seeds = {run_dir: policy_io.load_run_config(run_dir).seeds for run_dir in args.run_dirs}
+    jobs = [(r, s, v, args.episodes) for r in args.run_dirs for s in seeds[r] for v in args.variants]
+    with multiprocessing.get_context("spawn").Pool(args.workers) as pool:
+        results = pool.map(play_physics, jobs, chunksize=1)
+    by = {(r["run_dir"], r["seed"], r["variant"]): r for r in results}
+    unique = len({Path(r).name for r in seeds}) == len(seeds)
+    rows = [
+        {"run": Path(r).name if unique else r, "seed": s, **{v: by[r, s, v] for v in args.variants}}
+        for r in seeds
+        for s in seeds[r]
+    ]
+    columns = [("run", lambda row: row["run"]), ("seed", lambda row: row["seed"])]
+    columns += [(v, lambda row, v=v: f"{row[v]['mean']:.0f} ({row[v]['early']} early)") for v in args.variants]
+    print(harness.table(rows, columns))
+    for v in args.variants:
+        means = [row[v]["mean"] for row in rows]
+        early = sum(row[v]["early"] for row in rows)
+        print(f"{v}: median {statistics.median(means):.0f}, {sum(m >= args.bar for m in means)} of {len(means)} "
+              f"seeds >= {args.bar:g}, {early} of {len(means) * args.episodes} episodes ended early")  # fmt: skip
+    harness.write_json(args.json, results, argv=list(argv))
+
+
+MODES = {"run": run_main, "plot": plot_main, "count": count_main, "physics": physics_main}
 
 if __name__ == "__main__":
     harness.run_modes(__file__, MODES, __doc__)

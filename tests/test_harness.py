@@ -126,6 +126,33 @@ def test_suite_judges_each_preset_against_its_target():
     assert suite.judge("ant", "ant_fast", [], [60.0], [1e7]) == "no score"
 
 
+def test_suite_physics_variants_change_only_the_integrator_and_the_solver_iterations():
+    """``suite.py physics`` replays a policy in Gymnasium's Hopper-v5 under each variant: the file's
+    own physics (RK4, up to 100 and 50 iterations), jaxpg's fast fidelity and the two halves of it."""
+    import mujoco
+
+    from jaxpg.envs import mjx_env
+    from jaxpg.run import replay
+
+    suite = load_script("benchmarks/suite.py")
+    settings = {}
+    for variant in suite.PHYSICS_VARIANTS:
+        env = replay.gymnasium_reference_env("hopper", {})
+        suite.set_physics(env.unwrapped.model, variant)
+        opt = env.unwrapped.model.opt
+        settings[variant] = (suite.mujoco_name(opt.integrator), opt.iterations, opt.ls_iterations, opt.timestep)
+        env.close()
+    fast = (mjx_env.FAST_SOLVER_ITERATIONS, mjx_env.FAST_LS_ITERATIONS)
+    assert settings == {
+        "gymnasium": ("RK4", 100, 50, 0.002),
+        "fast": ("EULER", *fast, 0.002),
+        "euler": ("EULER", 100, 50, 0.002),
+        "rk4_fast_solver": ("RK4", *fast, 0.002),
+    }
+    model = mjx_env.load_model("hopper.xml", "fast").opt  # the same settings as jaxpg's fast Hopper
+    assert (model.integrator, model.iterations, model.ls_iterations) == (mujoco.mjtIntegrator.mjINT_EULER, *fast)
+
+
 def test_suite_names_a_block_of_many_seeds_within_a_file_name():
     suite = load_script("benchmarks/suite.py")
     assert suite.seeds_label([3]) == "seed3"

@@ -625,6 +625,38 @@ def test_several_seeds_records_summary_and_curves(tmp_path):
     assert out.stat().st_size > 0
 
 
+def test_the_line_about_rolled_back_updates_names_their_cause():
+    """``console.rejection_line``: nothing when no update was rolled back; else the count, and the
+    cause: the largest mean KL of a rolled-back update (over seeds too), non-finite values; a run
+    with normalised observations whose only rolled-back update is iteration 1's gets a note."""
+
+    def block(rejected, kl, failures):
+        return {
+            "update_rejected": np.array(rejected, np.float32),
+            "kl": np.array(kl, np.float32),
+            "consecutive_failures": np.array(failures, np.float32),
+        }
+
+    assert console.rejection_line(block([0, 0], [0.01, 0.02], [0, 0]), 0, 1.0, True) is None
+    first = block([1, 0, 0], [67.7, 0.01, 0.01], [0, 0, 0])
+    note = console.rejection_line(first, 0, 1.0, True)
+    assert note.startswith("note: iteration 1's update was rolled back (largest mean KL 67.7, above max_update_kl 1)")
+    warning = console.rejection_line(first, 0, 1.0, False)
+    assert warning == (
+        "warning: 1 of iterations 1-3 were rolled back (largest mean KL 67.7, above max_update_kl 1); "
+        "lower the step size or learning rate"
+    )
+    seeds = block([[0, 1], [1, 0]], [[0.5, 3.0], [2.5, 0.9]], [[0, 0], [1, 0]])  # [iterations, seeds]
+    assert console.rejection_line(seeds, 20, 1.0, True) == (
+        "warning: 2 of iterations 21-22 were rolled back (largest mean KL 3.0, above max_update_kl 1; "
+        "1 with non-finite values); lower the step size or learning rate"
+    )
+    nonfinite = block([1], [float("nan")], [1])
+    assert "(1 with non-finite values)" in console.rejection_line(nonfinite, 0, 1.0, True)
+    no_step = block([0, 1], [0.01, 0.0], [0, 0])  # NPG's backtracking found no step within its bound
+    assert "(1 with no step the algorithm accepted)" in console.rejection_line(no_step, 0, 1.0, True)
+
+
 def test_every_algorithm_config_round_trips_through_json():
     from jaxpg import algos
 

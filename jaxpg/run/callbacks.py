@@ -185,7 +185,6 @@ class Summaries:
         """One line per block in which updates were rolled back (trust region or non-finite) or
         TRPO's line search accepted no step, so that a policy that stops moving says why."""
         n = block_length(metrics)
-        rejected = np.asarray(metrics.get("update_rejected", np.zeros(n))).reshape(n, -1).max(axis=1)
         if "line_search_accepted" in metrics:
             no_step = np.asarray(metrics["line_search_accepted"]).reshape(n, -1).min(axis=1) == 0
             if no_step.any():
@@ -194,12 +193,12 @@ class Summaries:
                     f"{first + 1}-{first + n} (the policy did not move; is max_kl {self.plan.config.max_kl} too large "
                     "or too small?)"
                 )
-        if rejected.any():
-            limit = getattr(self.plan.config, "max_update_kl", 0)
-            self.progress.write(
-                f"warning: {int((rejected > 0).sum())} of iterations {first + 1}-{first + n} were rolled back "
-                f"(mean KL above max_update_kl {limit}, or non-finite values); lower the step size or learning rate"
-            )
+        config = self.plan.config
+        if all(k in metrics for k in ("update_rejected", "kl", "consecutive_failures")):
+            limit, normalized = getattr(config, "max_update_kl", 0), getattr(config, "normalize_observations", False)
+            line = console.rejection_line(metrics, first, limit, normalized)
+            if line is not None:
+                self.progress.write(line)
 
     def _note_overflow(self, metrics: dict[str, np.ndarray], first: int) -> None:
         """One line, the first time the physics reports an overflow (MuJoCo Warp's solver at its

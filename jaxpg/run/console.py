@@ -1,4 +1,5 @@
-"""What a run prints: the one-line summary of a block of iterations and the progress bar."""
+"""What a run prints: the one-line summary of a block of iterations, the line about its rolled-back
+updates, and the progress bar."""
 
 from __future__ import annotations
 
@@ -58,6 +59,44 @@ def _duration(seconds: float) -> str:
         f"{seconds // 3600}:{seconds // 60 % 60:02d}:{seconds % 60:02d}"
         if seconds >= 3600
         else f"{seconds // 60}:{seconds % 60:02d}"
+    )
+
+
+def rejection_line(metrics: dict[str, np.ndarray], first: int, max_update_kl: float, normalized: bool) -> str | None:
+    """One line about the updates of a block that were rolled back (``None`` if none was).
+
+    ``metrics``: the block's ``[iterations]`` or ``[iterations, seeds]`` arrays, with
+    ``update_rejected``, ``kl`` and ``consecutive_failures`` (non-finite updates in a row);
+    ``first``: the iteration before the block. It names the causes: the largest mean KL of an
+    update above ``max_update_kl``, updates the algorithm itself did not accept (NPG's
+    backtracking found no step within its bound), non-finite values. A run that normalises its
+    observations (``normalized``) acts in iteration 1 on observations its statistics have not
+    seen yet (they start from iteration 1's batch), so a first update that overshoots there is
+    expected and said so in a ``note:``, not a warning.
+    """
+    n = len(metrics["update_rejected"])
+    rejected = np.asarray(metrics["update_rejected"]).reshape(n, -1) > 0
+    if not rejected.any():
+        return None
+    nonfinite = rejected & (np.asarray(metrics["consecutive_failures"]).reshape(n, -1) > 0)
+    kl = np.asarray(metrics["kl"], np.float64).reshape(n, -1)
+    over_kl = rejected & ~nonfinite & (kl > max_update_kl) if max_update_kl > 0 else np.zeros_like(rejected)
+    not_accepted = rejected & ~nonfinite & ~over_kl
+    causes = []
+    if over_kl.any():
+        causes.append(f"largest mean KL {_fmt(float(kl[over_kl].max()))}, above max_update_kl {max_update_kl:g}")
+    for rows, what in ((not_accepted, "no step the algorithm accepted"), (nonfinite, "non-finite values")):
+        if rows.any():
+            causes.append(f"{int(rows.any(axis=1).sum())} with {what}")
+    iterations = np.flatnonzero(rejected.any(axis=1))
+    if normalized and first == 0 and iterations.tolist() == [0] and over_kl.any() and len(causes) == 1:
+        return (
+            f"note: iteration 1's update was rolled back ({causes[0]}): its policy acted on observations "
+            "not yet normalised (the statistics start from its batch); training goes on from there"
+        )
+    return (
+        f"warning: {iterations.size} of iterations {first + 1}-{first + n} were rolled back ({'; '.join(causes)}); "
+        "lower the step size or learning rate"
     )
 
 

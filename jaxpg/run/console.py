@@ -91,8 +91,9 @@ def rejection_line(metrics: dict[str, np.ndarray], first: int, max_update_kl: fl
     iterations = np.flatnonzero(rejected.any(axis=1))
     if normalized and first == 0 and iterations.tolist() == [0] and over_kl.any() and len(causes) == 1:
         return (
-            f"note: iteration 1's update was rolled back ({causes[0]}): its policy acted on observations "
-            "not yet normalised (the statistics start from its batch); training goes on from there"
+            f"note: iteration 1's update was rolled back ({causes[0]}): its policy acts on observations "
+            "not yet normalised (the statistics start from its batch), which can make a first update overshoot; "
+            "training goes on with iteration 2"
         )
     return (
         f"warning: {iterations.size} of iterations {first + 1}-{first + n} were rolled back ({'; '.join(causes)}); "

@@ -31,6 +31,7 @@ from jaxpg.run import (
     plotting,
     policy_io,
     pre_flags,
+    provenance,
     session,
 )
 from jaxpg.run import startup as startup_module
@@ -110,6 +111,9 @@ def test_run_directory_holds_everything_to_rerun(trained):
     assert config["config"]["num_envs"] == 8 and config["config"]["policy_hidden"] == [64, 64]
     assert {"jax", "mujoco", "jaxpg", "python"} <= set(config["info"]["versions"])
     assert config["info"]["device"]["backend"] == "cpu"
+    # the variables that change how JAX runs, as they were: here the XLA options the tests' conftest sets
+    assert config["info"]["environment"]["XLA_FLAGS"] == os.environ["XLA_FLAGS"]
+    assert provenance.environment_settings({"XLA_FLAGS": "--x", "HOME": "/h"}) == {"XLA_FLAGS": "--x"}
     run = config_io.RunConfig.load(trained)
     assert run.algo_config() == npg.Config(num_envs=8, horizon=32, eval_envs=2, eval_horizon=32)
 

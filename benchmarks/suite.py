@@ -539,30 +539,25 @@ def mujoco_name(integrator: int) -> str:
 
 
 def play_physics(job: tuple[str, int, str, int]) -> dict[str, Any]:
-    """``job = (run_dir, seed, variant, episodes)``: the episodes played in lockstep, one batched
-    policy call per step; returns their returns and whether each ended early (terminated)."""
-    import numpy as np
-
+    """``job = (run_dir, seed, variant, episodes)``: the episodes of ``jaxpg.evaluate --gymnasium``
+    (``replay.evaluate_gymnasium``) under ``variant``'s physics; their returns and how many ended
+    before the time limit (a fall)."""
     import jaxpg
     from jaxpg.run import replay
 
     run_dir, seed, variant, episodes = job
     policy = jaxpg.load_policy(run_dir, seed=seed)
-    envs = [replay.gymnasium_reference_env(policy.run.task, policy.run.env_kwargs) for _ in range(episodes)]
-    for env in envs:
-        set_physics(env.unwrapped.model, variant)
-    obs = np.stack([env.reset(seed=i)[0] for i, env in enumerate(envs)])
-    returns, early, active = np.zeros(episodes), np.zeros(episodes, bool), np.ones(episodes, bool)
-    while active.any():
-        actions = policy(obs)  # the whole batch each step: one shape, compiled once
-        for i in np.flatnonzero(active):
-            obs[i], reward, terminated, truncated, _ = envs[i].step(actions[i])
-            returns[i] += float(reward)
-            early[i], active[i] = bool(terminated), not (terminated or truncated)
-    opt = envs[0].unwrapped.model.opt
+    task, env_kwargs = policy.run.task, policy.run.env_kwargs
+    returns, lengths, _ = replay.evaluate_gymnasium(
+        policy, task, env_kwargs, episodes, configure_model=lambda model: set_physics(model, variant)
+    )
+    env = replay.gymnasium_reference_env(task, env_kwargs)  # what the variant makes of the model, and the limit
+    set_physics(env.unwrapped.model, variant)
+    opt, limit = env.unwrapped.model.opt, env.spec.max_episode_steps
+    env.close()
     physics = f"{mujoco_name(opt.integrator)} {int(opt.iterations)}/{int(opt.ls_iterations)} iterations"
     return {"run_dir": run_dir, "seed": seed, "variant": variant, "returns": returns.tolist(),
-            "early": int(early.sum()), "mean": float(returns.mean()), "opt": physics}  # fmt: skip
+            "early": int((lengths < limit).sum()), "mean": float(returns.mean()), "opt": physics}  # fmt: skip
 
 
 def physics_main(argv: Sequence[str]) -> None:

@@ -82,9 +82,15 @@ def evaluate_gymnasium(
     episodes: int,
     seed: int = 0,
     video: str | None = None,
+    configure_model: Callable[[Any], None] | None = None,
 ) -> tuple[np.ndarray, np.ndarray, list[np.ndarray]]:
-    """``(returns [N], lengths [N], frames of the first episode)`` of ``policy`` in Gymnasium."""
+    """``(returns [N], lengths [N], frames of the first episode)`` of ``policy`` in Gymnasium.
+
+    ``configure_model``: called with the env's MuJoCo model before the first episode (e.g. to
+    change its physics settings, as ``benchmarks/suite.py physics`` does)."""
     env = gymnasium_reference_env(task, env_kwargs, render=video is not None)
+    if configure_model is not None:
+        configure_model(env.unwrapped.model)
     returns, lengths, frames = [], [], []
     for i in range(episodes):
         obs, _ = env.reset(seed=seed + i)

@@ -19,6 +19,11 @@ done
 # in Gymnasium's Hopper-v5 under its own physics and under jaxpg's fast physics (phys*.json):
 python benchmarks/suite.py physics runs/base3000/hopper-npg-hopper_1m-seeds3000to3031 --episodes 20 --json hopper_1m_physics/phys3000.json
 python benchmarks/suite.py physics runs/base3032/hopper-npg-hopper_1m-seeds3032to3063 --episodes 20 --json hopper_1m_physics/phys3032.json
+# (phys3000/3032 came from the mode at 2e6bbb8, which stepped the 20 episodes in lockstep with one batched policy
+# call; the mode now plays them through jaxpg.evaluate's own loop, one observation per call. The same block again
+# with it, phys3000_evaluate_loop.json: 30 of 32 seeds >= 3000 under each physics, medians 3333 / 3362, 24 / 24
+# falls of 640 episodes; single seeds differ by up to 226, since float-level action differences part trajectories.)
+python benchmarks/suite.py physics runs/base3000/hopper-npg-hopper_1m-seeds3000to3031 --episodes 20 --json hopper_1m_physics/phys3000_evaluate_loop.json
 
 # gpu_memory/: JAX's GPU memory reserved at the first buffer (its default) or taken on demand.
 # prealloc.jsonl: the probe prealloc_probe.py.txt (the steps `card_command.py memory` now runs), 3 fresh processes

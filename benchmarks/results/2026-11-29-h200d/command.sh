@@ -1,0 +1,20 @@
+# One H200 (16 host cores), a freshly started machine, 2026-11-29, JAX 0.11.2, MuJoCo/MJX 3.17.0,
+# warp-lang 1.18.0, MuJoCo Warp; the code at 168fdb3 (GPU memory taken on demand). In order, one script:
+
+# startup/memory.*: JAX's GPU backend start and first buffers, 3 fresh processes each way, alternating.
+python benchmarks/card_command.py memory --repeats 3 --json startup/memory.json
+
+# card/: the card's command at hopper_1m, three bare-machine runs then three warm runs.
+python benchmarks/card_command.py card --seeds 0 1 2 --modes cold warm --out card --json card/card.json --extra --preset hopper_1m
+
+# startup/importtime.txt, imp.log: one more warm run (seed 0) under Python's import profiler, with the warm caches.
+JAXPG_COMPILATION_CACHE=card/caches-warm/xla WARP_CACHE_PATH=card/caches-warm/warp CUDA_CACHE_PATH=card/caches-warm/cuda \
+  python -X importtime experiments/hopper.py --num-envs 256 --preset hopper_1m --seed 0 --run-dir imp 2> startup/importtime.txt
+
+# hopper_1m_seeds/: 64 more seeds of hopper_1m, two vmapped blocks of 32, both processes on the GPU at once
+# (started together, finished together 182 s later, Gymnasium replays included; one block alone took 110 s
+# on the 2026-11-29 machine before).
+for first in 3064 3096; do
+  python benchmarks/suite.py run --runs hopper:npg:hopper_1m --seeds $(seq $first $((first + 31))) --vmap-seeds \
+    --out runs/base$first --json hopper_1m_seeds/base-seeds$first.json &
+done; wait

@@ -18,3 +18,11 @@ for first in 3064 3096; do
   python benchmarks/suite.py run --runs hopper:npg:hopper_1m --seeds $(seq $first $((first + 31))) --vmap-seeds \
     --out runs/base$first --json hopper_1m_seeds/base-seeds$first.json &
 done; wait
+
+# hopper_1m_h16/: a second call on a freshly started machine: hopper_1m with horizon 16 and 240 iterations (the same
+# 0.98 M env steps and physics steps in a row, twice the updates), seeds 3000-3095 in three vmapped blocks of 32,
+# the three processes on the GPU at once (334-349 s each, Gymnasium replays included).
+for first in 3000 3032 3064; do
+  python benchmarks/suite.py run --runs hopper:npg:hopper_1m --seeds $(seq $first $((first + 31))) --vmap-seeds \
+    --out runs/h16-$first --json hopper_1m_h16/h16-seeds$first.json --extra --horizon 16 --iterations 240 &
+done; wait

@@ -7,7 +7,6 @@ that are byte-identical afterwards.
 
 from __future__ import annotations
 
-import dataclasses
 import hashlib
 import json
 import os
@@ -20,6 +19,7 @@ import time
 from pathlib import Path
 
 import jax
+import jax.numpy as jnp
 import numpy as np
 import pytest
 import test_cli
@@ -92,18 +92,19 @@ def test_bad_values_are_one_line_and_the_existing_run_is_untouched(flags, messag
 
 def test_npg_step_that_overshoots_is_shrunk_or_rejected():
     """With a normalised step of 1e6 every candidate overshoots: the update is rolled back (the
-    policy is unchanged) and counted; a sane step is taken whole and stays within its bound."""
+    policy is unchanged) and counted; a sane step is taken whole and stays within its bound. Both
+    through ``npg.update_with_kl_delta``, whose traced step size lets one compiled program take
+    both (it is ``update`` with ``config.kl_delta`` replaced, as test_npg checks)."""
     env = envs.make("inverted_pendulum")
     config = npg.Config(num_envs=8, horizon=32, eval_envs=0, value_batch_size=64, cg_damping=1e-2)
     ts = npg.init(jax.random.PRNGKey(0), env, config)
-    update = jax.jit(npg.update)
-    wild = ts.replace(config=dataclasses.replace(config, kl_delta=1e6))
-    after, metrics = update(wild)
+    update = jax.jit(npg.update_with_kl_delta)
+    after, metrics = update(ts, jnp.float32(1e6))
     assert float(metrics["update_rejected"]) == 1.0 and float(metrics["step_fraction"]) == 0.0
     for a, b in zip(jax.tree.leaves(after.params), jax.tree.leaves(ts.params), strict=True):
         np.testing.assert_array_equal(a, b)
     assert int(after.failures) == 0  # a rolled-back step is not a non-finite failure
-    after, metrics = update(ts)
+    after, metrics = update(ts, jnp.float32(config.kl_delta))
     assert float(metrics["update_rejected"]) == 0.0 and float(metrics["step_fraction"]) == 1.0
     assert 0 < float(metrics["kl"]) <= npg.kl_bound(config)
 

@@ -51,13 +51,15 @@ class StartupTimes:
     @classmethod
     def start(cls) -> StartupTimes:
         """The readings of a command that starts planning now. ``before_planning`` only when the
-        process was started for it: its ``__main__`` is ``python -m jaxpg.cli`` or a script file,
-        not an installed tool that calls ``main`` later (pytest) or a notebook's kernel, whose age
-        says nothing."""
+        process was started for it: its ``__main__`` is ``python -m jaxpg.cli`` or a ``.py`` script,
+        not an installed tool that calls ``main`` later (pytest, whether through its launcher in the
+        environment's ``bin/`` or ``python -m pytest``) or a notebook's kernel, whose age says
+        nothing."""
         entry = sys.modules.get("__main__")
         spec_name = getattr(getattr(entry, "__spec__", None), "name", "") or ""
         path = getattr(entry, "__file__", None) or ""
-        script = bool(path) and not any(part in path for part in ("site-packages", "dist-packages"))
+        installed = any(part in path for part in ("site-packages", "dist-packages"))
+        script = path.endswith(".py") and not installed
         for_this = spec_name.startswith("jaxpg.") or script
         return cls(before_planning=seconds_since_process_start() if for_this else None, planning=time.perf_counter())
 

@@ -12,6 +12,7 @@ import re
 import shutil
 import subprocess
 import sys
+import threading
 from pathlib import Path
 
 import imageio.v2 as imageio
@@ -781,6 +782,45 @@ print(evaluate_cli.main([{str(tmp_path / "no_run")!r}], owns_process=True), os.e
     assert startup_module.allocate_gpu_memory_on_demand({"XLA_PYTHON_CLIENT_PREALLOCATE": "1"}) == "1"
 
 
+def test_matplotlib_imports_beside_the_first_blocks_compilation(runs, monkeypatch):
+    """A run starts importing matplotlib (for ``curves.png``) on a thread when its first block starts
+    compiling, and joins that thread once the program and MuJoCo Warp's kernels are ready, before
+    any block runs: Warp's physics calls back into Python at every step, which a second Python
+    thread would slow. In a fresh process the thread imports pyplot on the Agg backend."""
+    events = []
+
+    class Recorded(threading.Thread):
+        def join(self, timeout=None):
+            events.append("joined")
+            super().join(timeout)
+
+    def beside():
+        events.append("started")
+        thread = Recorded(target=lambda: None, daemon=True)
+        thread.start()
+        return thread
+
+    def first_block_call(self):
+        events.append("compiled")
+        original_call(self)
+        events.append("ready")
+
+    original_call = session.FirstBlock.__call__
+    monkeypatch.setattr(plotting, "import_matplotlib_beside", beside)
+    monkeypatch.setattr(session.FirstBlock, "__call__", first_block_call)
+    assert main.main([*TINY, "--iterations", "2", "--run-dir", str(runs / "imports_beside")]) == 0
+    assert events == ["started", "compiled", "joined", "ready"], events
+
+    check = (
+        "import sys; from jaxpg.run import plotting; t = plotting.import_matplotlib_beside(); "
+        "assert t.daemon; t.join(); import matplotlib; "
+        "assert 'matplotlib.pyplot' in sys.modules and matplotlib.get_backend().lower() == 'agg'"
+    )
+    env = {k: v for k, v in os.environ.items() if k != "MPLBACKEND"}
+    done = subprocess.run([sys.executable, "-c", check], capture_output=True, text=True, env=env)
+    assert done.returncode == 0, done.stderr[-2000:]
+
+
 def test_the_end_report_times_the_first_block(runs, capsys):
     """The report after ``done in`` says how long the first block's program took to compile (here
     with no MuJoCo Warp kernels to wait for, so without that clause)."""
@@ -797,6 +837,34 @@ def test_the_end_report_times_the_first_block(runs, capsys):
     assert match, lines[done + 2]
     total, *parts = map(float, match.groups())
     assert abs(sum(parts) - total) <= 0.2  # each part rounded to 0.1 s
+
+
+@pytest.mark.parametrize(
+    ("main_file", "spec_name", "for_this"),
+    [
+        ("/home/me/jaxpg/experiments/hopper.py", None, True),  # python experiments/hopper.py
+        ("/usr/lib/python3/site-packages/jaxpg/cli.py", "jaxpg.cli", True),  # python -m jaxpg.cli
+        ("/home/me/.venv/bin/pytest", None, False),  # an installed tool's launcher
+        ("/home/me/.venv/lib/python3.11/site-packages/pytest/__main__.py", "pytest.__main__", False),
+        (None, None, False),  # an interactive interpreter or a notebook's kernel
+    ],
+)
+def test_startup_counts_the_process_age_only_for_a_process_started_for_the_command(
+    main_file, spec_name, for_this, monkeypatch
+):
+    """The start-up line's "before planning" part is the process's age, which means something only
+    when the process was started for this command; pytest's own launcher is not."""
+    import types
+
+    from jaxpg.run import startup_times
+
+    entry = types.ModuleType("__main__")
+    if main_file is not None:
+        entry.__file__ = main_file
+    entry.__spec__ = types.SimpleNamespace(name=spec_name) if spec_name else None
+    monkeypatch.setitem(sys.modules, "__main__", entry)
+    monkeypatch.setattr(startup_times, "seconds_since_process_start", lambda: 12.5)
+    assert (startup_times.StartupTimes.start().before_planning == 12.5) is for_this
 
 
 def test_startup_report_splits_the_seconds_to_the_first_block():

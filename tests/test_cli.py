@@ -12,7 +12,6 @@ import re
 import shutil
 import subprocess
 import sys
-import threading
 from pathlib import Path
 
 import imageio.v2 as imageio
@@ -780,45 +779,6 @@ print(evaluate_cli.main([{str(tmp_path / "no_run")!r}], owns_process=True), os.e
     assert proc.stdout.splitlines() == ["2 None [None]", "2 false [None, 'false']", "2 true", "2 false"]
     assert startup_module.allocate_gpu_memory_on_demand({}) == "false"
     assert startup_module.allocate_gpu_memory_on_demand({"XLA_PYTHON_CLIENT_PREALLOCATE": "1"}) == "1"
-
-
-def test_matplotlib_imports_beside_the_first_blocks_compilation(runs, monkeypatch):
-    """A run starts importing matplotlib (for ``curves.png``) on a thread when its first block starts
-    compiling, and joins that thread once the program and MuJoCo Warp's kernels are ready, before
-    any block runs: Warp's physics calls back into Python at every step, which a second Python
-    thread would slow. In a fresh process the thread imports pyplot on the Agg backend."""
-    events = []
-
-    class Recorded(threading.Thread):
-        def join(self, timeout=None):
-            events.append("joined")
-            super().join(timeout)
-
-    def beside():
-        events.append("started")
-        thread = Recorded(target=lambda: None, daemon=True)
-        thread.start()
-        return thread
-
-    def first_block_call(self):
-        events.append("compiled")
-        original_call(self)
-        events.append("ready")
-
-    original_call = session.FirstBlock.__call__
-    monkeypatch.setattr(plotting, "import_matplotlib_beside", beside)
-    monkeypatch.setattr(session.FirstBlock, "__call__", first_block_call)
-    assert main.main([*TINY, "--iterations", "2", "--run-dir", str(runs / "imports_beside")]) == 0
-    assert events == ["started", "compiled", "joined", "ready"], events
-
-    check = (
-        "import sys; from jaxpg.run import plotting; t = plotting.import_matplotlib_beside(); "
-        "assert t.daemon; t.join(); import matplotlib; "
-        "assert 'matplotlib.pyplot' in sys.modules and matplotlib.get_backend().lower() == 'agg'"
-    )
-    env = {k: v for k, v in os.environ.items() if k != "MPLBACKEND"}
-    done = subprocess.run([sys.executable, "-c", check], capture_output=True, text=True, env=env)
-    assert done.returncode == 0, done.stderr[-2000:]
 
 
 def test_the_end_report_times_the_first_block(runs, capsys):

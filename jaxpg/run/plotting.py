@@ -14,7 +14,6 @@ import argparse
 import math
 import os
 import sys
-import threading
 from collections import defaultdict
 from collections.abc import Sequence
 from pathlib import Path
@@ -71,33 +70,6 @@ def _draw(
     return drawn
 
 
-def import_matplotlib() -> None:
-    """Import matplotlib's pyplot, on the Agg backend unless one was chosen. Not at the top of the
-    module: it takes 0.4-0.8 s, which nothing before the first drawing needs."""
-    import matplotlib
-
-    matplotlib.use("Agg", force=False)
-    import matplotlib.pyplot  # noqa: F401
-
-
-def import_matplotlib_beside() -> threading.Thread:
-    """``import_matplotlib`` on a daemon thread, started; join it before anything runs that a second
-    Python thread would slow down (MuJoCo Warp calls back into Python at every physics step). A run
-    starts it while XLA compiles or loads its first block, mostly outside Python, so that the
-    first drawing of ``curves.png`` finds matplotlib imported. A failed import is left for that
-    drawing to report."""
-
-    def run() -> None:
-        try:
-            import_matplotlib()
-        except Exception:  # noqa: BLE001, S110 - the drawing imports again and reports the error
-            pass
-
-    thread = threading.Thread(target=run, name="jaxpg-import-matplotlib", daemon=True)
-    thread.start()
-    return thread
-
-
 def plot_runs(
     runs: Sequence[tuple[str, Sequence[dict[str, Any]]]],
     path: str | os.PathLike,
@@ -105,7 +77,11 @@ def plot_runs(
     task_score_name: str | None = None,
 ) -> Path:
     """Draw ``[(label, records)]`` into ``path`` (png, pdf, svg ...) and return the path."""
-    import_matplotlib()
+    # Here, not at the top: matplotlib takes 0.4 s to import, which a run pays at its first plot,
+    # after its first block, not before its first line.
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt
     from matplotlib.ticker import MaxNLocator
 

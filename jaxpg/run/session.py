@@ -26,7 +26,6 @@ import re
 import shlex
 import signal
 import sys
-import threading
 import time
 from typing import Any
 
@@ -42,7 +41,6 @@ from jaxpg.run import (
     console,
     layout,
     metrics_log,
-    plotting,
     processes,
     profiling,
     replay,
@@ -166,8 +164,7 @@ def _train(plan_: Plan, ts: Any, wall_offset: float, interrupts: Interrupts) -> 
     # MuJoCo Warp's kernels build on all cores while XLA compiles the first block. Its dry run must
     # not overlap a program that launches them: the initial state's is finished first.
     jax.block_until_ready(ts)
-    # matplotlib (for curves.png) imports on a thread beside that compilation too, on process 0.
-    first_block = FirstBlock(KernelBuild.start(plan_.env), plotting.import_matplotlib_beside() if primary else None)
+    first_block = FirstBlock(KernelBuild.start(plan_.env))
     checkpoints = writer = progress = None
     status = 0
     failure: str | None = None  # the error line, once the run directory is put in order
@@ -272,13 +269,11 @@ def _without_resume_advice(message: str) -> str:
 class FirstBlock:
     """``train``'s ``before_first_call`` for the run's first block: notes when its program is
     compiled (or loaded from the compilation cache), waits for MuJoCo Warp's kernels
-    (``KernelBuild``, built beside the compilation) and for ``imports`` (a thread importing what
-    the host work after the blocks needs, ``plotting.import_matplotlib_beside``); notes when the
-    program and the kernels are ready, for the end-of-run report."""
+    (``KernelBuild``, built beside the compilation) and notes when they are ready, for the
+    end-of-run report."""
 
-    def __init__(self, kernels: KernelBuild, imports: threading.Thread | None = None) -> None:
+    def __init__(self, kernels: KernelBuild) -> None:
         self.kernels = kernels
-        self.imports = imports
         self.started = time.perf_counter()
         self.compiled: float | None = None
         self.ready: float | None = None
@@ -287,8 +282,6 @@ class FirstBlock:
         self.compiled = time.perf_counter()
         self.kernels.wait()
         self.ready = time.perf_counter()
-        if self.imports is not None:
-            self.imports.join()  # no second Python thread while the blocks run
 
     def report(self) -> str | None:
         """``first block: compiled in X s[, then Y s waiting for MuJoCo Warp's kernels (...)]``, or

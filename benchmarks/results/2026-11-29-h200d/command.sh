@@ -26,3 +26,12 @@ for first in 3000 3032 3064; do
   python benchmarks/suite.py run --runs hopper:npg:hopper_1m --seeds $(seq $first $((first + 31))) --vmap-seeds \
     --out runs/h16-$first --json hopper_1m_h16/h16-seeds$first.json --extra --horizon 16 --iterations 240 &
 done; wait
+
+# matplotlib_ab/: a third freshly started H200 (a slower one). matplotlib imported on a thread beside the first
+# block's compilation (new: 7954642, since reverted) or at the first drawing of curves.png (old: the code before).
+# One bare then one warm run of the new code (first.*) filled the caches; then warm runs alternating old/new,
+# seeds 1-3, each from a copy of those caches (.scratch script x3.sh, in short):
+python benchmarks/card_command.py card --seeds 0 --modes cold warm --out first --json first.json --extra --preset hopper_1m
+for i in 1 2 3; do for arm in old new; do
+  (cd repo_$arm && python benchmarks/card_command.py card --seeds $i --modes warm --out $arm$i --json $arm$i.json --extra --preset hopper_1m)
+done; done

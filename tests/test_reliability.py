@@ -94,7 +94,7 @@ def test_npg_step_that_overshoots_is_shrunk_or_rejected():
     """With a normalised step of 1e6 every candidate overshoots: the update is rolled back (the
     policy is unchanged) and counted; a sane step is taken whole and stays within its bound. Both
     through ``npg.update_with_kl_delta``, whose traced step size lets one compiled program take
-    both (it is ``update`` with ``config.kl_delta`` replaced, as test_npg checks)."""
+    both (it is ``update`` with ``config.kl_delta`` replaced, as test_npg_sweep checks)."""
     env = envs.make("inverted_pendulum")
     config = npg.Config(num_envs=8, horizon=32, eval_envs=0, value_batch_size=64, cg_damping=1e-2)
     ts = npg.init(jax.random.PRNGKey(0), env, config)

@@ -35,3 +35,8 @@ python benchmarks/card_command.py card --seeds 0 --modes cold warm --out first -
 for i in 1 2 3; do for arm in old new; do
   (cd repo_$arm && python benchmarks/card_command.py card --seeds $i --modes warm --out $arm$i --json $arm$i.json --extra --preset hopper_1m)
 done; done
+
+# card_as_typed/: a fourth freshly started H200, the code at eb49950: the card's command as typed (the hopper
+# preset, 1.97 M env steps), one bare run, then warm runs of seeds 0-2 from the caches it filled.
+python benchmarks/card_command.py card --seeds 0 --modes cold warm --out card --json card_as_typed/card_a.json
+python benchmarks/card_command.py card --seeds 1 2 --modes warm --out card --json card_as_typed/card_b.json

@@ -322,23 +322,24 @@ def test_video_frames_show_the_frame_and_the_difference():
     )
 
 
-def reward_per_step_by_game(env, act, num_envs: int, steps: int, key: jax.Array) -> np.ndarray:
-    """``[num_envs]``: each game's mean reward per step under ``act(obs [B, obs], key) -> actions
-    [B]`` over ``steps`` steps of ``num_envs`` auto-resetting games."""
+def reward_per_step_by_game(env, act, params, num_envs: int, steps: int, key: jax.Array) -> np.ndarray:
+    """``[S, num_envs]``: for each of the ``S`` parameter sets stacked along ``params``' leading axis,
+    each game's mean reward per step under ``act(params, obs [B, obs], key) -> actions [B]`` over
+    ``steps`` steps of ``num_envs`` auto-resetting games; every set plays the same games (the same
+    ``key``), all in one compiled program."""
     auto = AutoReset(env)
 
-    @jax.jit
-    def run(key):
+    def one(p):
         reset_key, steps_key = jax.random.split(key)
         state = jax.vmap(auto.reset)(jax.random.split(reset_key, num_envs))
 
         def body(s, k):
-            s = jax.vmap(auto.step)(s, act(s.obs, k))
+            s = jax.vmap(auto.step)(s, act(p, s.obs, k))
             return s, s.reward
 
         return jnp.mean(jax.lax.scan(body, state, jax.random.split(steps_key, steps))[1], axis=0)
 
-    return np.asarray(run(key), np.float64)
+    return np.asarray(jax.jit(jax.vmap(one))(params), np.float64)
 
 
 A2C_SEEDS = [0, 1, 2, 3]
@@ -367,16 +368,17 @@ def test_a2c_beats_a_random_policy():
     seeds = train_lib.init_seeds(a2c.init, A2C_SEEDS, env, config)
     seeds = train_lib.train(a2c.update, seeds, 800, block_size=100, seeds=True)
 
-    def uniform(obs, key):
+    def uniform(_, obs, key):
         return jax.random.randint(key, obs.shape[:1], 0, env.action_size)
 
+    def greedy(params, obs, _):
+        return seeds.policy.mode(params, obs)
+
     key = jax.random.PRNGKey(123)
-    random = reward_per_step_by_game(env, uniform, 128, 1000, key)
+    random = reward_per_step_by_game(env, uniform, jnp.zeros(1), 128, 1000, key)[0]
+    learned_by_seed = reward_per_step_by_game(env, greedy, seeds.params, 128, 1000, key)
     margins = []
-    for i in range(len(A2C_SEEDS)):
-        ts = jax.tree.map(lambda x, i=i: x[i], seeds)
-        greedy = lambda obs, k, ts=ts: ts.policy.mode(ts.params, obs)
-        learned = reward_per_step_by_game(env, greedy, 128, 1000, key)
+    for i, learned in enumerate(learned_by_seed):
         standard_error = np.sqrt(learned.var(ddof=1) / learned.size + random.var(ddof=1) / random.size)
         margins.append((learned.mean() - random.mean()) / standard_error)
         print(f"A2C pong seed {A2C_SEEDS[i]}: reward/step {learned.mean():.4f} vs random {random.mean():.4f}")

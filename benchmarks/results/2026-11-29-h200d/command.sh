@@ -12,8 +12,8 @@ JAXPG_COMPILATION_CACHE=card/caches-warm/xla WARP_CACHE_PATH=card/caches-warm/wa
   python -X importtime experiments/hopper.py --num-envs 256 --preset hopper_1m --seed 0 --run-dir imp 2> startup/importtime.txt
 
 # hopper_1m_seeds/: 64 more seeds of hopper_1m, two vmapped blocks of 32, both processes on the GPU at once
-# (started together, finished together 182 s later, Gymnasium replays included; one block alone took 110 s
-# on the 2026-11-29 machine before).
+# (started together; each training process took 146-147 s, 182 s in all with the Gymnasium replays; one
+# block alone took 110 s on the 2026-11-29 machine before).
 for first in 3064 3096; do
   python benchmarks/suite.py run --runs hopper:npg:hopper_1m --seeds $(seq $first $((first + 31))) --vmap-seeds \
     --out runs/base$first --json hopper_1m_seeds/base-seeds$first.json &

@@ -13,7 +13,7 @@ JAXPG_COMPILATION_CACHE=card/caches-warm/xla WARP_CACHE_PATH=card/caches-warm/wa
 
 # hopper_1m_seeds/: 64 more seeds of hopper_1m, two vmapped blocks of 32, both processes on the GPU at once
 # (started together; each training process took 146-147 s, 182 s in all with the Gymnasium replays; one
-# block alone took 110 s on the 2026-11-29 machine before).
+# block alone took 110 s on the 2026-11-29 machine before, a slower one: warm card runs 23.8 s against 19.3 s here).
 for first in 3064 3096; do
   python benchmarks/suite.py run --runs hopper:npg:hopper_1m --seeds $(seq $first $((first + 31))) --vmap-seeds \
     --out runs/base$first --json hopper_1m_seeds/base-seeds$first.json &

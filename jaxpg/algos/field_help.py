@@ -33,6 +33,9 @@ FIELD_HELP: dict[str, str] = {
     "conv_torso": "convolutions before the hidden layers of both networks, on a task with image observations: "
     "mnih2013 (16 8x8/4, 32 4x4/2) or nature (32 8x8/4, 64 4x4/2, 64 3x3/1)",
     "log_std_init": "initial log standard deviation of a Gaussian policy",
+    "log_std_final": "where the falling log-std ceiling ends (see anneal_log_std_iterations)",
+    "anneal_log_std_iterations": "cap a gaussian policy's log-std by a ceiling falling linearly from log_std_init "
+    "to log_std_final over this many iterations (0: off)",
     "value_hidden": "hidden layer sizes of the value network",
     "value_activation": "activation of the hidden layers of the value network",
     # advantages and value fit

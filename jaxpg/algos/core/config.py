@@ -46,6 +46,9 @@ class BaseConfig:
     Evaluation (``jaxpg.train``, between compiled training calls, never inside ``update``): after
     every ``eval_every``-th iteration and after the last one, ``eval_envs`` episodes of the mean
     (mode) policy of up to ``eval_horizon`` steps (0: the env's limit); ``eval_envs=0`` turns it off.
+    Exploration schedule: ``anneal_log_std_iterations`` > 0 caps a ``gaussian`` policy's learned
+    log-std, after every iteration, by a ceiling falling linearly from ``log_std_init`` to
+    ``log_std_final`` over that many iterations (``core.log_std_ceiling``).
     Trust-region guard: an update whose mean KL(old || new) over its batch exceeds
     ``max_update_kl`` is rolled back and counted in ``update_rejected`` (NPG first shrinks its
     step, see ``npg.update``); healthy updates move the policy by 0.001-0.1 nats. 0 turns it off.
@@ -64,6 +67,8 @@ class BaseConfig:
     policy_head_scale: float = 1.0
     conv_torso: str = "none"
     log_std_init: float = 0.0
+    log_std_final: float = 0.0
+    anneal_log_std_iterations: int = 0
     value_hidden: tuple[int, ...] = (64, 64)
     value_activation: str = "tanh"
     normalize_value_targets: bool = False
@@ -122,6 +127,19 @@ class BaseConfig:
                 raise ValueError(f"{name} must be positive layer sizes, got {' '.join(map(str, getattr(self, name)))}")
         if not math.isfinite(self.log_std_init):
             raise ValueError(f"log_std_init must be finite, got {self.log_std_init}")
+        if self.anneal_log_std_iterations < 0:
+            raise ValueError(f"anneal_log_std_iterations must be >= 0 (0: off), got {self.anneal_log_std_iterations}")
+        if self.anneal_log_std_iterations:
+            if env.discrete or self.policy != "gaussian":
+                raise ValueError(
+                    "anneal_log_std_iterations needs the gaussian policy (a learned global log-std) on a task "
+                    f"with continuous actions; {env.name} with policy {self.policy!r} has none"
+                )
+            if self.log_std_final > self.log_std_init:
+                raise ValueError(
+                    f"log_std_final ({self.log_std_final}) must be <= log_std_init ({self.log_std_init}): "
+                    "the ceiling only falls"
+                )
         if self.eval_envs < 0 or self.eval_every < 1 or self.eval_horizon < 0:
             raise ValueError(
                 f"eval_envs and eval_horizon must be >= 0 and eval_every >= 1, got "

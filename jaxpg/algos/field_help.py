@@ -34,6 +34,7 @@ FIELD_HELP: dict[str, str] = {
     "mnih2013 (16 8x8/4, 32 4x4/2) or nature (32 8x8/4, 64 4x4/2, 64 3x3/1)",
     "log_std_init": "initial log standard deviation of a Gaussian policy",
     "log_std_final": "where the falling log-std ceiling ends (see anneal_log_std_iterations)",
+    "log_std_min": "hold a gaussian policy's learned log-std at or above this (-20: no floor)",
     "anneal_log_std_iterations": "cap a gaussian policy's log-std by a ceiling falling linearly from log_std_init "
     "to log_std_final over this many iterations (0: off)",
     "value_hidden": "hidden layer sizes of the value network",

@@ -12,9 +12,9 @@ these pieces and the algorithm's own step:
      a loss), measured by ``mean_kl`` and ``mean_entropy`` (``batch``);
   4. ``phase_value_fit``: fit the value network to the value targets, standardised when
      ``normalize_value_targets`` (``value_fit``), for algorithms that fit one separately;
-  5. ``finish_iteration``: roll back a non-finite update or one outside the trust region, cap a
-     Gaussian policy's log-std by its falling ceiling (``log_std_ceiling``), update the
-     observation statistics, count the iteration and assemble the metrics (``iteration``).
+  5. ``finish_iteration``: roll back a non-finite update or one outside the trust region, hold a
+     Gaussian policy's log-std within its floor and falling ceiling (``log_std_bounds``), update
+     the observation statistics, count the iteration and assemble the metrics (``iteration``).
 
 ``TrainState`` and ``init_state`` (``state``) are the state every algorithm carries and how its
 ``init`` builds it; ``BaseConfig``, ``GAEConfig`` and ``ValueFitConfig`` (``config``) are the
@@ -29,7 +29,7 @@ from jaxpg.algos.core.advantages import AdvantageFn, gae_advantages, phase_advan
 from jaxpg.algos.core.batch import Batch, flatten_batch, mean_entropy, mean_kl, weighted_mean
 from jaxpg.algos.core.config import POLICY_NAMES, BaseConfig, GAEConfig, ValueFitConfig
 from jaxpg.algos.core.iteration import PhaseRunner, accept_if_finite, finish_iteration, run_inline
-from jaxpg.algos.core.log_std_ceiling import cap_log_std, log_std_ceiling
+from jaxpg.algos.core.log_std_bounds import clip_log_std, log_std_ceiling
 from jaxpg.algos.core.placement import shard_state
 from jaxpg.algos.core.reward_normalization import RewardNormalizer, normalize_rewards, normalize_trajectory_rewards
 from jaxpg.algos.core.sampling import (
@@ -74,7 +74,7 @@ __all__ = [
     "absorb_value_targets",
     "accept_if_finite",
     "apply_sample_budget",
-    "cap_log_std",
+    "clip_log_std",
     "clip_gradients",
     "env_batch_mask",
     "evaluate",

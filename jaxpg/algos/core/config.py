@@ -22,6 +22,7 @@ from typing import Any, ClassVar
 from jaxpg.envs import Env
 
 POLICY_NAMES = ("gaussian", "state_std_gaussian")  # categorical is implied by a discrete env
+NO_LOG_STD_FLOOR = -20.0  # log_std_min's default: no floor (a std of 2e-9; SB3's SAC clamps there)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -46,9 +47,10 @@ class BaseConfig:
     Evaluation (``jaxpg.train``, between compiled training calls, never inside ``update``): after
     every ``eval_every``-th iteration and after the last one, ``eval_envs`` episodes of the mean
     (mode) policy of up to ``eval_horizon`` steps (0: the env's limit); ``eval_envs=0`` turns it off.
-    Exploration schedule: ``anneal_log_std_iterations`` > 0 caps a ``gaussian`` policy's learned
-    log-std, after every iteration, by a ceiling falling linearly from ``log_std_init`` to
-    ``log_std_final`` over that many iterations (``core.log_std_ceiling``).
+    Exploration bounds (``core.log_std_bounds``): after every iteration a ``gaussian`` policy's
+    learned log-std is held at or above ``log_std_min`` (the default -20 is no floor) and, with
+    ``anneal_log_std_iterations`` > 0, at or below a ceiling falling linearly from
+    ``log_std_init`` to ``log_std_final`` over that many iterations.
     Trust-region guard: an update whose mean KL(old || new) over its batch exceeds
     ``max_update_kl`` is rolled back and counted in ``update_rejected`` (NPG first shrinks its
     step, see ``npg.update``); healthy updates move the policy by 0.001-0.1 nats. 0 turns it off.
@@ -68,6 +70,7 @@ class BaseConfig:
     conv_torso: str = "none"
     log_std_init: float = 0.0
     log_std_final: float = 0.0
+    log_std_min: float = NO_LOG_STD_FLOOR
     anneal_log_std_iterations: int = 0
     value_hidden: tuple[int, ...] = (64, 64)
     value_activation: str = "tanh"
@@ -129,17 +132,7 @@ class BaseConfig:
             raise ValueError(f"log_std_init must be finite, got {self.log_std_init}")
         if self.anneal_log_std_iterations < 0:
             raise ValueError(f"anneal_log_std_iterations must be >= 0 (0: off), got {self.anneal_log_std_iterations}")
-        if self.anneal_log_std_iterations:
-            if env.discrete or self.policy != "gaussian":
-                raise ValueError(
-                    "anneal_log_std_iterations needs the gaussian policy (a learned global log-std) on a task "
-                    f"with continuous actions; {env.name} with policy {self.policy!r} has none"
-                )
-            if self.log_std_final > self.log_std_init:
-                raise ValueError(
-                    f"log_std_final ({self.log_std_final}) must be <= log_std_init ({self.log_std_init}): "
-                    "the ceiling only falls"
-                )
+        self._validate_log_std_bounds(env)
         if self.eval_envs < 0 or self.eval_every < 1 or self.eval_horizon < 0:
             raise ValueError(
                 f"eval_envs and eval_horizon must be >= 0 and eval_every >= 1, got "
@@ -147,6 +140,29 @@ class BaseConfig:
             )
         if not self.max_update_kl >= 0:
             raise ValueError(f"max_update_kl must be >= 0 (0: no check), got {self.max_update_kl}")
+
+    def _validate_log_std_bounds(self, env: Env) -> None:
+        """The log-std floor and falling ceiling (``core.log_std_bounds``) need a learned global
+        log-std, a ceiling that falls, and an initial log-std within them (where the ceiling falls below
+        the floor, the floor wins)."""
+        annealed = self.anneal_log_std_iterations > 0
+        if not (self.log_std_min > NO_LOG_STD_FLOOR or annealed):
+            return
+        if env.discrete or self.policy != "gaussian":
+            raise ValueError(
+                "log_std_min and anneal_log_std_iterations need the gaussian policy (a learned global log-std) "
+                f"on a task with continuous actions; {env.name} with policy {self.policy!r} has none"
+            )
+        if annealed and self.log_std_final > self.log_std_init:
+            raise ValueError(
+                f"log_std_final ({self.log_std_final}) must be <= log_std_init ({self.log_std_init}): "
+                "the ceiling only falls"
+            )
+        if self.log_std_min > self.log_std_init:
+            raise ValueError(
+                f"log_std_min ({self.log_std_min}) must be <= log_std_init ({self.log_std_init}): the policy starts "
+                "within its bounds"
+            )
 
 
 def _default(config_cls: type, name: str) -> Any:

@@ -18,7 +18,7 @@ from typing import Any
 import jax
 import jax.numpy as jnp
 
-from jaxpg.algos.core.log_std_ceiling import cap_log_std
+from jaxpg.algos.core.log_std_bounds import clip_log_std
 from jaxpg.algos.core.sampling import sampling_metrics
 from jaxpg.algos.core.state import TrainState
 from jaxpg.rollout import Trajectory
@@ -84,8 +84,9 @@ def finish_iteration(
     ``new``: reject the update when it is non-finite (``loss`` or any learned array), when its mean
     KL(old || new) ``kl`` exceeds ``config.max_update_kl`` (when set), or when the algorithm did
     not accept its own step (``step_accepted``, e.g. NPG's backtracking found no step within its
-    bound); then cap the policy's log-std by its falling ceiling (``core.cap_log_std``, when
-    ``anneal_log_std_iterations`` > 0), update the observation statistics with ``traj`` and count
+    bound); then hold the policy's log-std within its floor and falling ceiling
+    (``core.clip_log_std``, when ``log_std_min`` or ``anneal_log_std_iterations`` is set), update
+    the observation statistics with ``traj`` and count
     the iteration.
 
     Returns the state to continue with and the iteration's metrics: the sampling metrics, the
@@ -97,7 +98,7 @@ def finish_iteration(
     within = (kl <= limit) if limit > 0 else True
     within = jnp.logical_and(within, step_accepted)
     ts, rejected = accept_if_finite(old, new, loss, within)
-    ts = cap_log_std(ts, old.iteration + 1)
+    ts = clip_log_std(ts, old.iteration + 1)
     if ts.config.normalize_observations:
         ts = ts.replace(obs_stats=ts.obs_stats.update(traj.obs, traj.valid))
     all_metrics = {

@@ -1,6 +1,7 @@
-"""The falling log-std ceiling (``anneal_log_std_iterations``, ``core.log_std_ceiling``): its
-schedule against the linear formula in NumPy, the cap an iteration applies (against the same
-iteration without it, which is the same program up to the cap), and the settings it refuses."""
+"""The bounds on a Gaussian policy's log-std (``core.log_std_bounds``): the falling ceiling
+(``anneal_log_std_iterations``, ``log_std_final``) against the linear formula in NumPy, the floor
+(``log_std_min``), what an iteration applies (against the same iteration without it, which is the
+same program up to the clip), and the settings refused."""
 
 from __future__ import annotations
 
@@ -29,10 +30,30 @@ def pendulum():
     return envs.make("inverted_pendulum")
 
 
-def test_without_annealing_the_state_is_left_as_it_is(pendulum):
+def test_without_bounds_the_state_is_left_as_it_is(pendulum):
     config = a2c.Config(num_envs=2, horizon=4, eval_envs=0, log_std_init=0.5)
     ts = a2c.init(jax.random.key(0), pendulum, config)
-    assert core.cap_log_std(ts, jnp.asarray(3)) is ts
+    assert core.clip_log_std(ts, jnp.asarray(3)) is ts
+
+
+@pytest.mark.parametrize(
+    "bounds, done, expected",
+    [
+        (dict(log_std_min=0.25), 7, [0.25, 0.3, 2.0]),  # the floor alone: no ceiling
+        (dict(log_std_min=-0.5, **SCHEDULE), 2, [-0.5, -0.25, -0.25]),  # ceiling 0.5 - 1.5 * 2/4
+        (dict(log_std_min=-0.5, **SCHEDULE), 4, [-0.5, -0.5, -0.5]),  # the ceiling ends at -1: the floor wins
+        (dict(log_std_min=0.5, log_std_init=0.5, log_std_final=0.5, anneal_log_std_iterations=1), 9, [0.5] * 3),
+    ],
+)
+def test_the_log_std_is_clipped_to_the_floor_and_the_ceiling(pendulum, bounds, done, expected):
+    """``clip_log_std`` on a state whose log-std is set by hand to ``[-3, 0.3, 2]``: the floor
+    raises what lies below it, the ceiling (when annealing) lowers what lies above it; a floor at
+    the initial log-std with a constant ceiling there holds it fixed."""
+    config = npg.Config(**{"log_std_init": 0.5, **bounds})
+    ts = npg.init(jax.random.key(0), pendulum, config)
+    ts = ts.replace(params={**ts.params, "log_std": jnp.array([-3.0, 0.3, 2.0])})
+    clipped = core.clip_log_std(ts, jnp.asarray(done))
+    np.testing.assert_allclose(np.asarray(clipped.params["log_std"]), expected, rtol=0, atol=1e-6)
 
 
 def test_an_iteration_caps_the_learned_log_std_and_nothing_else(pendulum):
@@ -75,6 +96,8 @@ def test_an_iteration_caps_the_learned_log_std_and_nothing_else(pendulum):
         ("inverted_pendulum", dict(log_std_init=0.0, log_std_final=0.5, anneal_log_std_iterations=10), "only falls"),
         ("inverted_pendulum", dict(policy="state_std_gaussian", anneal_log_std_iterations=10), "gaussian policy"),
         ("cartpole", dict(anneal_log_std_iterations=10), "gaussian policy"),
+        ("cartpole", dict(log_std_min=-1.0), "gaussian policy"),
+        ("inverted_pendulum", dict(log_std_init=0.0, log_std_min=0.5), "log_std_min .* must be <= log_std_init"),
     ],
 )
 def test_settings_without_a_learned_global_log_std_are_refused(task, overrides, message):

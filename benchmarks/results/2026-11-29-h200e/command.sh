@@ -1,5 +1,5 @@
 # One H200 (16 host cores), 2026-11-29, JAX 0.11.2, MuJoCo/MJX 3.17.0, warp-lang 1.18.0, MuJoCo Warp;
-# the code at 85a4824. Three calls, each on a freshly started machine (the scripts ran detached, polled).
+# the code at 8981cce (the falling ceiling; 85a4824 added the floor as --log-std-min). Three calls, each on a freshly started machine (the scripts ran detached, polled).
 
 # hopper_1m_log_std/ls0-*, ls-1-*: a ceiling on the log-std falling from 1 (the preset's initial log-std)
 # to F = 0 or -1 over the 120 iterations, seeds 3000-3095 in three vmapped blocks of 32, the three

@@ -48,7 +48,7 @@ class BaseConfig:
     every ``eval_every``-th iteration and after the last one, ``eval_envs`` episodes of the mean
     (mode) policy of up to ``eval_horizon`` steps (0: the env's limit); ``eval_envs=0`` turns it off.
     Exploration bounds (``core.log_std_bounds``): after every iteration a ``gaussian`` policy's
-    learned log-std is held at or above ``log_std_min`` (the default -20 is no floor) and, with
+    learned log-std is held at or above ``log_std_min`` (-20, the default, or less: no floor) and, with
     ``anneal_log_std_iterations`` > 0, at or below a ceiling falling linearly from
     ``log_std_init`` to ``log_std_final`` over that many iterations.
     Trust-region guard: an update whose mean KL(old || new) over its batch exceeds
@@ -143,8 +143,8 @@ class BaseConfig:
 
     def _validate_log_std_bounds(self, env: Env) -> None:
         """The log-std floor and falling ceiling (``core.log_std_bounds``) need a learned global
-        log-std, a ceiling that falls, and an initial log-std within them (where the ceiling falls below
-        the floor, the floor wins)."""
+        log-std, a ceiling that falls, and an initial log-std within them (where the ceiling later
+        falls below the floor, the floor wins)."""
         annealed = self.anneal_log_std_iterations > 0
         if not (self.log_std_min > NO_LOG_STD_FLOOR or annealed):
             return

@@ -86,8 +86,7 @@ def finish_iteration(
     not accept its own step (``step_accepted``, e.g. NPG's backtracking found no step within its
     bound); then hold the policy's log-std within its floor and falling ceiling
     (``core.clip_log_std``, when ``log_std_min`` or ``anneal_log_std_iterations`` is set), update
-    the observation statistics with ``traj`` and count
-    the iteration.
+    the observation statistics with ``traj`` and count the iteration.
 
     Returns the state to continue with and the iteration's metrics: the sampling metrics, the
     algorithm's ``metrics``, ``kl``, ``update_rejected`` and ``consecutive_failures``, all ``[]``.

@@ -19,6 +19,7 @@ import math
 
 import jax
 import jax.numpy as jnp
+from jax.scipy.stats import norm
 
 Dist = dict[str, jax.Array]
 
@@ -70,6 +71,22 @@ def gaussian_mode(dist: Dist) -> jax.Array:
     """The most likely action, the mean: ``[..., A]``."""
     mean, _ = _gaussian_parts(dist)
     return mean
+
+
+def gaussian_clipped_mean(dist: Dist, low: float, high: float) -> jax.Array:
+    """``E[clip(x, low, high)]`` for ``x ~ N(mean, diag(std^2))``, per dimension: ``[..., A]``.
+
+    The mean of the actions a task that clips them (``low < high``) executes, which a wide
+    policy's ``clip(mean)`` is not. With ``a = (low - mu) / sigma``, ``b = (high - mu) / sigma``
+    and the standard normal's ``Phi`` and ``phi``:
+    ``low Phi(a) + high (1 - Phi(b)) + mu (Phi(b) - Phi(a)) + sigma (phi(a) - phi(b))``.
+    """
+    mean, log_std = _gaussian_parts(dist)
+    sigma = jnp.exp(log_std)
+    a, b = (low - mean) / sigma, (high - mean) / sigma
+    cdf_a, cdf_b = norm.cdf(a), norm.cdf(b)
+    inside = mean * (cdf_b - cdf_a) + sigma * (norm.pdf(a) - norm.pdf(b))
+    return jnp.clip(low * cdf_a + high * (1.0 - cdf_b) + inside, low, high)
 
 
 def gaussian_fisher_metric(dist: Dist, tangent: Dist) -> Dist:

@@ -9,7 +9,9 @@ reference implementation. Prints mean and std of return and length.
 ``--ale`` plays a Pong policy (``atari_pong``, or jaxpg's own ``pong`` at 80x80) in the real Atari
 game, Gymnasium's ``ALE/Pong-v5``, with its sticky actions (``--no-sticky``: none), and prints the
 mean score (points won minus lost, -21 to 21); ``--sample`` samples the actions instead of taking
-the most probable one.
+the most probable one. ``--clipped-mean`` plays a continuous policy's ``E[clip(a)]``, the mean of
+the actions the clipped task executes, in place of ``clip(mean)``: a wide Gaussian's mean action is
+clipped far more often than its samples average out.
 """
 
 from __future__ import annotations
@@ -105,6 +107,12 @@ def main(argv: Sequence[str] | None = None, owns_process: bool = False) -> int:
         help="with --ale: ALE/Pong-v5's sticky actions (repeat probability 0.25); --no-sticky: none",
     )
     parser.add_argument("--sample", action="store_true", help="sample actions instead of the most probable one")
+    parser.add_argument(
+        "--clipped-mean",
+        action="store_true",
+        help="act with the mean of the clipped actions, E[clip(a)] under the Gaussian policy, instead of clip(mean): "
+        "the two differ for a wide policy (continuous tasks)",
+    )
     parser.add_argument("--video", metavar="OUT", help="render the first episode to OUT (.mp4 or .gif)")
     parser.add_argument("--step", default="latest", help="checkpoint: 'latest' (default), 'best' or an iteration")
     parser.add_argument("--seed", type=seed_value, default=0, help="seed of the evaluation episodes (default: 0)")
@@ -125,6 +133,12 @@ def main(argv: Sequence[str] | None = None, owns_process: bool = False) -> int:
         return 2
     if args.gymnasium and not replay.gymnasium_installed():
         print(f"error: --gymnasium needs Gymnasium: {replay.GYMNASIUM_INSTALL}", file=sys.stderr)
+        return 2
+    if args.clipped_mean and (args.sample or args.ale):
+        print(
+            "error: --clipped-mean is a deterministic action of a continuous task: drop --sample and --ale",
+            file=sys.stderr,
+        )
         return 2
     if args.ale and (args.gymnasium or args.video):
         print("error: --ale plays ALE/Pong-v5 alone: drop --gymnasium and --video", file=sys.stderr)
@@ -148,14 +162,19 @@ def main(argv: Sequence[str] | None = None, owns_process: bool = False) -> int:
         if args.ale:
             atari.require_ale()
         policy = policy_io.load_policy(
-            args.run_dir, args.step, seed=args.train_seed, deterministic=not args.sample, sample_seed=args.seed
+            args.run_dir,
+            args.step,
+            seed=args.train_seed,
+            deterministic=not args.sample,
+            sample_seed=args.seed,
+            clipped_mean=args.clipped_mean,
         )
         action_set = replay.ale_action_set(policy.run.task, policy.run.env_kwargs) if args.ale else None
     except (ValueError, ImportError) as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
     run = policy.run
-    kind = "sampled actions" if args.sample else "mean policy"
+    kind = "sampled actions" if args.sample else "mean policy, clipped mean" if args.clipped_mean else "mean policy"
     where = f"checkpoint step {policy.step} of {args.run_dir} (seed {policy.seed}), {kind}"
     if args.ale:
         scores, lengths = replay.evaluate_ale(policy, action_set, args.episodes, args.sticky, args.seed)
@@ -187,7 +206,14 @@ def main(argv: Sequence[str] | None = None, owns_process: bool = False) -> int:
     else:
         env = run.make_env()
         eps = policy_episodes.play_episodes(
-            env, policy.policy, policy.params, policy.obs_stats, args.seed, args.episodes, deterministic=not args.sample
+            env,
+            policy.policy,
+            policy.params,
+            policy.obs_stats,
+            args.seed,
+            args.episodes,
+            deterministic=not args.sample,
+            clipped_mean=args.clipped_mean,
         )
         returns, lengths = eps.returns, eps.lengths
         env_name = f"jaxpg {run.task}" + (f" {run.env_kwargs}" if run.env_kwargs else "")

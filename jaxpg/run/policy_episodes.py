@@ -12,6 +12,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from jaxpg import distributions as D
 from jaxpg import rollout as rollout_lib
 from jaxpg import video as video_lib
 from jaxpg.algos.core import make_act
@@ -52,15 +53,32 @@ def physics_states(state: Any) -> dict[str, Any]:
     return out
 
 
+def clipped_mean_act(policy: Any, obs_stats: Any, low: float, high: float) -> rollout_lib.ActFn:
+    """``act(params, obs [b, obs_dim], key) -> (E[clip(a, low, high)] [b, A], 0 [b])``: the mean of
+    the clipped actions under the Gaussian ``policy`` (``distributions.gaussian_clipped_mean``)."""
+
+    def act(params: Any, obs: jax.Array, key: jax.Array) -> tuple[jax.Array, jax.Array]:
+        dist = policy.dist(params, obs_stats.normalize(obs))
+        return D.gaussian_clipped_mean(dist, low, high), jnp.zeros(obs.shape[:-1])
+
+    return act
+
+
 @functools.lru_cache(maxsize=32)
-def _rollout_impl(env: Any, policy: Any, num_episodes: int, horizon: int, deterministic: bool) -> Callable:
+def _rollout_impl(
+    env: Any, policy: Any, num_episodes: int, horizon: int, deterministic: bool, clipped_mean: bool = False
+) -> Callable:
     """The jitted ``(params, obs_stats, key) -> {name: array}`` behind ``play_episodes``: an episodic
-    ``jaxpg.rollout`` of the policy (its mode, or samples) that records the physics states."""
+    ``jaxpg.rollout`` of the policy (its mode, its clipped mean, or samples) that records the
+    physics states."""
 
     def run(params: Any, obs_stats: Any, key: jax.Array) -> dict[str, jax.Array]:
         reset_key, steps_key = jax.random.split(key)  # as rollout_lib.rollout_episodes splits it
         state = rollout_lib.reset_batch(env, reset_key, num_episodes)
-        act = make_act(policy, obs_stats, deterministic)
+        if clipped_mean:
+            act = clipped_mean_act(policy, obs_stats, float(env.action_low), float(env.action_high))
+        else:
+            act = make_act(policy, obs_stats, deterministic)
         traj = rollout_lib.rollout_episodes_from(env, act, params, state, steps_key, horizon, physics_states)
         return {
             "rewards": traj.rewards,
@@ -81,12 +99,15 @@ def play_episodes(
     num_episodes: int = 10,
     horizon: int | None = None,
     deterministic: bool = True,
+    clipped_mean: bool = False,
 ) -> Episodes:
     """``num_episodes`` episodes of ``policy`` in the jaxpg env ``env``, in parallel (jitted once
-    per env, policy and shape). ``horizon`` defaults to the env's time limit."""
+    per env, policy and shape). ``horizon`` defaults to the env's time limit. ``clipped_mean``:
+    act with ``E[clip(a)]`` under the Gaussian policy (``clipped_mean_act``) in place of its mode."""
     horizon = int(horizon or env.max_episode_steps)
     key = jax.random.PRNGKey(seed) if isinstance(seed, int) else seed
-    out = jax.device_get(_rollout_impl(env, policy, num_episodes, horizon, deterministic)(params, obs_stats, key))
+    rollout = _rollout_impl(env, policy, num_episodes, horizon, deterministic, clipped_mean)
+    out = jax.device_get(rollout(params, obs_stats, key))
     return Episodes({k: np.asarray(v) for k, v in out.items()})
 
 

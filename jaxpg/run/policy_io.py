@@ -15,6 +15,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from jaxpg import distributions as D
 from jaxpg import train
 from jaxpg.algos import core
 from jaxpg.run import checkpoint_format, checkpointer, config_io, layout
@@ -76,7 +77,9 @@ class LoadedPolicy:
     ``obs``: ``[obs_dim]`` or ``[B, obs_dim]``; the action is ``[act_dim]`` / ``[B, act_dim]``
     float32 (continuous, clipped to the env's action bounds when ``clip``) or int (discrete).
     Observation normalisation of the run is applied. ``deterministic`` (default) takes the mode
-    of the policy; otherwise actions are sampled with an internal key (``seed``).
+    of the policy, or with ``clipped_mean`` the mean of the clipped actions,
+    ``E[clip(a, low, high)]`` (``distributions.gaussian_clipped_mean``), which differs from
+    ``clip(mean)`` for a wide Gaussian; otherwise actions are sampled with an internal key (``seed``).
 
     Attributes: ``run`` (the ``RunConfig``), ``step`` (the checkpoint), ``seed`` (which of the
     run's training seeds), ``observation_size``, ``action_size``, ``discrete``,
@@ -95,19 +98,26 @@ class LoadedPolicy:
         deterministic: bool = True,
         clip: bool = True,
         sample_seed: int = 0,
+        clipped_mean: bool = False,
     ):
+        if clipped_mean and (env.discrete or not deterministic or not clip):
+            raise ValueError(
+                "the clipped mean is a deterministic action of a Gaussian policy on a clipped continuous task"
+            )
         self.run, self.policy, self.params, self.obs_stats = run, policy, params, obs_stats
         self.step, self.seed = step, seed
         self.observation_size = env.observation_size
         self.action_size = env.action_size
         self.discrete = bool(env.discrete)
         self.action_low, self.action_high = float(env.action_low), float(env.action_high)
-        self.deterministic, self.clip = deterministic, clip
+        self.deterministic, self.clip, self.clipped_mean = deterministic, clip, clipped_mean
         self._key = jax.random.PRNGKey(sample_seed)
         self._act = jax.jit(self._act_impl, static_argnames="deterministic")
 
     def _act_impl(self, params: Any, obs_stats: Any, obs: jax.Array, key: jax.Array, deterministic: bool) -> jax.Array:
         obs = obs_stats.normalize(obs)
+        if deterministic and self.clipped_mean:
+            return D.gaussian_clipped_mean(self.policy.dist(params, obs), self.action_low, self.action_high)
         if deterministic:
             action = self.policy.mode(params, obs)
         else:
@@ -131,7 +141,7 @@ class LoadedPolicy:
         return np.asarray(self._act(self.params, self.obs_stats, obs, key, deterministic=self.deterministic))
 
     def __repr__(self) -> str:
-        mode = "deterministic" if self.deterministic else "stochastic"
+        mode = ("clipped mean" if self.clipped_mean else "deterministic") if self.deterministic else "stochastic"
         return (
             f"LoadedPolicy({self.run.algo} on {self.run.task}, step {self.step}, seed {self.seed}, {mode}, "
             f"obs {self.observation_size} -> act {self.action_size}{' (discrete)' if self.discrete else ''})"
@@ -146,6 +156,7 @@ def load_policy(
     deterministic: bool = True,
     clip: bool = True,
     sample_seed: int = 0,
+    clipped_mean: bool = False,
 ) -> LoadedPolicy:
     """The policy of a training run as a NumPy callable ``obs -> action``.
 
@@ -158,6 +169,8 @@ def load_policy(
       deterministic: act with the mode of the policy (the "mean policy"); ``False`` samples.
       clip: clip continuous actions to the env's bounds, as the training env does.
       sample_seed: PRNG seed of the sampled actions when not deterministic.
+      clipped_mean: act with ``E[clip(a)]`` under the Gaussian policy, the mean of the actions the
+        clipped task executes, in place of ``clip(mean)`` (deterministic, continuous tasks).
     Returns a ``LoadedPolicy`` (its ``step`` says which checkpoint). ``"latest"`` and ``"best"`` take
     the newest (best) checkpoint that reads back completely and matches its checksums; a damaged one
     is skipped with one ``warning:`` line on stderr.
@@ -190,4 +203,5 @@ def load_policy(
         deterministic=deterministic,
         clip=clip,
         sample_seed=sample_seed,
+        clipped_mean=clipped_mean,
     )

@@ -1,0 +1,103 @@
+"""The clipped mean of a Gaussian policy, ``E[clip(a, low, high)]`` (``distributions.gaussian_clipped_mean``),
+against numerical integration in SciPy, and as the deterministic action of ``jaxpg.load_policy``
+and ``python -m jaxpg.evaluate --clipped-mean`` on a continuous run directory written from NPG's
+``init`` (nothing trained, log-std 1: a wide policy, whose clipped mean and ``clip(mean)`` differ)."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from scipy import integrate, stats
+
+import jaxpg
+from jaxpg import distributions as D
+from jaxpg.algos import npg
+from jaxpg.run import config_io, evaluate_cli, layout
+from jaxpg.run.checkpointer import Checkpointer
+
+
+def integrated_clipped_mean(mu: float, sigma: float, low: float, high: float) -> float:
+    """``E[clip(x, low, high)]``, ``x ~ N(mu, sigma^2)``, by SciPy's adaptive quadrature over the
+    three pieces of the clip (each smooth), independent of the closed form."""
+    pdf = lambda x: stats.norm.pdf(x, mu, sigma)  # noqa: E731
+    below = low * stats.norm.cdf(low, mu, sigma)
+    above = high * stats.norm.sf(high, mu, sigma)
+    inside, _ = integrate.quad(lambda x: x * pdf(x), low, high, epsabs=1e-12, epsrel=1e-10)
+    return below + inside + above
+
+
+@pytest.mark.parametrize(
+    "mu, log_std, low, high",
+    [
+        (0.5, 1.0, -1.0, 1.0),  # hopper_1m's initial width: std 2.7
+        (-2.0, 0.0, -1.0, 1.0),  # the mean beyond the bound
+        (3.0, 0.5, -1.0, 1.0),
+        (0.1, -0.5, -0.4, 0.4),  # Humanoid's action range
+        (0.0, 2.0, -1.0, 1.0),  # symmetric: 0
+        (0.3, -6.0, -1.0, 1.0),  # a narrow policy: clip(mean) itself
+        (1.7, -6.0, -1.0, 1.0),
+    ],
+)
+def test_the_closed_form_matches_numerical_integration(mu, log_std, low, high):
+    """float32 evaluation of a sum of a few O(1) terms: agreement to 1e-6 absolute."""
+    dist = {"mean": jnp.float32([mu]), "log_std": jnp.float32([log_std])}
+    got = float(D.gaussian_clipped_mean(dist, low, high)[0])
+    np.testing.assert_allclose(got, integrated_clipped_mean(mu, math.exp(log_std), low, high), rtol=0, atol=1e-6)
+
+
+@pytest.fixture(scope="module")
+def pendulum_run(tmp_path_factory):
+    """An inverted_pendulum NPG run directory holding one checkpoint of ``init``'s state."""
+    config = npg.Config(
+        num_envs=4, horizon=8, policy_hidden=(8,), value_hidden=(8,), value_batch_size=8, log_std_init=1.0
+    )
+    run = config_io.RunConfig(
+        task="inverted_pendulum", algo="npg", config=config_io.config_to_dict(config), seeds=[0], iterations=1
+    )
+    path = tmp_path_factory.mktemp("runs") / "pendulum"
+    path.mkdir()
+    run.save(path)
+    row = {"iteration": 1, "seed": 0, "env_steps": 32.0, "wall_time_s": 1.0}
+    (path / layout.METRICS_FILE).write_text(json.dumps(row) + "\n")
+    state = npg.init(jax.random.PRNGKey(0), run.make_env(), config)
+    # A mean far from 0 for some observations: the first layer's bias pushes the output out of [-3, 3].
+    state = state.replace(params=jax.tree.map(lambda x: x * 4.0, state.params))
+    ckpt = Checkpointer(path / layout.CHECKPOINT_DIR, keep=None, create=True)
+    ckpt.save(1, state, score=1.0, info={"task": run.task, "algo": run.algo, "seeds": [0]})
+    ckpt.close()
+    return path
+
+
+def test_load_policy_acts_with_the_clipped_mean(pendulum_run):
+    mode = jaxpg.load_policy(pendulum_run)
+    clipped = jaxpg.load_policy(pendulum_run, clipped_mean=True)
+    obs = np.random.default_rng(0).normal(size=(64, mode.observation_size)).astype(np.float32) * 3.0
+    dist = mode.policy.dist(mode.params, mode.obs_stats.normalize(jnp.asarray(obs)))
+    expected = np.asarray(D.gaussian_clipped_mean(dist, mode.action_low, mode.action_high))
+    # The jitted policy and this eager computation may round float32 differently: pre-activations
+    # reach about 10 here (weights x 4), so 1e-6 relative of them is 1e-5 of the action.
+    np.testing.assert_allclose(clipped(obs), expected, rtol=0, atol=1e-5)
+    assert np.all(np.abs(clipped(obs)) <= mode.action_high)
+    assert np.max(np.abs(clipped(obs) - mode(obs))) > 0.1  # a wide policy: the two differ
+    assert "clipped mean" in repr(clipped)
+
+
+def test_the_clipped_mean_needs_a_deterministic_continuous_policy(pendulum_run, pristine_run):
+    with pytest.raises(ValueError, match="clipped mean"):
+        jaxpg.load_policy(pendulum_run, clipped_mean=True, deterministic=False)
+    with pytest.raises(ValueError, match="clipped mean"):
+        jaxpg.load_policy(pristine_run.path, clipped_mean=True)  # cartpole: discrete
+
+
+def test_evaluate_plays_the_clipped_mean_in_jaxpgs_env(pendulum_run, capsys):
+    assert evaluate_cli.main([str(pendulum_run), "--episodes", "2", "--clipped-mean"]) == 0
+    out = capsys.readouterr().out
+    assert "mean policy, clipped mean, 2 episodes in jaxpg inverted_pendulum" in out
+    assert evaluate_cli.main([str(pendulum_run), "--clipped-mean", "--sample"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("error: --clipped-mean")

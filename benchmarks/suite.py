@@ -510,11 +510,15 @@ it (episode i reset with seed i), on MuJoCo's CPU, with the model's physics set 
   rk4_fast_solver  the file's integrator, the fast fidelity's solver iterations.
 
 The same simulator (MuJoCo, not MJX) runs every variant, so a difference is the physics settings'
-alone. Prints each seed's mean return and the episodes that ended early per variant, then a
-summary per variant; ``--json`` gets every episode's return.
+alone. ``--actions`` chooses how the policy acts: ``mode`` (``clip(mean)``, the default) and/or
+``clipped_mean`` (``E[clip(a)]`` under the Gaussian, ``python -m jaxpg.evaluate --clipped-mean``);
+with both, every variant is played both ways. Prints each seed's mean return and the episodes that
+ended early per variant (and action), then a summary of each; ``--json`` gets every episode's return.
 
     python benchmarks/suite.py physics RUN_DIR --episodes 20 --workers 2 --json physics.json
+    python benchmarks/suite.py physics RUN_DIR --variants gymnasium --actions mode clipped_mean --episodes 10
 """
+ACTIONS = ("mode", "clipped_mean")
 PHYSICS_VARIANTS = ("gymnasium", "fast", "euler", "rk4_fast_solver")
 
 
@@ -538,15 +542,15 @@ def mujoco_name(integrator: int) -> str:
     return mujoco.mjtIntegrator(integrator).name.removeprefix("mjINT_")
 
 
-def play_physics(job: tuple[str, int, str, int]) -> dict[str, Any]:
-    """``job = (run_dir, seed, variant, episodes)``: the episodes of ``jaxpg.evaluate --gymnasium``
-    (``replay.evaluate_gymnasium``) under ``variant``'s physics; their returns and how many ended
-    before the time limit (a fall)."""
+def play_physics(job: tuple[str, int, str, str, int]) -> dict[str, Any]:
+    """``job = (run_dir, seed, variant, action, episodes)``: the episodes of ``jaxpg.evaluate
+    --gymnasium`` (``replay.evaluate_gymnasium``) under ``variant``'s physics, the policy acting by
+    ``action`` (``ACTIONS``); their returns and how many ended before the time limit (a fall)."""
     import jaxpg
     from jaxpg.run import replay
 
-    run_dir, seed, variant, episodes = job
-    policy = jaxpg.load_policy(run_dir, seed=seed)
+    run_dir, seed, variant, action, episodes = job
+    policy = jaxpg.load_policy(run_dir, seed=seed, clipped_mean=action == "clipped_mean")
     task, env_kwargs = policy.run.task, policy.run.env_kwargs
     returns, lengths, _ = replay.evaluate_gymnasium(
         policy, task, env_kwargs, episodes, configure_model=lambda model: set_physics(model, variant)
@@ -556,7 +560,7 @@ def play_physics(job: tuple[str, int, str, int]) -> dict[str, Any]:
     opt, limit = env.unwrapped.model.opt, env.spec.max_episode_steps
     env.close()
     physics = f"{mujoco_name(opt.integrator)} {int(opt.iterations)}/{int(opt.ls_iterations)} iterations"
-    return {"run_dir": run_dir, "seed": seed, "variant": variant, "returns": returns.tolist(),
+    return {"run_dir": run_dir, "seed": seed, "variant": variant, "action": action, "returns": returns.tolist(),
             "early": int((lengths < limit).sum()), "mean": float(returns.mean()), "opt": physics}  # fmt: skip
 
 
@@ -565,6 +569,7 @@ def physics_main(argv: Sequence[str]) -> None:
     parser.add_argument("run_dirs", nargs="+", metavar="RUN_DIR")
     parser.add_argument("--episodes", type=int, default=20, help="episodes per seed and variant (default: 20)")
     parser.add_argument("--variants", nargs="+", choices=PHYSICS_VARIANTS, default=list(PHYSICS_VARIANTS))
+    parser.add_argument("--actions", nargs="+", choices=ACTIONS, default=["mode"], help="how the policy acts")
     parser.add_argument("--workers", type=int, default=2, help="processes playing side by side (default: 2)")
     parser.add_argument("--bar", type=float, default=3000.0, help="the score counted in the summary (default: 3000)")
     parser.add_argument("--json", default=None)
@@ -573,20 +578,22 @@ def physics_main(argv: Sequence[str]) -> None:
     from jaxpg.run import policy_io
 
     seeds = {run_dir: policy_io.load_run_config(run_dir).seeds for run_dir in args.run_dirs}
-    jobs = [(r, s, v, args.episodes) for r in args.run_dirs for s in seeds[r] for v in args.variants]
+    plays = [(v, a) for v in args.variants for a in args.actions]
+    jobs = [(r, s, v, a, args.episodes) for r in args.run_dirs for s in seeds[r] for v, a in plays]
     with multiprocessing.get_context("spawn").Pool(args.workers) as pool:
         results = pool.map(play_physics, jobs, chunksize=1)
-    by = {(r["run_dir"], r["seed"], r["variant"]): r for r in results}
+    name = {(v, a): v if len(args.actions) == 1 else f"{v}, {a}" for v, a in plays}
+    by = {(r["run_dir"], r["seed"], name[r["variant"], r["action"]]): r for r in results}
     unique = len({Path(r).name for r in seeds}) == len(seeds)
     rows = [
-        {"run": Path(r).name if unique else r, "seed": s, **{v: by[r, s, v] for v in args.variants}}
+        {"run": Path(r).name if unique else r, "seed": s, **{n: by[r, s, n] for n in name.values()}}
         for r in seeds
         for s in seeds[r]
     ]
     columns = [("run", lambda row: row["run"]), ("seed", lambda row: row["seed"])]
-    columns += [(v, lambda row, v=v: f"{row[v]['mean']:.0f} ({row[v]['early']} early)") for v in args.variants]
+    columns += [(v, lambda row, v=v: f"{row[v]['mean']:.0f} ({row[v]['early']} early)") for v in name.values()]
     print(harness.table(rows, columns))
-    for v in args.variants:
+    for v in name.values():
         means = [row[v]["mean"] for row in rows]
         early = sum(row[v]["early"] for row in rows)
         print(f"{v}: median {statistics.median(means):.0f}, {sum(m >= args.bar for m in means)} of {len(means)} "

@@ -13,6 +13,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 from scipy import integrate, stats
+from script_loader import load_script
 
 import jaxpg
 from jaxpg import distributions as D
@@ -101,3 +102,16 @@ def test_evaluate_plays_the_clipped_mean_in_jaxpgs_env(pendulum_run, capsys):
     assert evaluate_cli.main([str(pendulum_run), "--clipped-mean", "--sample"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("error: --clipped-mean")
+
+
+def test_suite_physics_replays_either_action(pendulum_run):
+    """``benchmarks/suite.py physics --actions``: each job plays the policy acting as asked, the
+    same episodes as ``replay.evaluate_gymnasium`` of ``load_policy`` with that action."""
+    from jaxpg.run import replay
+
+    suite = load_script("benchmarks/suite.py")
+    for action, clipped_mean in (("mode", False), ("clipped_mean", True)):
+        played = suite.play_physics((str(pendulum_run), 0, "gymnasium", action, 2))
+        policy = jaxpg.load_policy(pendulum_run, clipped_mean=clipped_mean)
+        returns, _, _ = replay.evaluate_gymnasium(policy, "inverted_pendulum", {}, 2)
+        assert played["action"] == action and played["returns"] == returns.tolist()

@@ -85,6 +85,12 @@ class BaseConfig:
     OLD_FIELD_NAMES: ClassVar[dict[str, str | None]] = {"policy_init": "network_init", "loop_unroll": None}
 
     @property
+    def has_log_std_bounds(self) -> bool:
+        """Whether the policy's log-std is bounded at all: a floor above ``NO_LOG_STD_FLOOR`` or a
+        falling ceiling (``core.log_std_bounds``)."""
+        return self.log_std_min > NO_LOG_STD_FLOOR or self.anneal_log_std_iterations > 0
+
+    @property
     def samples_per_iteration(self) -> int:
         return self.num_envs * self.horizon
 
@@ -146,7 +152,7 @@ class BaseConfig:
         log-std, a ceiling that falls, and an initial log-std within them (where the ceiling later
         falls below the floor, the floor wins)."""
         annealed = self.anneal_log_std_iterations > 0
-        if not (self.log_std_min > NO_LOG_STD_FLOOR or annealed):
+        if not self.has_log_std_bounds:
             return
         if env.discrete or self.policy != "gaussian":
             raise ValueError(

@@ -29,18 +29,13 @@ def log_std_ceiling(config: BaseConfig, iterations_done: jax.Array) -> jax.Array
     return jnp.float32(config.log_std_init) + jnp.float32(config.log_std_final - config.log_std_init) * progress
 
 
-def has_log_std_bounds(config: BaseConfig) -> bool:
-    """Whether ``config`` bounds the log-std at all: a floor above ``NO_LOG_STD_FLOOR`` or a ceiling."""
-    return config.log_std_min > NO_LOG_STD_FLOOR or config.anneal_log_std_iterations > 0
-
-
 def clip_log_std(ts: TrainState, iterations_done: jax.Array) -> TrainState:
     """``ts`` with its policy's ``params["log_std"]`` (``[A]``, the ``gaussian`` policy's)
     clipped to ``[log_std_min, log_std_ceiling(ts.config, iterations_done)]`` (the ceiling only
     with ``anneal_log_std_iterations`` > 0); ``ts`` itself when neither bound is set, so that such
     a run traces nothing more."""
     config = ts.config
-    if not has_log_std_bounds(config):
+    if not config.has_log_std_bounds:
         return ts
     log_std = ts.params["log_std"]
     if config.anneal_log_std_iterations:

@@ -1,12 +1,14 @@
 """Hopper (Gymnasium ``Hopper-v5`` semantics on MJX) with any jaxpg algorithm.
 
-The defaults (NPG's ``hopper`` preset: 256 envs x 64 steps, normalised step 0.07, observation
-normalisation, initial log-std 0, a 128x128 value function fitted for 10 epochs per iteration to
-standardised targets, 120 iterations = 1.97 M env steps) train a hopping Hopper on one GPU in
-about a minute: see BENCHMARKS.md for what each seed reached, in MJX and in Gymnasium's CPU
-Hopper-v5. On a CPU the same command runs to its end too, about 30 times slower (7-13 minutes
-on 2 cores; seed 0 scored 3476 in Gymnasium). ``--preset lyceum`` reproduces LyceumAI's NPG
-(policy 32x32, 10240 samples per iteration from episodes of up to 1000 steps).
+The defaults (NPG's ``hopper_1m`` preset: 256 envs x 32 steps, 120 iterations = 0.98 M env steps,
+normalised step 0.07, observation normalisation, the policy's noise held at log-std 1, a 128x128
+value function fitted for 10 epochs per iteration to standardised targets, the mean policy
+evaluated as its clipped mean) train a hopping Hopper on one GPU in about 20 s with warm caches:
+see BENCHMARKS.md for what each seed reached, in MJX and in Gymnasium's CPU Hopper-v5. On a CPU
+the same command runs to its end too, about 30 times slower. ``--preset hopper`` is the earlier
+default (initial log-std 0, learned; 64 steps per env, 1.97 M env steps); ``--preset lyceum``
+reproduces LyceumAI's NPG (policy 32x32, 10240 samples per iteration from episodes of up to 1000
+steps).
 
 Every flag: ``python experiments/hopper.py --help`` (``--algo ppo --help`` for PPO's).
 """
@@ -24,16 +26,17 @@ EXPERIMENT = Experiment(
     log_every=10,
     checkpoint_every=60,
     config={"npg": npg.PRESETS["hopper"]},
+    default_presets={"npg": "hopper_1m"},
     prog="python experiments/hopper.py",
     description=__doc__.split("\n\n")[0],
     epilog="""\
 examples:
-  python experiments/hopper.py --num-envs 256               # NPG, hops on one GPU in about a minute
+  python experiments/hopper.py --num-envs 256               # NPG, 0.98 M env steps, hops on one GPU in ~20 s
   python experiments/hopper.py --num-envs 256 --profile     # phase timings of one iteration first
   python experiments/hopper.py --preset lyceum --iterations 5 --profile   # LyceumAI's NPG
 
-within 1 M env steps (256 envs x 32 steps x 120 iterations = 0.98 M; a wider initial policy):
-  python experiments/hopper.py --num-envs 256 --preset hopper_1m
+the earlier default (1.97 M env steps, the policy's noise learned from log-std 0):
+  python experiments/hopper.py --num-envs 256 --preset hopper
 
 larger batches on a GPU (more env steps, fewer seconds per env step):
   python experiments/hopper.py --algo ppo --preset hopper_gpu --iterations 150 --run-dir runs/hopper-ppo

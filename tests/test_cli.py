@@ -17,6 +17,7 @@ from pathlib import Path
 import imageio.v2 as imageio
 import numpy as np
 import pytest
+from script_loader import load_script
 
 import jaxpg
 from jaxpg.run import (
@@ -502,6 +503,28 @@ def test_a_preset_sets_its_iterations_unless_the_flag_does(runs, monkeypatch):
     assert planning.plan([*base, "--preset", "hopper_1m"], experiment).run.iterations == 120
     assert planning.plan([*base, "--preset", "hopper_1m", "--iterations", "7"], experiment).run.iterations == 7
     assert planning.plan([*base, "--preset", "hopper"], experiment).run.iterations == experiment.iterations
+    assert not (runs / "planned").exists()
+
+
+def test_an_experiment_scripts_default_preset_is_replaced_by_a_given_one(runs, monkeypatch):
+    """``Experiment.default_presets``: the card's script trains NPG's ``hopper_1m`` without
+    ``--preset`` (saved as given, and exactly that preset's values); ``--preset hopper`` gives
+    ``hopper``'s values with none of ``hopper_1m``'s left over; another algorithm takes none."""
+    from jaxpg import algos
+    from jaxpg.algos import npg
+
+    monkeypatch.chdir(runs)
+    experiment = load_script("experiments/hopper.py").EXPERIMENT
+    base = ["--impl", "jax", "--run-dir", "planned"]
+    default = planning.plan(base, experiment)
+    assert (default.run.preset, default.run.iterations) == ("hopper_1m", 120)
+    assert default.config == npg.Config(**algos.preset("npg", "hopper_1m"))
+    assert default.config.eval_action == "clipped_mean" and default.config.log_std_min == 1.0
+    hopper = planning.plan([*base, "--preset", "hopper"], experiment)
+    assert hopper.run.preset == "hopper" and hopper.config == npg.Config(**algos.preset("npg", "hopper"))
+    assert planning.plan([*base, "--algo", "ppo"], experiment).run.preset is None
+    help_text = command_line.build_parser(experiment, "npg", None, {}).format_help()
+    assert "(default: hopper_1m)" in " ".join(help_text.split())
     assert not (runs / "planned").exists()
 
 

@@ -22,6 +22,8 @@ FIELD_HELP: dict[str, str] = {
     "eval_envs": "mean-policy evaluation episodes, run between compiled calls (0: no evaluation)",
     "eval_every": "iterations between mean-policy evaluations (one always runs after the last iteration)",
     "eval_horizon": "steps of an evaluation episode (0: the task's time limit)",
+    "eval_action": "how the mean policy acts in evaluations: mode (clip(mean)) or clipped_mean (E[clip(a)] under "
+    "the Gaussian, the mean of the actions the clipped task executes)",
     "max_update_kl": "roll back an update whose mean KL(old || new) exceeds this (0: never)",
     # networks
     "policy": "policy distribution (categorical is implied by a discrete task)",
@@ -90,6 +92,7 @@ FIELD_HELP: dict[str, str] = {
 # Values a string field accepts, where they are the same for every algorithm.
 FIELD_CHOICES: dict[str, tuple[str, ...]] = {
     "sampling": ("continuing", "episodic"),
+    "eval_action": ("mode", "clipped_mean"),
     "policy": ("gaussian", "state_std_gaussian"),
     "policy_activation": tuple(ACTIVATIONS),
     "value_activation": tuple(ACTIVATIONS),

@@ -285,7 +285,10 @@ class Videos:
             # Host copies: the video is recorded by process 0 alone, off the training mesh.
             params = seed_slice(mesh_lib.host_copy(ts.params), 0, run.vmap_seeds)
             stats = seed_slice(mesh_lib.host_copy(ts.obs_stats), 0, run.vmap_seeds)
-            out, ret, length = policy_episodes.record_policy(self.plan.env, ts.policy, params, stats, path, seed=step)
+            clipped_mean = ts.config.eval_action == "clipped_mean"
+            out, ret, length = policy_episodes.record_policy(
+                self.plan.env, ts.policy, params, stats, path, seed=step, clipped_mean=clipped_mean
+            )
             self.progress.write(f"video {out} (mean policy, seed {run.seeds[0]}: return {ret:.1f}, {length} steps)")
         except Exception as e:  # noqa: BLE001 - videos are optional: warn once, go on training
             self.enabled = False

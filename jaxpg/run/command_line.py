@@ -57,6 +57,9 @@ class Experiment:
       iterations, seed, log_every, checkpoint_every, video_every: defaults of those flags.
       config: ``Config`` overrides per algorithm name (``"*"``: for every algorithm that has the
         field); applied below ``--preset`` and explicit flags.
+      default_presets: the preset a fresh run of an algorithm takes when ``--preset`` is not
+        given (``{"npg": "hopper_1m"}``), applied and saved as if given; a given ``--preset``
+        replaces it.
       env_kwargs: default keyword arguments of ``jaxpg.envs.make``.
       env_flags: keyword arguments of the task offered as flags, ``name -> (type, help)``
         (``{"size": (int, "frames are SIZE x SIZE pixels")}`` gives ``--size 40``); a given flag
@@ -74,11 +77,17 @@ class Experiment:
     checkpoint_every: int = 50
     video_every: int = 0
     config: dict[str, dict[str, Any]] = dataclasses.field(default_factory=dict)
+    default_presets: dict[str, str] = dataclasses.field(default_factory=dict)
     env_kwargs: dict[str, Any] = dataclasses.field(default_factory=dict)
     env_flags: dict[str, tuple[type, str]] = dataclasses.field(default_factory=dict)
     prog: str | None = None
     description: str | None = None
     epilog: str | None = None
+
+    def preset_name(self, algo: str, given: str | None) -> str | None:
+        """The preset a fresh run of ``algo`` takes: ``given`` (``--preset``), else this script's
+        default for ``algo`` (``None``: none)."""
+        return given if given is not None else self.default_presets.get(algo)
 
     def config_defaults(self, algo: str, config_cls: type) -> dict[str, Any]:
         names = {f.name for f in dataclasses.fields(config_cls)}
@@ -223,6 +232,7 @@ def _keep_count(text: str) -> int:
 def build_parser(experiment: Experiment, algo: str, config_cls: type | None, config_defaults: dict[str, Any]) -> Parser:
     """The full parser: run flags plus the ``Config`` flags of ``algo``."""
     tasks = experiment.tasks or tuple(envs.names())
+    default_preset = experiment.preset_name(algo, None)
     parser = Parser(
         prog=experiment.prog,
         description=experiment.description or __doc__.split("\n\n")[0],
@@ -283,7 +293,8 @@ def build_parser(experiment: Experiment, algo: str, config_cls: type | None, con
     )
     run.add_argument(
         "--preset",
-        help="named Config overrides of the algorithm (jaxpg.algos.presets, checked against the task), e.g. lyceum",
+        help="named Config overrides of the algorithm (jaxpg.algos.presets, checked against the task), e.g. lyceum"
+        + (f" (default: {default_preset})" if default_preset else ""),
     )
     run.add_argument(
         "--profile",

@@ -9,9 +9,10 @@ reference implementation. Prints mean and std of return and length.
 ``--ale`` plays a Pong policy (``atari_pong``, or jaxpg's own ``pong`` at 80x80) in the real Atari
 game, Gymnasium's ``ALE/Pong-v5``, with its sticky actions (``--no-sticky``: none), and prints the
 mean score (points won minus lost, -21 to 21); ``--sample`` samples the actions instead of taking
-the most probable one. ``--clipped-mean`` plays a continuous policy's ``E[clip(a)]``, the mean of
-the actions the clipped task executes, in place of ``clip(mean)``: a wide Gaussian's mean action is
-clipped far more often than its samples average out.
+the most probable one. ``--mean-action`` says how a continuous policy's mean policy acts:
+``mode`` (``clip(mean)``) or ``clipped_mean`` (``E[clip(a)]``, the mean of the actions the clipped
+task executes: a wide Gaussian's mean action is clipped far more often than its samples average
+out); by default as the run's own evaluations did (its ``eval_action``).
 """
 
 from __future__ import annotations
@@ -108,10 +109,10 @@ def main(argv: Sequence[str] | None = None, owns_process: bool = False) -> int:
     )
     parser.add_argument("--sample", action="store_true", help="sample actions instead of the most probable one")
     parser.add_argument(
-        "--clipped-mean",
-        action="store_true",
-        help="act with the mean of the clipped actions, E[clip(a)] under the Gaussian policy, instead of clip(mean): "
-        "the two differ for a wide policy (continuous tasks)",
+        "--mean-action",
+        choices=("mode", "clipped_mean"),
+        help="how the mean policy of a continuous task acts: mode, clip(mean); clipped_mean, E[clip(a)] under the "
+        "Gaussian policy, the mean of the actions the clipped task executes (default: as the run's evaluations did)",
     )
     parser.add_argument("--video", metavar="OUT", help="render the first episode to OUT (.mp4 or .gif)")
     parser.add_argument("--step", default="latest", help="checkpoint: 'latest' (default), 'best' or an iteration")
@@ -134,9 +135,9 @@ def main(argv: Sequence[str] | None = None, owns_process: bool = False) -> int:
     if args.gymnasium and not replay.gymnasium_installed():
         print(f"error: --gymnasium needs Gymnasium: {replay.GYMNASIUM_INSTALL}", file=sys.stderr)
         return 2
-    if args.clipped_mean and (args.sample or args.ale):
+    if args.mean_action and (args.sample or args.ale):
         print(
-            "error: --clipped-mean is a deterministic action of a continuous task: drop --sample and --ale",
+            "error: --mean-action is how the mean policy of a continuous task acts: drop --sample and --ale",
             file=sys.stderr,
         )
         return 2
@@ -167,14 +168,14 @@ def main(argv: Sequence[str] | None = None, owns_process: bool = False) -> int:
             seed=args.train_seed,
             deterministic=not args.sample,
             sample_seed=args.seed,
-            clipped_mean=args.clipped_mean,
+            clipped_mean=None if args.mean_action is None else args.mean_action == "clipped_mean",
         )
         action_set = replay.ale_action_set(policy.run.task, policy.run.env_kwargs) if args.ale else None
     except (ValueError, ImportError) as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
     run = policy.run
-    kind = "sampled actions" if args.sample else "mean policy, clipped mean" if args.clipped_mean else "mean policy"
+    kind = "sampled actions" if args.sample else "mean policy, clipped mean" if policy.clipped_mean else "mean policy"
     where = f"checkpoint step {policy.step} of {args.run_dir} (seed {policy.seed}), {kind}"
     if args.ale:
         scores, lengths = replay.evaluate_ale(policy, action_set, args.episodes, args.sticky, args.seed)
@@ -213,7 +214,7 @@ def main(argv: Sequence[str] | None = None, owns_process: bool = False) -> int:
             args.seed,
             args.episodes,
             deterministic=not args.sample,
-            clipped_mean=args.clipped_mean,
+            clipped_mean=policy.clipped_mean,
         )
         returns, lengths = eps.returns, eps.lengths
         env_name = f"jaxpg {run.task}" + (f" {run.env_kwargs}" if run.env_kwargs else "")

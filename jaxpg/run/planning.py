@@ -121,6 +121,7 @@ def _check_sharding(config: Any, explicit: bool | None) -> bool:
 def plan_fresh(args: argparse.Namespace, experiment: Experiment, module: Any, algo: str) -> Plan:
     task = args.task or experiment.task
     _check_task(task, experiment)
+    args = argparse.Namespace(**{**vars(args), "preset": experiment.preset_name(algo, args.preset)})
     config_cls = module.Config
     values = experiment.config_defaults(algo, config_cls)
     if args.preset is not None:
@@ -274,8 +275,9 @@ def plan(argv: Sequence[str], experiment: Experiment, pre: PreFlags | None = Non
     config_cls = module.Config
     defaults = {f.name: _field_default(f) for f in dataclasses.fields(config_cls)}
     defaults.update(experiment.config_defaults(algo, config_cls))
-    if resume_run is None and pre.preset in algos.preset_names(algo):
-        defaults.update(algos.preset(algo, pre.preset))  # plan_fresh checks it against the task
+    preset = experiment.preset_name(algo, pre.preset)
+    if resume_run is None and preset in algos.preset_names(algo):
+        defaults.update(algos.preset(algo, preset))  # plan_fresh checks it against the task
     if resume_run is not None:
         defaults.update(config_io.current_field_names(config_cls, resume_run.config))
     parser = build_parser(experiment, algo, config_cls, defaults)

@@ -12,7 +12,6 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxpg import distributions as D
 from jaxpg import rollout as rollout_lib
 from jaxpg import video as video_lib
 from jaxpg.algos.core import make_act
@@ -53,17 +52,6 @@ def physics_states(state: Any) -> dict[str, Any]:
     return out
 
 
-def clipped_mean_act(policy: Any, obs_stats: Any, low: float, high: float) -> rollout_lib.ActFn:
-    """``act(params, obs [b, obs_dim], key) -> (E[clip(a, low, high)] [b, A], 0 [b])``: the mean of
-    the clipped actions under the Gaussian ``policy`` (``distributions.gaussian_clipped_mean``)."""
-
-    def act(params: Any, obs: jax.Array, key: jax.Array) -> tuple[jax.Array, jax.Array]:
-        dist = policy.dist(params, obs_stats.normalize(obs))
-        return D.gaussian_clipped_mean(dist, low, high), jnp.zeros(obs.shape[:-1])
-
-    return act
-
-
 @functools.lru_cache(maxsize=32)
 def _rollout_impl(
     env: Any, policy: Any, num_episodes: int, horizon: int, deterministic: bool, clipped_mean: bool = False
@@ -75,10 +63,8 @@ def _rollout_impl(
     def run(params: Any, obs_stats: Any, key: jax.Array) -> dict[str, jax.Array]:
         reset_key, steps_key = jax.random.split(key)  # as rollout_lib.rollout_episodes splits it
         state = rollout_lib.reset_batch(env, reset_key, num_episodes)
-        if clipped_mean:
-            act = clipped_mean_act(policy, obs_stats, float(env.action_low), float(env.action_high))
-        else:
-            act = make_act(policy, obs_stats, deterministic)
+        bounds = (float(env.action_low), float(env.action_high)) if clipped_mean else None
+        act = make_act(policy, obs_stats, deterministic, clipped_mean_bounds=bounds)
         traj = rollout_lib.rollout_episodes_from(env, act, params, state, steps_key, horizon, physics_states)
         return {
             "rewards": traj.rewards,
@@ -103,7 +89,7 @@ def play_episodes(
 ) -> Episodes:
     """``num_episodes`` episodes of ``policy`` in the jaxpg env ``env``, in parallel (jitted once
     per env, policy and shape). ``horizon`` defaults to the env's time limit. ``clipped_mean``:
-    act with ``E[clip(a)]`` under the Gaussian policy (``clipped_mean_act``) in place of its mode."""
+    act with ``E[clip(a)]`` under the Gaussian policy (``core.make_act``) in place of its mode."""
     horizon = int(horizon or env.max_episode_steps)
     key = jax.random.PRNGKey(seed) if isinstance(seed, int) else seed
     rollout = _rollout_impl(env, policy, num_episodes, horizon, deterministic, clipped_mean)
@@ -119,12 +105,15 @@ def record_policy(
     path: str | Path,
     seed: int = 0,
     max_steps: int | None = None,
+    clipped_mean: bool = False,
 ) -> tuple[Path, float, int]:
-    """Roll out the mean policy for one episode (``play_episodes``) and save its video
-    (``video.save_episode_video``); returns ``(path, episode
+    """Roll out the mean policy for one episode (``play_episodes``; its clipped mean with
+    ``clipped_mean``) and save its video (``video.save_episode_video``); returns ``(path, episode
     return, episode length)``."""
     horizon = int(max_steps or env.max_episode_steps)
-    episodes = play_episodes(env, policy, params, obs_stats, seed, num_episodes=1, horizon=horizon)
+    episodes = play_episodes(
+        env, policy, params, obs_stats, seed, num_episodes=1, horizon=horizon, clipped_mean=clipped_mean
+    )
     length = int(episodes.lengths[0])
     obs, qpos, qvel = episodes.episode_states(0)
     out = video_lib.save_episode_video(env, obs, qpos, qvel, path)

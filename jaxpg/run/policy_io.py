@@ -156,7 +156,7 @@ def load_policy(
     deterministic: bool = True,
     clip: bool = True,
     sample_seed: int = 0,
-    clipped_mean: bool = False,
+    clipped_mean: bool | None = None,
 ) -> LoadedPolicy:
     """The policy of a training run as a NumPy callable ``obs -> action``.
 
@@ -170,7 +170,8 @@ def load_policy(
       clip: clip continuous actions to the env's bounds, as the training env does.
       sample_seed: PRNG seed of the sampled actions when not deterministic.
       clipped_mean: act with ``E[clip(a)]`` under the Gaussian policy, the mean of the actions the
-        clipped task executes, in place of ``clip(mean)`` (deterministic, continuous tasks).
+        clipped task executes, in place of ``clip(mean)`` (deterministic, continuous tasks);
+        ``None`` (default): as the run's evaluations did (its ``eval_action``) when deterministic.
     Returns a ``LoadedPolicy`` (its ``step`` says which checkpoint). ``"latest"`` and ``"best"`` take
     the newest (best) checkpoint that reads back completely and matches its checksums; a damaged one
     is skipped with one ``warning:`` line on stderr.
@@ -181,6 +182,8 @@ def load_policy(
     env = run.make_env()
     config = run.algo_config()
     policy, _ = core.make_networks(env, config)
+    if clipped_mean is None:
+        clipped_mean = deterministic and config.eval_action == "clipped_mean"
     if seed is None:
         seed = run.seeds[0]
     if seed not in run.seeds:

@@ -23,6 +23,7 @@ from jaxpg.envs import Env
 
 POLICY_NAMES = ("gaussian", "state_std_gaussian")  # categorical is implied by a discrete env
 NO_LOG_STD_FLOOR = -20.0  # log_std_min's default: no floor (a std of 2e-9; SB3's SAC clamps there)
+EVAL_ACTIONS = ("mode", "clipped_mean")  # how the mean policy acts in evaluations (eval_action)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -46,7 +47,12 @@ class BaseConfig:
     (``core.phase_value_fit``) and undoes (``core.value_predictions``).
     Evaluation (``jaxpg.train``, between compiled training calls, never inside ``update``): after
     every ``eval_every``-th iteration and after the last one, ``eval_envs`` episodes of the mean
-    (mode) policy of up to ``eval_horizon`` steps (0: the env's limit); ``eval_envs=0`` turns it off.
+    policy of up to ``eval_horizon`` steps (0: the env's limit); ``eval_envs=0`` turns it off.
+    ``eval_action`` says how the mean policy of a Gaussian policy acts: ``"mode"``, its mean, which
+    the task clips (``clip(mean)``); ``"clipped_mean"``, ``E[clip(a)]``, the mean of the actions the
+    task executes under the Gaussian (``distributions.gaussian_clipped_mean``), which differs from
+    ``clip(mean)`` when the std is wide against the action range. A run's saved setting is also what
+    ``jaxpg.load_policy`` and ``python -m jaxpg.evaluate`` play by default.
     Exploration bounds (``core.log_std_bounds``): after every iteration a ``gaussian`` policy's
     learned log-std is held at or above ``log_std_min`` (-20, the default, or less: no floor) and, with
     ``anneal_log_std_iterations`` > 0, at or below a ceiling falling linearly from
@@ -78,6 +84,7 @@ class BaseConfig:
     eval_envs: int = 8
     eval_every: int = 10
     eval_horizon: int = 0
+    eval_action: str = "mode"
     max_update_kl: float = 1.0
 
     UNUSED_FIELDS: ClassVar[tuple[str, ...]] = ()
@@ -89,6 +96,13 @@ class BaseConfig:
         """Whether the policy's log-std is bounded at all: a floor above ``NO_LOG_STD_FLOOR`` or a
         falling ceiling (``core.log_std_bounds``)."""
         return self.log_std_min > NO_LOG_STD_FLOOR or self.anneal_log_std_iterations > 0
+
+    def eval_action_bounds(self, env: Env) -> tuple[float, float] | None:
+        """``(low, high)`` of ``env``'s actions when the mean policy acts with the clipped mean
+        (``eval_action="clipped_mean"``), else ``None`` (it acts with its mode)."""
+        if self.eval_action != "clipped_mean":
+            return None
+        return float(env.action_low), float(env.action_high)
 
     @property
     def samples_per_iteration(self) -> int:
@@ -144,6 +158,10 @@ class BaseConfig:
                 f"eval_envs and eval_horizon must be >= 0 and eval_every >= 1, got "
                 f"{self.eval_envs}, {self.eval_horizon}, {self.eval_every}"
             )
+        if self.eval_action not in EVAL_ACTIONS:
+            raise ValueError(f"eval_action must be one of {', '.join(EVAL_ACTIONS)}, got {self.eval_action!r}")
+        if self.eval_action == "clipped_mean" and env.discrete:
+            raise ValueError(f"eval_action clipped_mean needs a task with continuous actions; {env.name} has discrete")
         if not self.max_update_kl >= 0:
             raise ValueError(f"max_update_kl must be >= 0 (0: no check), got {self.max_update_kl}")
 

@@ -19,6 +19,7 @@ import jax.numpy as jnp
 import numpy as np
 from jax.sharding import PartitionSpec
 
+from jaxpg import distributions as D
 from jaxpg import mesh
 from jaxpg import rollout as rollout_lib
 from jaxpg.algos.core.batch import weighted_mean
@@ -32,11 +33,17 @@ REPLICATED = PartitionSpec()
 
 
 def make_act(
-    policy: Any, obs_stats: RunningStats, deterministic: bool = False, rows: tuple[jax.Array, int] | None = None
+    policy: Any,
+    obs_stats: RunningStats,
+    deterministic: bool = False,
+    rows: tuple[jax.Array, int] | None = None,
+    clipped_mean_bounds: tuple[float, float] | None = None,
 ) -> rollout_lib.ActFn:
     """``act(params, obs [b, obs_dim], key) -> (action [b, ...], log_prob [b])`` of ``policy``,
     normalising observations with ``obs_stats``. Deterministic acting takes the mode (the "mean
-    policy") and reports log-prob 0.
+    policy") and reports log-prob 0; with ``clipped_mean_bounds = (low, high)`` it takes the
+    Gaussian policy's clipped mean ``E[clip(a, low, high)]`` (``distributions.gaussian_clipped_mean``,
+    ``BaseConfig.eval_action``) instead.
 
     ``rows = (offset, total)`` says that ``obs`` are rows ``offset .. offset + b`` of a batch of
     ``total`` envs split over devices: the action noise is then drawn for the whole batch from
@@ -45,6 +52,9 @@ def make_act(
 
     def act(params: Any, obs: jax.Array, key: jax.Array) -> tuple[jax.Array, jax.Array]:
         obs = obs_stats.normalize(obs)
+        if deterministic and clipped_mean_bounds is not None:
+            action = D.gaussian_clipped_mean(policy.dist(params, obs), *clipped_mean_bounds)
+            return action, jnp.zeros(obs.shape[:-1])
         if deterministic:
             return policy.mode(params, obs), jnp.zeros(obs.shape[:-1])
         if rows is None:
@@ -166,7 +176,8 @@ def phase_sample(ts: TrainState) -> tuple[TrainState, Trajectory, jax.Array]:
 def evaluate(ts: TrainState, key: jax.Array, deterministic: bool = True) -> dict[str, jax.Array]:
     """Mean return, length and task score of ``config.eval_envs`` fresh episodes: ``[]`` each.
 
-    ``deterministic=True`` runs the mode of the policy (LyceumAI's ``meantraj_reward``). An
+    ``deterministic=True`` runs the mean policy (LyceumAI's ``meantraj_reward``): its mode, or its
+    clipped mean with ``config.eval_action="clipped_mean"`` (``make_act``). An
     episode still running after ``eval_horizon`` steps counts with what it reached by then. The
     rollout stops within 50 steps of the last episode's end (``rollout.episode_totals_from``), so
     a policy that still falls early is evaluated in a fraction of the time limit's steps.
@@ -179,9 +190,10 @@ def evaluate(ts: TrainState, key: jax.Array, deterministic: bool = True) -> dict
     padded = -(-count // shards) * shards
     reset_key, steps_key = jax.random.split(key)
     reset_keys = jax.random.split(reset_key, count)[np.arange(padded) % count]
+    bounds = config.eval_action_bounds(ts.env)
 
     def run(params: Any, stats: RunningStats, reset_keys: jax.Array, key: jax.Array, rows: Any) -> Any:
-        act = make_act(ts.policy, stats, deterministic, rows=rows)
+        act = make_act(ts.policy, stats, deterministic, rows=rows, clipped_mean_bounds=bounds)
         return rollout_lib.episode_totals_from(ts.env, act, params, jax.vmap(ts.env.reset)(reset_keys), key, horizon)
 
     in_specs = (REPLICATED, REPLICATED, ENVS, REPLICATED)

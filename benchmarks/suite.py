@@ -510,10 +510,11 @@ it (episode i reset with seed i), on MuJoCo's CPU, with the model's physics set 
   rk4_fast_solver  the file's integrator, the fast fidelity's solver iterations.
 
 The same simulator (MuJoCo, not MJX) runs every variant, so a difference is the physics settings'
-alone. ``--actions`` chooses how the policy acts: ``mode`` (``clip(mean)``, the default) and/or
-``clipped_mean`` (``E[clip(a)]`` under the Gaussian, ``python -m jaxpg.evaluate --clipped-mean``);
-with both, every variant is played both ways. Prints each seed's mean return and the episodes that
-ended early per variant (and action), then a summary of each; ``--json`` gets every episode's return.
+alone. ``--actions`` chooses how the policy acts, whatever the run's own ``eval_action``: ``mode``
+(``clip(mean)``, the default) and/or ``clipped_mean`` (``E[clip(a)]`` under the Gaussian,
+``python -m jaxpg.evaluate --mean-action clipped_mean``); with both, every variant is played both
+ways. Prints each seed's mean return and the episodes that ended early per variant (and action),
+then a summary of each; ``--json`` gets every episode's return.
 
     python benchmarks/suite.py physics RUN_DIR --episodes 20 --workers 2 --json physics.json
     python benchmarks/suite.py physics RUN_DIR --variants gymnasium --actions mode clipped_mean --episodes 10

@@ -130,13 +130,19 @@ def test_ci_runs_the_readme_test_command_and_reports_skips():
 HOPPER = "python experiments/hopper.py --num-envs 256 --run-dir runs/hopper"
 README_CLAIMS: dict[str, list[tuple[str, dict]]] = {
     HOPPER: [
-        ("`python experiments/hopper.py --num-envs 256` trains NPG with the `hopper` preset", {"algo": "npg"}),
-        ("256 envs x 64 steps per iteration", {"num_envs": 256, "horizon": 64}),
+        (
+            "`python experiments/hopper.py --num-envs 256` trains NPG with the `hopper_1m` preset",
+            {"algo": "npg", "preset": "hopper_1m"},
+        ),
+        ("256 envs x 32 steps per iteration", {"num_envs": 256, "horizon": 32}),
         (
             "a normalised step with `--kl-delta 0.07`, observation normalisation",
             {"kl_delta": 0.07, "normalize_observations": True},
         ),
-        ("an initial log-std of 0 (std 1)", {"log_std_init": 0.0}),
+        (
+            "the policy's noise held at a log-std of 1",
+            {"log_std_init": 1.0, "log_std_min": 1.0, "log_std_final": 1.0, "anneal_log_std_iterations": 120},
+        ),
         (
             "a 128x128 value function fitted for 10 epochs of 16 minibatches",
             {"value_hidden": [128, 128], "value_epochs": 10, "value_minibatches": 16},
@@ -144,11 +150,12 @@ README_CLAIMS: dict[str, list[tuple[str, dict]]] = {
         ("standardised value targets (`--normalize-value-targets`", {"normalize_value_targets": True}),
         ("at most 16384 samples an epoch", {"value_epoch_samples": 16384}),
         ("Fisher-vector products use at most 16384 samples", {"fisher_samples": 16384}),
-        ("for 120 iterations (1.97 M env steps)", {"iterations": 120, "M env steps": "1.97"}),
+        ("for 120 iterations (0.98 M env steps)", {"iterations": 120, "M env steps": "0.98"}),
         (
             "The mean policy is evaluated (16 episodes) after the last iteration and every 120 iterations",
             {"eval_envs": 16, "eval_every": 120},
         ),
+        ("acting with its clipped mean (`--eval-action clipped_mean`", {"eval_action": "clipped_mean"}),
     ],
     "python experiments/pong.py --num-envs 16 --size 40 --minutes 5 --run-dir runs/pong-cpu": [
         ("`--algo a2c` (default): A2C with GAE", {"algo": "a2c", "value_target": "gae"}),

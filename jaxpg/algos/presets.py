@@ -75,7 +75,7 @@ TABLE: Mapping[tuple[str, str], Preset] = MappingProxyType(
                 value_batch_size=512,
             ),
         ),
-        # Hopper from the command line (the defaults of experiments/hopper.py): 256 envs x 64
+        # Hopper from the command line (experiments/hopper.py's default before hopper_1m): 256 envs x 64
         # steps, 120 iterations (1.97 M env steps), chosen over eight seeds on one GPU; the value
         # fit and the Fisher-vector products capped at 16384 samples so that they stay cheap at
         # large --num-envs.

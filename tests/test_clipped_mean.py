@@ -130,6 +130,7 @@ def test_a_run_evaluated_with_the_clipped_mean_plays_it_by_default(pendulum_run,
     np.testing.assert_array_equal(by_default(obs), jaxpg.load_policy(pendulum_run, clipped_mean=True)(obs))
     assert not jaxpg.load_policy(clipped_mean_run, clipped_mean=False).clipped_mean
     assert not jaxpg.load_policy(clipped_mean_run, deterministic=False).clipped_mean
+    assert not jaxpg.load_policy(clipped_mean_run, clip=False).clipped_mean
     assert evaluate_cli.main([str(clipped_mean_run), "--episodes", "2"]) == 0
     assert "mean policy, clipped mean, 2 episodes" in capsys.readouterr().out
     assert evaluate_cli.main([str(clipped_mean_run), "--episodes", "2", "--mean-action", "mode"]) == 0

@@ -171,7 +171,8 @@ def load_policy(
       sample_seed: PRNG seed of the sampled actions when not deterministic.
       clipped_mean: act with ``E[clip(a)]`` under the Gaussian policy, the mean of the actions the
         clipped task executes, in place of ``clip(mean)`` (deterministic, continuous tasks);
-        ``None`` (default): as the run's evaluations did (its ``eval_action``) when deterministic.
+        ``None`` (default): as the run's evaluations did (its ``eval_action``) when deterministic
+        and clipped.
     Returns a ``LoadedPolicy`` (its ``step`` says which checkpoint). ``"latest"`` and ``"best"`` take
     the newest (best) checkpoint that reads back completely and matches its checksums; a damaged one
     is skipped with one ``warning:`` line on stderr.
@@ -183,7 +184,7 @@ def load_policy(
     config = run.algo_config()
     policy, _ = core.make_networks(env, config)
     if clipped_mean is None:
-        clipped_mean = deterministic and config.eval_action == "clipped_mean"
+        clipped_mean = deterministic and clip and config.eval_action == "clipped_mean"
     if seed is None:
         seed = run.seeds[0]
     if seed not in run.seeds:

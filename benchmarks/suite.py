@@ -510,16 +510,17 @@ it (episode i reset with seed i), on MuJoCo's CPU, with the model's physics set 
   rk4_fast_solver  the file's integrator, the fast fidelity's solver iterations.
 
 The same simulator (MuJoCo, not MJX) runs every variant, so a difference is the physics settings'
-alone. ``--actions`` chooses how the policy acts, whatever the run's own ``eval_action``: ``mode``
-(``clip(mean)``, the default) and/or ``clipped_mean`` (``E[clip(a)]`` under the Gaussian,
-``python -m jaxpg.evaluate --mean-action clipped_mean``); with both, every variant is played both
-ways. Prints each seed's mean return and the episodes that ended early per variant (and action),
-then a summary of each; ``--json`` gets every episode's return.
+alone. ``--actions`` chooses how the policy acts: ``run`` (the default), as the run's own
+evaluations played it (its ``eval_action``, as ``python -m jaxpg.evaluate`` plays it); ``mode``
+(``clip(mean)``); ``clipped_mean`` (``E[clip(a)]`` under the Gaussian, ``python -m jaxpg.evaluate
+--mean-action clipped_mean``); with several, every variant is played each way. Prints each
+seed's mean return and the episodes that ended early per variant (and action), then a summary of
+each; ``--json`` gets every episode's return.
 
     python benchmarks/suite.py physics RUN_DIR --episodes 20 --workers 2 --json physics.json
     python benchmarks/suite.py physics RUN_DIR --variants gymnasium --actions mode clipped_mean --episodes 10
 """
-ACTIONS = ("mode", "clipped_mean")
+ACTIONS = ("run", "mode", "clipped_mean")
 PHYSICS_VARIANTS = ("gymnasium", "fast", "euler", "rk4_fast_solver")
 
 
@@ -551,7 +552,7 @@ def play_physics(job: tuple[str, int, str, str, int]) -> dict[str, Any]:
     from jaxpg.run import replay
 
     run_dir, seed, variant, action, episodes = job
-    policy = jaxpg.load_policy(run_dir, seed=seed, clipped_mean=action == "clipped_mean")
+    policy = jaxpg.load_policy(run_dir, seed=seed, clipped_mean=None if action == "run" else action == "clipped_mean")
     task, env_kwargs = policy.run.task, policy.run.env_kwargs
     returns, lengths, _ = replay.evaluate_gymnasium(
         policy, task, env_kwargs, episodes, configure_model=lambda model: set_physics(model, variant)
@@ -570,7 +571,9 @@ def physics_main(argv: Sequence[str]) -> None:
     parser.add_argument("run_dirs", nargs="+", metavar="RUN_DIR")
     parser.add_argument("--episodes", type=int, default=20, help="episodes per seed and variant (default: 20)")
     parser.add_argument("--variants", nargs="+", choices=PHYSICS_VARIANTS, default=list(PHYSICS_VARIANTS))
-    parser.add_argument("--actions", nargs="+", choices=ACTIONS, default=["mode"], help="how the policy acts")
+    parser.add_argument(
+        "--actions", nargs="+", choices=ACTIONS, default=["run"], help="how the policy acts (default: as the run does)"
+    )
     parser.add_argument("--workers", type=int, default=2, help="processes playing side by side (default: 2)")
     parser.add_argument("--bar", type=float, default=3000.0, help="the score counted in the summary (default: 3000)")
     parser.add_argument("--json", default=None)

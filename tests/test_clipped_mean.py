@@ -180,14 +180,20 @@ def test_eval_action_is_checked():
         npg.Config(eval_action="clipped_mean").validate(cartpole)
 
 
-def test_suite_physics_replays_either_action(pendulum_run):
-    """``benchmarks/suite.py physics --actions``: each job plays the policy acting as asked, the
-    same episodes as ``replay.evaluate_gymnasium`` of ``load_policy`` with that action."""
+def test_suite_physics_replays_either_action(pendulum_run, clipped_mean_run):
+    """``benchmarks/suite.py physics --actions``: each job plays the policy acting as asked (``run``:
+    as the run's evaluations did), the same episodes as ``replay.evaluate_gymnasium`` of
+    ``load_policy`` with that action."""
     from jaxpg.run import replay
 
     suite = load_script("benchmarks/suite.py")
-    for action, clipped_mean in (("mode", False), ("clipped_mean", True)):
-        played = suite.play_physics((str(pendulum_run), 0, "gymnasium", action, 2))
-        policy = jaxpg.load_policy(pendulum_run, clipped_mean=clipped_mean)
+    for run_dir, action, clipped_mean in (
+        (pendulum_run, "mode", False),
+        (pendulum_run, "clipped_mean", True),
+        (clipped_mean_run, "run", True),
+        (clipped_mean_run, "mode", False),
+    ):
+        played = suite.play_physics((str(run_dir), 0, "gymnasium", action, 2))
+        policy = jaxpg.load_policy(run_dir, clipped_mean=clipped_mean)
         returns, _, _ = replay.evaluate_gymnasium(policy, "inverted_pendulum", {}, 2)
         assert played["action"] == action and played["returns"] == returns.tolist()

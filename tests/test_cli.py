@@ -523,6 +523,10 @@ def test_an_experiment_scripts_default_preset_is_replaced_by_a_given_one(runs, m
     hopper = planning.plan([*base, "--preset", "hopper"], experiment)
     assert hopper.run.preset == "hopper" and hopper.config == npg.Config(**algos.preset("npg", "hopper"))
     assert planning.plan([*base, "--algo", "ppo"], experiment).run.preset is None
+    # A flag that the default preset's settings refuse: the error names what the preset set.
+    with pytest.raises(ValueError, match=r"log_std_final \(1.0\) must be <= log_std_init \(0.0\): the ceiling only "
+                       r"falls \(--preset hopper_1m sets --log-std-final 1.0\)$"):  # fmt: skip
+        planning.plan([*base, "--log-std-init", "0"], experiment)
     help_text = command_line.build_parser(experiment, "npg", None, {}).format_help()
     assert "(default: hopper_1m)" in " ".join(help_text.split())
     assert not (runs / "planned").exists()

@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import datetime
+import re
 import time
 from collections.abc import Sequence
 from pathlib import Path
@@ -118,6 +119,18 @@ def _check_sharding(config: Any, explicit: bool | None) -> bool:
     return shard and count > 1
 
 
+def _with_preset_hint(message: str, preset: str | None, algo: str, explicit: dict[str, Any]) -> str:
+    """``message`` (a ``Config.validate`` error) with the preset's part in it: the fields it names
+    that ``--preset`` set and no flag changed, e.g. ``(--preset hopper_1m sets --log-std-final 1.0)``."""
+    if preset is None:
+        return message
+    values = algos.preset(algo, preset)
+    named = [k for k in values if k not in explicit and re.search(rf"\b{k}\b", message)]
+    if not named:
+        return message
+    return f"{message} (--preset {preset} sets " + ", ".join(f"{flag_name(k)} {values[k]}" for k in named) + ")"
+
+
 def plan_fresh(args: argparse.Namespace, experiment: Experiment, module: Any, algo: str) -> Plan:
     task = args.task or experiment.task
     _check_task(task, experiment)
@@ -146,7 +159,10 @@ def plan_fresh(args: argparse.Namespace, experiment: Experiment, module: Any, al
     per_device = max(-(-config.num_envs // shares), -(-config.eval_envs // shares))
     env_kwargs["batch"] = per_device * num_seeds
     env = _make_env(task, env_kwargs)
-    config.validate(env)
+    try:
+        config.validate(env)
+    except ValueError as e:
+        raise ValueError(_with_preset_hint(str(e), args.preset, algo, _explicit_config(args))) from None
     check_memory(config, env, num_seeds, shares)
     seeds = list(args.seeds) if args.seeds else [experiment.seed if args.seed is None else args.seed]
     if len(set(seeds)) != len(seeds):

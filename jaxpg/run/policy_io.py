@@ -15,7 +15,6 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxpg import distributions as D
 from jaxpg import train
 from jaxpg.algos import core
 from jaxpg.run import checkpoint_format, checkpointer, config_io, layout
@@ -115,13 +114,8 @@ class LoadedPolicy:
         self._act = jax.jit(self._act_impl, static_argnames="deterministic")
 
     def _act_impl(self, params: Any, obs_stats: Any, obs: jax.Array, key: jax.Array, deterministic: bool) -> jax.Array:
-        obs = obs_stats.normalize(obs)
-        if deterministic and self.clipped_mean:
-            return D.gaussian_clipped_mean(self.policy.dist(params, obs), self.action_low, self.action_high)
-        if deterministic:
-            action = self.policy.mode(params, obs)
-        else:
-            action, _ = self.policy.sample(params, obs, key)
+        bounds = (self.action_low, self.action_high) if self.clipped_mean else None
+        action, _ = core.make_act(self.policy, obs_stats, deterministic, clipped_mean_bounds=bounds)(params, obs, key)
         if not self.discrete and self.clip:
             action = jnp.clip(action, self.action_low, self.action_high)
         return action

@@ -19,7 +19,7 @@ from jaxpg.algos.preset_settings import (
     A2C_MINPY,
     A2C_TIANSHOU,
     ATARI_NETWORKS,
-    HUMANOID_TIANSHOU_LOG_STD,
+    HUMANOID_1M_ENV,
     LYCEUM_SETTINGS,
     NO_CONTACT_FORCES,
     NPG_1M,
@@ -225,17 +225,15 @@ TABLE: Mapping[tuple[str, str], Preset] = MappingProxyType(
         ),
         ("a2c", "minpy"): Preset(overrides=A2C_MINPY),
         # Within 1 M env steps at Tianshou's MuJoCo A2C settings (preset_settings.A2C_TIANSHOU),
-        # contact forces out of the observation; Humanoid with its initial std in Humanoid's
-        # action units. 16 seeds on one GPU, Gymnasium v5 medians: Ant 2843 at 1 M env steps (PPO's
-        # ant_1m: 2260); Humanoid 647 when a time limit stopped it at 0.91 M (4 of 16 seeds above 1700).
+        # contact forces out of the observation; Humanoid's policy acting in [-1, 1], scaled to its
+        # [-0.4, 0.4] (HUMANOID_1M_ENV). Gymnasium v5 medians on one GPU: Ant 2843 at 1 M env steps
+        # (16 seeds; PPO's ant_1m: 2260); Humanoid 1074 at 0.6 M (32 seeds, 9 above 1726; 647 at
+        # 0.91 M with its actions unscaled).
         ("a2c", "ant_1m"): Preset(
             tasks=("ant",), overrides=A2C_TIANSHOU, env_kwargs=NO_CONTACT_FORCES, iterations=12500
         ),
         ("a2c", "humanoid_1m"): Preset(
-            tasks=("humanoid",),
-            overrides={**A2C_TIANSHOU, "log_std_init": HUMANOID_TIANSHOU_LOG_STD},
-            env_kwargs=NO_CONTACT_FORCES,
-            iterations=12500,
+            tasks=("humanoid",), overrides=A2C_TIANSHOU, env_kwargs=HUMANOID_1M_ENV, iterations=12500
         ),
         # Solves cartpole on two CPU cores and stays solved; rewards scaled by 0.1 so that the
         # value loss does not swamp the joint, clipped gradient.
@@ -353,17 +351,17 @@ TABLE: Mapping[tuple[str, str], Preset] = MappingProxyType(
         # Within 1 M env steps at Tianshou's and SB3 RL Zoo's PPO settings (jaxpg.algos.preset_settings).
         # Ant and Humanoid leave the contact forces out of the observation, as Ant-v3 did (MuJoCo 2
         # left those numbers zero; Gymnasium's replay gets the same keyword): Ant with them, 569
-        # and 438 on two seeds. Humanoid adds Tianshou's initialisation and its initial std in
-        # Humanoid's action units. 16 seeds on one GPU, Gymnasium v5 medians: Ant 2260, Humanoid
-        # 732 (605 with Ant's settings), HalfCheetah 5366 (NPG's half_cheetah_1m: 5012). All three
-        # miss Tianshou's best (BENCHMARKS.md).
+        # and 438 on two seeds. Humanoid adds Tianshou's initialisation and its policy acting in
+        # [-1, 1]. Gymnasium v5 medians on one GPU: Ant 2260 (16 seeds), Humanoid 910 (32 seeds;
+        # 732 with the std alone in Humanoid's units, 605 with Ant's settings), HalfCheetah 5366
+        # (16; NPG's half_cheetah_1m: 5012). All three miss Tianshou's best (BENCHMARKS.md).
         ("ppo", "ant_1m"): Preset(
             tasks=("ant",), overrides=PPO_SMALL_BATCH, env_kwargs=NO_CONTACT_FORCES, iterations=488
         ),
         ("ppo", "humanoid_1m"): Preset(
             tasks=("humanoid",),
-            overrides={**PPO_SMALL_BATCH, **TIANSHOU_INIT, "log_std_init": HUMANOID_TIANSHOU_LOG_STD},
-            env_kwargs=NO_CONTACT_FORCES,
+            overrides={**PPO_SMALL_BATCH, **TIANSHOU_INIT},
+            env_kwargs=HUMANOID_1M_ENV,
             iterations=488,
         ),
         ("ppo", "half_cheetah_1m"): Preset(tasks=("half_cheetah",), overrides=PPO_ZOO_HALF_CHEETAH, iterations=1953),

@@ -5,7 +5,8 @@
     state = env.step(state, action)
 
 ``make`` returns the task wrapped in ``ClipAction`` (continuous tasks) and ``EpisodeStats``; the
-continuing sampler in ``jaxpg.rollout`` adds ``AutoReset``.
+continuing sampler in ``jaxpg.rollout`` adds ``AutoReset``. ``make(name, rescale_actions=True)``
+puts ``RescaleAction`` under ``ClipAction``: actions in ``[-1, 1]`` on every continuous task.
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ import importlib
 from typing import Any
 
 from jaxpg.envs.base import Env, State
-from jaxpg.envs.wrappers import AutoReset, ClipAction, EpisodeStats, Wrapper
+from jaxpg.envs.wrappers import AutoReset, ClipAction, EpisodeStats, RescaleAction, Wrapper
 
 # name -> "module:Class", imported on first use so that `import jaxpg` stays cheap.
 REGISTRY: dict[str, str] = {
@@ -106,20 +107,23 @@ def _gymnasium_api() -> Any:
     return gymnasium_api
 
 
-def make(name: str, batch: int | None = None, **kwargs: Any) -> Env:
+def make(name: str, batch: int | None = None, rescale_actions: bool = False, **kwargs: Any) -> Env:
     """Task ``name`` with action clipping and episode statistics.
 
     ``batch``: the most envs that will step together in one vmapped call (all nested vmaps, e.g.
     envs x seeds); the physics backend sizes its buffers for it (MuJoCo Warp's contact buffer is
     shared by the whole batch; see ``warp_capacity``). Omit it for batches up to 8192.
     ``kwargs`` go to the task, e.g. ``fidelity="gymnasium"``, ``impl="jax"``,
-    ``max_episode_steps=500``. Raises ``ValueError`` listing the known names for an unknown one.
+    ``max_episode_steps=500``. ``rescale_actions``: the env takes actions in ``[-1, 1]``, mapped
+    onto the task's range (``RescaleAction``; ``ValueError`` for a discrete task). Raises
+    ``ValueError`` listing the known names for an unknown one.
     """
     if batch is not None:
         if not isinstance(batch, int) or batch < 1:
             raise ValueError(f"batch must be a positive integer, got {batch!r}")
         kwargs = {**warp_capacity(name, kwargs, batch), **kwargs}
-    return EpisodeStats(ClipAction(make_task(name, **kwargs)))
+    task = make_task(name, **kwargs)
+    return EpisodeStats(ClipAction(RescaleAction(task) if rescale_actions else task))
 
 
 @functools.cache
@@ -142,6 +146,7 @@ __all__ = [
     "ClipAction",
     "Env",
     "EpisodeStats",
+    "RescaleAction",
     "State",
     "Wrapper",
     "gymnasium_env",

@@ -1,8 +1,8 @@
 """Wrappers around the functional env API: action clipping, episode statistics, automatic reset.
 
 Each wrapper is itself an ``Env`` with pure ``reset``/``step`` on one environment. The usual stack,
-built by ``jaxpg.envs.make``, is ``EpisodeStats(ClipAction(task))``; the continuing sampler adds
-``AutoReset`` on top.
+built by ``jaxpg.envs.make``, is ``EpisodeStats(ClipAction(task))`` (with ``RescaleAction`` under
+``ClipAction`` when asked for); the continuing sampler adds ``AutoReset`` on top.
 """
 
 from __future__ import annotations
@@ -71,6 +71,30 @@ class ClipAction(Wrapper):
         if not self.env.discrete:
             action = jnp.clip(action, self.env.action_low, self.env.action_high)
         return self.env.step(state, action)
+
+
+class RescaleAction(Wrapper):
+    """Takes continuous actions in ``[-1, 1]`` and maps them linearly onto the task's
+    ``[action_low, action_high]``: ``-1`` to ``action_low``, ``1`` to ``action_high``.
+
+    A policy then acts in the same units on every task (Tianshou's ``action_scaling``,
+    Gymnasium's ``RescaleAction(env, -1, 1)``): its initial noise and the size of its updates
+    mean the same fraction of the range on Humanoid (``[-0.4, 0.4]``) as on Hopper. Put it under
+    ``ClipAction``, which then clips to ``[-1, 1]``. ``ValueError`` for a discrete task.
+    """
+
+    action_low = property(lambda self: -1.0)
+    action_high = property(lambda self: 1.0)
+
+    def __init__(self, env: Env):
+        if env.discrete:
+            raise ValueError(f"RescaleAction needs continuous actions; {env.name!r} has discrete ones")
+        super().__init__(env)
+
+    def step(self, state: State, action: jax.Array) -> State:
+        half_range = (self.env.action_high - self.env.action_low) / 2
+        middle = (self.env.action_high + self.env.action_low) / 2
+        return self.env.step(state, middle + half_range * action)
 
 
 class EpisodeStats(Wrapper):

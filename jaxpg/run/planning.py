@@ -54,6 +54,8 @@ def _make_env(task: str, env_kwargs: dict[str, Any]) -> Any:
     except TypeError as e:
         given = ", ".join(flag_name(k) for k in env_kwargs if k != "batch")
         raise UsageError(f"task {task!r} does not accept {given or 'these settings'} ({e})") from None
+    except ValueError as e:  # e.g. --rescale-actions on a discrete task
+        raise UsageError(str(e)) from None
 
 
 def _explicit_config(args: argparse.Namespace) -> dict[str, Any]:
@@ -73,10 +75,21 @@ def _task_options(args: argparse.Namespace, algo: str, task: str) -> dict[str, A
         twice = sorted({key for key in keys if keys.count(key) > 1})
         raise UsageError(f"--env-kwargs gives {', '.join(twice)} more than once")
     options = algos.preset_env_kwargs(algo, args.preset) if args.preset is not None else {}
+    options = {k: v for k, v in options.items() if k not in task_options.WRAPPER_SETTINGS}
     try:
         return task_options.check_options(task, {**options, **given})
     except ValueError as e:
         raise UsageError(f"--env-kwargs: {e}") from None
+
+
+def _wrapper_settings(args: argparse.Namespace, algo: str) -> dict[str, Any]:
+    """``jaxpg.envs.make``'s wrapper options (``rescale_actions``): the preset's, then the flag's;
+    kept in the run's ``env_kwargs`` only when on, so that a run without them reads as before."""
+    options = algos.preset_env_kwargs(algo, args.preset) if args.preset is not None else {}
+    settings = {k: options[k] for k in task_options.WRAPPER_SETTINGS if k in options}
+    if args.rescale_actions is not None:
+        settings["rescale_actions"] = args.rescale_actions
+    return {k: v for k, v in settings.items() if v}
 
 
 def _default_run_dir(task: str, algo: str) -> Path:
@@ -147,6 +160,7 @@ def plan_fresh(args: argparse.Namespace, experiment: Experiment, module: Any, al
     types = config_io.field_types(config_cls)
     config = config_cls(**{k: config_io.coerce(types[k], v) for k, v in values.items()})
     env_kwargs = {**experiment.env_kwargs, **_task_options(args, algo, task), **_explicit_env(args)}
+    env_kwargs.update(_wrapper_settings(args, algo))
     for key in ("fidelity", "impl", "max_episode_steps"):
         if getattr(args, key) is not None:
             env_kwargs[key] = getattr(args, key)
@@ -208,6 +222,7 @@ def plan_resume(args: argparse.Namespace, run: RunConfig, run_dir: Path) -> Plan
         "fidelity",
         "impl",
         "max_episode_steps",
+        "rescale_actions",
         "env_kwargs",
         "run_dir",
         "overwrite",

@@ -74,7 +74,9 @@ class LoadedPolicy:
     """A trained policy as a NumPy function: ``policy(obs) -> action``.
 
     ``obs``: ``[obs_dim]`` or ``[B, obs_dim]``; the action is ``[act_dim]`` / ``[B, act_dim]``
-    float32 (continuous, clipped to the env's action bounds when ``clip``) or int (discrete).
+    float32 (continuous, clipped to the env's action bounds when ``clip``) or int (discrete), in
+    the task's own units: a run that trained with ``rescale_actions`` acts in ``[-1, 1]``, mapped
+    here onto the task's range, so that the action goes to the task (or Gymnasium's env) as it is.
     Observation normalisation of the run is applied. ``deterministic`` (default) takes the mode
     of the policy, or with ``clipped_mean`` the mean of the clipped actions,
     ``E[clip(a, low, high)]`` (``distributions.gaussian_clipped_mean``), which differs from
@@ -82,7 +84,7 @@ class LoadedPolicy:
 
     Attributes: ``run`` (the ``RunConfig``), ``step`` (the checkpoint), ``seed`` (which of the
     run's training seeds), ``observation_size``, ``action_size``, ``discrete``,
-    ``action_low``/``action_high``.
+    ``action_low``/``action_high`` (the task's bounds, which the actions lie in).
     """
 
     def __init__(
@@ -108,16 +110,24 @@ class LoadedPolicy:
         self.observation_size = env.observation_size
         self.action_size = env.action_size
         self.discrete = bool(env.discrete)
-        self.action_low, self.action_high = float(env.action_low), float(env.action_high)
+        # The policy's own bounds (the run's env: [-1, 1] when it rescaled actions), then the task's.
+        self._policy_low, self._policy_high = float(env.action_low), float(env.action_high)
+        task = env.unwrapped
+        self.action_low, self.action_high = float(task.action_low), float(task.action_high)
         self.deterministic, self.clip, self.clipped_mean = deterministic, clip, clipped_mean
         self._key = jax.random.PRNGKey(sample_seed)
         self._act = jax.jit(self._act_impl, static_argnames="deterministic")
 
     def _act_impl(self, params: Any, obs_stats: Any, obs: jax.Array, key: jax.Array, deterministic: bool) -> jax.Array:
-        bounds = (self.action_low, self.action_high) if self.clipped_mean else None
+        low, high = self._policy_low, self._policy_high
+        bounds = (low, high) if self.clipped_mean else None
         action, _ = core.make_act(self.policy, obs_stats, deterministic, clipped_mean_bounds=bounds)(params, obs, key)
-        if not self.discrete and self.clip:
-            action = jnp.clip(action, self.action_low, self.action_high)
+        if self.discrete:
+            return action
+        if self.clip:
+            action = jnp.clip(action, low, high)
+        if (low, high) != (self.action_low, self.action_high):  # rescaled: [low, high] onto the task's range
+            action = self.action_low + (action - low) * ((self.action_high - self.action_low) / (high - low))
         return action
 
     def __call__(self, obs: Any) -> np.ndarray:

@@ -3,7 +3,8 @@
 or by a preset: parsed, checked against the task's constructor and converted to its types.
 
 The simulation settings that have their own flags (``--fidelity``, ``--impl``,
-``--max-episode-steps``) and the physics backend's buffer sizes are not task options."""
+``--max-episode-steps``), ``--rescale-actions`` (an env wrapper, which a preset may also set) and
+the physics backend's buffer sizes are not task options."""
 
 from __future__ import annotations
 
@@ -19,6 +20,9 @@ from jaxpg.run import config_io
 # their own flags, then MuJoCo Warp's buffer sizes (which some tasks raise by default).
 SIMULATION_SETTINGS = ("self", "fidelity", "impl", "max_episode_steps")
 BUFFER_SIZES = ("naconmax", "njmax")
+# ``jaxpg.envs.make``'s own keyword arguments that a preset's ``env_kwargs`` may set beside the
+# task options (each has its own flag).
+WRAPPER_SETTINGS = ("rescale_actions",)
 
 
 def parse_assignment(text: str) -> tuple[str, Any]:
@@ -60,7 +64,7 @@ def check_options(task: str, options: dict[str, Any]) -> dict[str, Any]:
     types = option_types(task)
     out: dict[str, Any] = {}
     for name, value in options.items():
-        if name in SIMULATION_SETTINGS[1:]:
+        if name in SIMULATION_SETTINGS[1:] + WRAPPER_SETTINGS:
             flag = "--" + name.replace("_", "-")
             raise ValueError(f"{name} is set by its own flag, not --env-kwargs: use {flag}")
         if name not in types:

@@ -27,6 +27,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from jaxpg import mesh
 from jaxpg.algos import core
 from jaxpg.algos.core import TrainState
 from jaxpg.envs import compile_options
@@ -87,7 +88,11 @@ def evaluate_state(train_state: TrainState) -> dict[str, jax.Array]:
     Returns ``[]`` scalars named as in ``EVAL_METRICS``. Pure and jittable; ``train`` runs it
     between compiled training calls, never inside ``update``.
     """
-    summary = core.evaluate(train_state, jax.random.fold_in(train_state.key, EVAL_STREAM))
+    return _eval_metrics(core.evaluate(train_state, jax.random.fold_in(train_state.key, EVAL_STREAM)))
+
+
+def _eval_metrics(summary: dict[str, jax.Array]) -> dict[str, jax.Array]:
+    """``core.evaluate``'s summary under the names of ``EVAL_METRICS``."""
     return {
         "return_mean_policy": summary["episode_return"],
         "episode_length_mean_policy": summary["episode_length"],
@@ -105,15 +110,22 @@ def compiled_evaluate(evaluate: EvaluateFn, seeds: bool, options: CompileOptions
 def evaluate_seeds(evaluate: EvaluateFn, train_state: TrainState) -> dict[str, jax.Array]:
     """``evaluate`` of each seed of ``train_state`` (leading seed axis): metrics ``[num_seeds]``.
 
-    A ``vmap`` over the seeds, except with MuJoCo Warp: there the seeds are evaluated one after
-    another (``lax.map``), without their env states (an evaluation starts fresh episodes). Warp's
-    contact buffer is one per batch of envs, shared by the seeds, and the evaluation's loop stops
-    when its episodes have ended: under a ``vmap`` over seeds that loop's condition is per seed, which
-    would give the shared buffer a seed axis that MJX's Warp step rejects.
+    A ``vmap`` over the seeds, except with MuJoCo Warp. Warp's contact buffer is one per batch of
+    envs, shared by the seeds, and the evaluation's loop stops when its episodes have ended: under
+    a ``vmap`` over seeds that loop's condition is per seed, which would give the shared buffer a
+    seed axis that MJX's Warp step rejects. There the default evaluation (``evaluate_state``) runs
+    every seed's episodes as one flat batch in one loop (``core.evaluate_seeds_together``: the
+    same episodes); any other ``evaluate``, or a mesh that splits the envs, evaluates the seeds one
+    after another (``lax.map``). Both leave out the env states (an evaluation starts fresh
+    episodes).
     """
-    if getattr(train_state.env, "impl", None) == "warp":
-        return jax.lax.map(evaluate, train_state.replace(env_state=()))
-    return jax.vmap(evaluate)(train_state)
+    if getattr(train_state.env, "impl", None) != "warp":
+        return jax.vmap(evaluate)(train_state)
+    train_state = train_state.replace(env_state=())
+    if evaluate is evaluate_state and mesh.context_env_shards() == 1:
+        keys = jax.vmap(jax.random.fold_in, in_axes=(0, None))(train_state.key, EVAL_STREAM)
+        return _eval_metrics(core.evaluate_seeds_together(train_state, keys))
+    return jax.lax.map(evaluate, train_state)
 
 
 class _EarlyCompile:

@@ -8,21 +8,20 @@ then plays by default."""
 from __future__ import annotations
 
 import dataclasses
-import json
 import math
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from run_writer import write_pendulum_run
 from scipy import integrate, stats
 from script_loader import load_script
 
 import jaxpg
 from jaxpg import distributions as D
 from jaxpg.algos import npg
-from jaxpg.run import config_io, evaluate_cli, layout
-from jaxpg.run.checkpointer import Checkpointer
+from jaxpg.run import config_io, evaluate_cli
 
 
 def integrated_clipped_mean(mu: float, sigma: float, low: float, high: float) -> float:
@@ -70,25 +69,6 @@ def clipped_mean_run(tmp_path_factory):
     """The same run directory, saved with ``eval_action="clipped_mean"``."""
     config = dataclasses.replace(PENDULUM_CONFIG, eval_action="clipped_mean")
     return write_pendulum_run(tmp_path_factory.mktemp("runs") / "pendulum_cm", config)
-
-
-def write_pendulum_run(path, config):
-    """``path``: a run directory of ``config`` on inverted_pendulum with one checkpoint of ``init``'s
-    state, its parameters scaled up so that some mean actions lie outside the action bounds."""
-    run = config_io.RunConfig(
-        task="inverted_pendulum", algo="npg", config=config_io.config_to_dict(config), seeds=[0], iterations=1
-    )
-    path.mkdir()
-    run.save(path)
-    row = {"iteration": 1, "seed": 0, "env_steps": 32.0, "wall_time_s": 1.0}
-    (path / layout.METRICS_FILE).write_text(json.dumps(row) + "\n")
-    state = npg.init(jax.random.PRNGKey(0), run.make_env(), config)
-    # A mean far from 0 for some observations: the first layer's bias pushes the output out of [-3, 3].
-    state = state.replace(params=jax.tree.map(lambda x: x * 4.0, state.params))
-    ckpt = Checkpointer(path / layout.CHECKPOINT_DIR, keep=None, create=True)
-    ckpt.save(1, state, score=1.0, info={"task": run.task, "algo": run.algo, "seeds": [0]})
-    ckpt.close()
-    return path
 
 
 def test_load_policy_acts_with_the_clipped_mean(pendulum_run):

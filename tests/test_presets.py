@@ -700,7 +700,7 @@ def test_presets_that_set_task_options():
     the contact forces, as Ant-v3's effectively was), Humanoid's with its actions in [-1, 1], and
     the lookup hands out a copy."""
     no_contact_forces = {"include_cfrc_ext_in_observation": False}
-    humanoid = {**no_contact_forces, "rescale_actions": True}
+    humanoid = {**no_contact_forces, "action_scaling": True}
     assert {key: dict(row.env_kwargs) for key, row in presets.TABLE.items() if row.env_kwargs} == {
         (algo, name): humanoid if name == "humanoid_1m" else no_contact_forces
         for algo in ("a2c", "ppo")

@@ -235,11 +235,11 @@ TRPO_TIANSHOU: Mapping[str, Any] = MappingProxyType(
 )
 
 # Humanoid's task options for its 1 M-step presets: the contact forces out of the observation, and
-# the policy acting in [-1, 1], mapped onto Humanoid's [-0.4, 0.4] (``rescale_actions``), as
+# the policy acting in [-1, 1], mapped onto Humanoid's [-0.4, 0.4] (``action_scaling``), as
 # Tianshou's policies act: its initial log-std -0.5 and the size of its updates then mean the
 # same fraction of the range as on a task in [-1, 1]. Over 32 seeds on one GPU, PPO's Gymnasium
 # median rose from 732 (16 seeds, the std alone scaled to Humanoid's units) to 910 (BENCHMARKS.md).
-HUMANOID_1M_ENV: Mapping[str, Any] = MappingProxyType({**NO_CONTACT_FORCES, "rescale_actions": True})
+HUMANOID_1M_ENV: Mapping[str, Any] = MappingProxyType({**NO_CONTACT_FORCES, "action_scaling": True})
 
 # PPO within 1 M env steps at SB3 RL Zoo's tuned HalfCheetah settings (its 1 env x 512 steps as 16
 # envs x 32; 20 epochs x 8 minibatches, lr 2.06e-5, clip 0.1, gamma 0.98, lambda 0.92, initial

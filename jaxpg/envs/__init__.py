@@ -5,7 +5,7 @@
     state = env.step(state, action)
 
 ``make`` returns the task wrapped in ``ClipAction`` (continuous tasks) and ``EpisodeStats``; the
-continuing sampler in ``jaxpg.rollout`` adds ``AutoReset``. ``make(name, rescale_actions=True)``
+continuing sampler in ``jaxpg.rollout`` adds ``AutoReset``. ``make(name, action_scaling=True)``
 puts ``RescaleAction`` under ``ClipAction``: actions in ``[-1, 1]`` on every continuous task.
 """
 
@@ -107,14 +107,14 @@ def _gymnasium_api() -> Any:
     return gymnasium_api
 
 
-def make(name: str, batch: int | None = None, rescale_actions: bool = False, **kwargs: Any) -> Env:
+def make(name: str, batch: int | None = None, action_scaling: bool = False, **kwargs: Any) -> Env:
     """Task ``name`` with action clipping and episode statistics.
 
     ``batch``: the most envs that will step together in one vmapped call (all nested vmaps, e.g.
     envs x seeds); the physics backend sizes its buffers for it (MuJoCo Warp's contact buffer is
     shared by the whole batch; see ``warp_capacity``). Omit it for batches up to 8192.
     ``kwargs`` go to the task, e.g. ``fidelity="gymnasium"``, ``impl="jax"``,
-    ``max_episode_steps=500``. ``rescale_actions``: the env takes actions in ``[-1, 1]``, mapped
+    ``max_episode_steps=500``. ``action_scaling``: the env takes actions in ``[-1, 1]``, mapped
     onto the task's range (``RescaleAction``; ``ValueError`` for a discrete task). Raises
     ``ValueError`` listing the known names for an unknown one.
     """
@@ -123,7 +123,7 @@ def make(name: str, batch: int | None = None, rescale_actions: bool = False, **k
             raise ValueError(f"batch must be a positive integer, got {batch!r}")
         kwargs = {**warp_capacity(name, kwargs, batch), **kwargs}
     task = make_task(name, **kwargs)
-    return EpisodeStats(ClipAction(RescaleAction(task) if rescale_actions else task))
+    return EpisodeStats(ClipAction(RescaleAction(task) if action_scaling else task))
 
 
 @functools.cache

@@ -141,7 +141,7 @@ def _optional(parse: Any) -> Any:
 RUN_FLAGS = (
     "task", "algo", "seed", "seeds", "iterations", "run_dir", "resume", "overwrite", "checkpoint_every",
     "keep_checkpoints", "log_every", "video_every", "preset", "profile", "fidelity", "impl",
-    "max_episode_steps", "rescale_actions", "shard", "progress", "coordinator_address", "num_processes", "process_id",
+    "max_episode_steps", "action_scaling", "shard", "progress", "coordinator_address", "num_processes", "process_id",
     "distributed_timeout", "minutes", "env_kwargs",
 )  # fmt: skip
 
@@ -306,7 +306,7 @@ def build_parser(experiment: Experiment, algo: str, config_cls: type | None, con
     run.add_argument("--impl", choices=("jax", "warp"), help="MJX implementation (default: warp on a GPU, else jax)")
     run.add_argument("--max-episode-steps", type=int, help="time limit of an episode (default: the task's)")
     run.add_argument(
-        "--rescale-actions",
+        "--action-scaling",
         action=argparse.BooleanOptionalAction,
         default=None,
         help="the policy acts in [-1, 1], mapped linearly onto the task's action range (continuous tasks; "

@@ -54,7 +54,7 @@ def _make_env(task: str, env_kwargs: dict[str, Any]) -> Any:
     except TypeError as e:
         given = ", ".join(flag_name(k) for k in env_kwargs if k != "batch")
         raise UsageError(f"task {task!r} does not accept {given or 'these settings'} ({e})") from None
-    except ValueError as e:  # e.g. --rescale-actions on a discrete task
+    except ValueError as e:  # e.g. --action-scaling on a discrete task
         raise UsageError(str(e)) from None
 
 
@@ -83,12 +83,12 @@ def _task_options(args: argparse.Namespace, algo: str, task: str) -> dict[str, A
 
 
 def _wrapper_settings(args: argparse.Namespace, algo: str) -> dict[str, Any]:
-    """``jaxpg.envs.make``'s wrapper options (``rescale_actions``): the preset's, then the flag's;
+    """``jaxpg.envs.make``'s wrapper options (``action_scaling``): the preset's, then the flag's;
     kept in the run's ``env_kwargs`` only when on, so that a run without them reads as before."""
     options = algos.preset_env_kwargs(algo, args.preset) if args.preset is not None else {}
     settings = {k: options[k] for k in task_options.WRAPPER_SETTINGS if k in options}
-    if args.rescale_actions is not None:
-        settings["rescale_actions"] = args.rescale_actions
+    if args.action_scaling is not None:
+        settings["action_scaling"] = args.action_scaling
     return {k: v for k, v in settings.items() if v}
 
 
@@ -222,7 +222,7 @@ def plan_resume(args: argparse.Namespace, run: RunConfig, run_dir: Path) -> Plan
         "fidelity",
         "impl",
         "max_episode_steps",
-        "rescale_actions",
+        "action_scaling",
         "env_kwargs",
         "run_dir",
         "overwrite",

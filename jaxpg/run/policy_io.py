@@ -75,7 +75,7 @@ class LoadedPolicy:
 
     ``obs``: ``[obs_dim]`` or ``[B, obs_dim]``; the action is ``[act_dim]`` / ``[B, act_dim]``
     float32 (continuous, clipped to the env's action bounds when ``clip``) or int (discrete), in
-    the task's own units: a run that trained with ``rescale_actions`` acts in ``[-1, 1]``, mapped
+    the task's own units: a run that trained with ``action_scaling`` acts in ``[-1, 1]``, mapped
     here onto the task's range, so that the action goes to the task (or Gymnasium's env) as it is.
     Observation normalisation of the run is applied. ``deterministic`` (default) takes the mode
     of the policy, or with ``clipped_mean`` the mean of the clipped actions,

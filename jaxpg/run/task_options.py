@@ -3,7 +3,7 @@
 or by a preset: parsed, checked against the task's constructor and converted to its types.
 
 The simulation settings that have their own flags (``--fidelity``, ``--impl``,
-``--max-episode-steps``), ``--rescale-actions`` (an env wrapper, which a preset may also set) and
+``--max-episode-steps``), ``--action-scaling`` (an env wrapper, which a preset may also set) and
 the physics backend's buffer sizes are not task options."""
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ SIMULATION_SETTINGS = ("self", "fidelity", "impl", "max_episode_steps")
 BUFFER_SIZES = ("naconmax", "njmax")
 # ``jaxpg.envs.make``'s own keyword arguments that a preset's ``env_kwargs`` may set beside the
 # task options (each has its own flag).
-WRAPPER_SETTINGS = ("rescale_actions",)
+WRAPPER_SETTINGS = ("action_scaling",)
 
 
 def parse_assignment(text: str) -> tuple[str, Any]:

@@ -208,6 +208,44 @@ def evaluate(ts: TrainState, key: jax.Array, deterministic: bool = True) -> dict
     }
 
 
+def evaluate_seeds_together(ts: TrainState, keys: jax.Array) -> dict[str, jax.Array]:
+    """``evaluate`` (the mean policy) of every seed of ``ts`` in one rollout: metrics ``[S]`` each.
+
+    ``ts``: a ``TrainState`` whose arrays carry a leading seed axis ``[S]`` (its ``env_state`` is
+    not read); ``keys [S]``: each seed's evaluation key. The ``S x config.eval_envs`` envs step as
+    one flat batch, with no seed axis, as MuJoCo Warp's step needs (its contact buffer is one per
+    batch), each seed's policy acting on its own rows; the loop stops once every seed's episodes
+    have ended, where evaluating the seeds one after another (``lax.map``) pays each seed's loop
+    in turn. Each seed's episodes are those of ``evaluate(ts_s, keys[s])``: the same reset keys,
+    the same actions, up to the order of float operations. Not for a mesh that splits the envs.
+    """
+    config = ts.config
+    horizon = config.eval_horizon or ts.env.max_episode_steps
+    count, seeds = config.eval_envs, keys.shape[0]
+    split = jax.vmap(jax.random.split)(keys)  # [S, 2]: each seed's (reset, steps) keys, as `evaluate`
+    reset_keys = jax.vmap(lambda key: jax.random.split(key, count))(split[:, 0])  # [S, count]
+    reset_keys = reset_keys.reshape((seeds * count,) + reset_keys.shape[2:])
+    bounds = config.eval_action_bounds(ts.env)
+
+    def act(params_and_stats: Any, obs: jax.Array, key: jax.Array) -> tuple[jax.Array, jax.Array]:
+        def act_seed(params: Any, stats: RunningStats, obs: jax.Array) -> tuple[jax.Array, jax.Array]:
+            return make_act(ts.policy, stats, True, clipped_mean_bounds=bounds)(params, obs, key)
+
+        actions, log_probs = jax.vmap(act_seed)(*params_and_stats, obs.reshape((seeds, count) + obs.shape[1:]))
+        return actions.reshape((seeds * count,) + actions.shape[2:]), log_probs.reshape(seeds * count)
+
+    starts = jax.vmap(ts.env.reset)(reset_keys)
+    # The mean policy ignores the step keys; seed 0's stand for all.
+    totals = rollout_lib.episode_totals_from(ts.env, act, (ts.params, ts.obs_stats), starts, split[0, 1], horizon)
+    per_seed = jax.tree.map(lambda x: x.reshape(seeds, count), totals)
+    return {
+        "episode_return": jnp.mean(per_seed["return"], axis=1),
+        "episode_length": jnp.mean(per_seed["length"], axis=1),
+        "episode_task_score": jnp.mean(per_seed["task_score"], axis=1),
+        "episodes": jnp.full((seeds,), config.eval_envs, jnp.float32),
+    }
+
+
 def sampling_metrics(ts: TrainState, traj: Trajectory) -> dict[str, jax.Array]:
     """The metrics every algorithm reports about the samples ``traj`` that ``ts`` drew (the
     episodes that ended in them), ``[]`` each.

@@ -1,25 +1,23 @@
 """Actions in [-1, 1] mapped onto the task's range (``jaxpg.envs.RescaleAction``,
-``make(..., rescale_actions=True)``, ``--rescale-actions``): the affine map against NumPy on a task
+``make(..., action_scaling=True)``, ``--action-scaling``): the affine map against NumPy on a task
 with asymmetric bounds, the clip around it, the flag and the presets that set it, and the trained
 policy acting in the task's own units through ``jaxpg.load_policy`` and the Gymnasium replay
 (against a loop over Gymnasium's env written here)."""
 
 from __future__ import annotations
 
-import json
-
 import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from run_writer import write_pendulum_run
 
 import jaxpg
 from jaxpg import distributions as D
 from jaxpg import envs
 from jaxpg.algos import npg
 from jaxpg.envs.base import Env
-from jaxpg.run import config_io, evaluate_cli, layout, task_options
-from jaxpg.run.checkpointer import Checkpointer
+from jaxpg.run import evaluate_cli, task_options
 
 
 class EchoAction(Env):
@@ -57,45 +55,45 @@ def test_the_map_matches_numpy_and_clips_to_the_unit_box():
 
 
 def test_make_rescales_on_request_and_refuses_a_discrete_task():
-    env = envs.make("inverted_pendulum", impl="jax", rescale_actions=True)
+    env = envs.make("inverted_pendulum", impl="jax", action_scaling=True)
     assert "ClipAction(RescaleAction(InvertedPendulum" in repr(env)
     assert (env.action_low, env.action_high) == (-1.0, 1.0)
     assert "RescaleAction" not in repr(envs.make("inverted_pendulum", impl="jax"))
     with pytest.raises(ValueError, match="RescaleAction needs continuous actions; 'cartpole' has discrete ones"):
-        envs.make("cartpole", rescale_actions=True)
+        envs.make("cartpole", action_scaling=True)
 
 
 def test_the_flag_and_the_preset_reach_the_env_and_the_run(tmp_path, monkeypatch):
-    """``--rescale-actions`` (or a preset that sets it) wraps the planned env and is saved in the
-    run's ``env_kwargs``; ``--no-rescale-actions`` turns a preset's off (and leaves no key)."""
+    """``--action-scaling`` (or a preset that sets it) wraps the planned env and is saved in the
+    run's ``env_kwargs``; ``--no-action-scaling`` turns a preset's off (and leaves no key)."""
     from jaxpg.run import command_line, planning
 
     monkeypatch.chdir(tmp_path)
     experiment = command_line.Experiment()
     pendulum = ["--env", "inverted_pendulum", "--impl", "jax", "--run-dir", "planned"]
-    plan = planning.plan([*pendulum, "--rescale-actions"], experiment)
-    assert plan.run.env_kwargs["rescale_actions"] is True and plan.env.action_high == 1.0
-    assert "rescale_actions" not in planning.plan(pendulum, experiment).run.env_kwargs
+    plan = planning.plan([*pendulum, "--action-scaling"], experiment)
+    assert plan.run.env_kwargs["action_scaling"] is True and plan.env.action_high == 1.0
+    assert "action_scaling" not in planning.plan(pendulum, experiment).run.env_kwargs
     humanoid = ["--env", "humanoid", "--impl", "jax", "--algo", "ppo", "--preset", "humanoid_1m", "--run-dir", "x"]
     plan = planning.plan(humanoid, experiment)
     assert (
-        plan.run.env_kwargs["rescale_actions"] is True
+        plan.run.env_kwargs["action_scaling"] is True
         and plan.run.env_kwargs["include_cfrc_ext_in_observation"] is False
     )
     assert (plan.env.action_low, plan.env.unwrapped.action_low) == (-1.0, -0.4)
-    plan = planning.plan([*humanoid, "--no-rescale-actions"], experiment)
-    assert "rescale_actions" not in plan.run.env_kwargs and plan.env.action_low == -0.4
+    plan = planning.plan([*humanoid, "--no-action-scaling"], experiment)
+    assert "action_scaling" not in plan.run.env_kwargs and plan.env.action_low == -0.4
     assert not (tmp_path / "planned").exists()
 
 
 def test_bad_uses_of_the_flag_get_one_error_line(tmp_path, capsys):
-    """``--env-kwargs rescale_actions=...`` and ``--rescale-actions`` on a discrete task: one
+    """``--env-kwargs action_scaling=...`` and ``--action-scaling`` on a discrete task: one
     ``error:`` line, exit 2, no run directory."""
     from jaxpg import cli
 
     for argv, message in (
-        (["--env", "inverted_pendulum", "--env-kwargs", "rescale_actions=true"], "use --rescale-actions"),
-        (["--env", "cartpole", "--rescale-actions"], "RescaleAction needs continuous actions"),
+        (["--env", "inverted_pendulum", "--env-kwargs", "action_scaling=true"], "use --action-scaling"),
+        (["--env", "cartpole", "--action-scaling"], "RescaleAction needs continuous actions"),
     ):
         bad_dir = tmp_path / "bad"
         assert cli.main([*argv, "--algo", "npg", "--iterations", "1", "--run-dir", str(bad_dir)]) == 2
@@ -109,7 +107,7 @@ def test_humanoids_1m_presets_act_in_the_unit_box():
     log-std -0.5; the contact forces stay out of the observation, and no task option is lost."""
     for algo in ("ppo", "a2c"):
         options = jaxpg.algos.preset_env_kwargs(algo, "humanoid_1m")
-        assert options == {"include_cfrc_ext_in_observation": False, "rescale_actions": True}
+        assert options == {"include_cfrc_ext_in_observation": False, "action_scaling": True}
         assert jaxpg.algos.preset(algo, "humanoid_1m", "humanoid")["log_std_init"] == -0.5
         task_only = {k: v for k, v in options.items() if k not in task_options.WRAPPER_SETTINGS}
         assert task_options.check_options("humanoid", task_only) == {"include_cfrc_ext_in_observation": False}
@@ -120,27 +118,10 @@ CONFIG = npg.Config(num_envs=4, horizon=8, policy_hidden=(8,), value_hidden=(8,)
 
 @pytest.fixture(scope="module")
 def rescaled_run(tmp_path_factory):
-    """An inverted_pendulum NPG run directory (actions in [-3, 3]) trained with ``rescale_actions``,
+    """An inverted_pendulum NPG run directory (actions in [-3, 3]) trained with ``action_scaling``,
     holding one checkpoint of ``init``'s state with its parameters scaled up, so that some mean
     actions lie outside [-1, 1]."""
-    path = tmp_path_factory.mktemp("runs") / "rescaled"
-    run = config_io.RunConfig(
-        task="inverted_pendulum",
-        algo="npg",
-        config=config_io.config_to_dict(CONFIG),
-        seeds=[0],
-        iterations=1,
-        env_kwargs={"rescale_actions": True},
-    )
-    path.mkdir()
-    run.save(path)
-    (path / layout.METRICS_FILE).write_text(json.dumps({"iteration": 1, "seed": 0, "env_steps": 32.0}) + "\n")
-    state = npg.init(jax.random.PRNGKey(0), run.make_env(), CONFIG)
-    state = state.replace(params=jax.tree.map(lambda x: x * 4.0, state.params))
-    ckpt = Checkpointer(path / layout.CHECKPOINT_DIR, keep=None, create=True)
-    ckpt.save(1, state, score=1.0, info={"task": run.task, "algo": run.algo, "seeds": [0]})
-    ckpt.close()
-    return path
+    return write_pendulum_run(tmp_path_factory.mktemp("runs") / "rescaled", CONFIG, {"action_scaling": True})
 
 
 def test_load_policy_acts_in_the_tasks_units(rescaled_run):

@@ -227,8 +227,8 @@ TABLE: Mapping[tuple[str, str], Preset] = MappingProxyType(
         # Within 1 M env steps at Tianshou's MuJoCo A2C settings (preset_settings.A2C_TIANSHOU),
         # contact forces out of the observation; Humanoid's policy acting in [-1, 1], scaled to its
         # [-0.4, 0.4] (HUMANOID_1M_ENV). Gymnasium v5 medians on one GPU: Ant 2843 at 1 M env steps
-        # (16 seeds; PPO's ant_1m: 2260); Humanoid 1074 at 0.6 M (32 seeds, 9 above 1726; 647 at
-        # 0.91 M with its actions unscaled).
+        # (16 seeds; PPO's ant_1m: 2260); Humanoid 4106 at 0.8 M (32 seeds, 25 above Tianshou's 1726;
+        # its end at 1 M not measured yet; 647 at 0.91 M with its actions in Humanoid's units).
         ("a2c", "ant_1m"): Preset(
             tasks=("ant",), overrides=A2C_TIANSHOU, env_kwargs=NO_CONTACT_FORCES, iterations=12500
         ),

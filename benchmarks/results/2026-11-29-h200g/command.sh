@@ -37,3 +37,5 @@ touch $D/done
 # (a2c_resume.log). Its checkpoint at iteration 10000 (0.8 M env steps) was replayed on 2 CPU cores, here:
 #   python benchmarks/suite.py physics RUN --variants gymnasium --actions mode clipped_mean --episodes 10 --workers 2 \
 #     --json physics_a2c_0.8M.json
+# The flag was then called --rescale-actions (the env keyword rescale_actions, as the runs' config.json files
+# hold it); it was renamed --action-scaling (action_scaling) before it was committed with this record's docs.

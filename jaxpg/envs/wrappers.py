@@ -92,9 +92,12 @@ class RescaleAction(Wrapper):
         super().__init__(env)
 
     def step(self, state: State, action: jax.Array) -> State:
-        half_range = (self.env.action_high - self.env.action_low) / 2
-        middle = (self.env.action_high + self.env.action_low) / 2
-        return self.env.step(state, middle + half_range * action)
+        return self.env.step(state, unit_to_range(action, self.env.action_low, self.env.action_high))
+
+
+def unit_to_range(action: jax.Array, low: float, high: float) -> jax.Array:
+    """``action`` (any shape) mapped linearly from ``[-1, 1]`` onto ``[low, high]``."""
+    return (high + low) / 2 + (high - low) / 2 * action
 
 
 class EpisodeStats(Wrapper):

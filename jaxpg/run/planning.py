@@ -66,27 +66,27 @@ def _explicit_env(args: argparse.Namespace) -> dict[str, Any]:
     return {k[len(ENV_PREFIX) :]: v for k, v in vars(args).items() if k.startswith(ENV_PREFIX) and v is not None}
 
 
-def _task_options(args: argparse.Namespace, algo: str, task: str) -> dict[str, Any]:
-    """The task options of the preset, then those of ``--env-kwargs`` (``UsageError`` for one given
-    twice, unknown to the task, or of the wrong type), converted to the task's types."""
+def _task_options(args: argparse.Namespace, task: str, preset_env: dict[str, Any]) -> dict[str, Any]:
+    """The task options of the preset (among its ``preset_env``), then those of ``--env-kwargs``
+    (``UsageError`` for one given twice, unknown to the task, or of the wrong type), converted to
+    the task's types."""
     given = dict(args.env_kwargs or ())
     if len(given) < len(args.env_kwargs or ()):
         keys = [key for key, _ in args.env_kwargs]
         twice = sorted({key for key in keys if keys.count(key) > 1})
         raise UsageError(f"--env-kwargs gives {', '.join(twice)} more than once")
-    options = algos.preset_env_kwargs(algo, args.preset) if args.preset is not None else {}
-    options = {k: v for k, v in options.items() if k not in task_options.WRAPPER_SETTINGS}
+    options = {k: v for k, v in preset_env.items() if k not in task_options.WRAPPER_SETTINGS}
     try:
         return task_options.check_options(task, {**options, **given})
     except ValueError as e:
         raise UsageError(f"--env-kwargs: {e}") from None
 
 
-def _wrapper_settings(args: argparse.Namespace, algo: str) -> dict[str, Any]:
-    """``jaxpg.envs.make``'s wrapper options (``action_scaling``): the preset's, then the flag's;
-    kept in the run's ``env_kwargs`` only when on, so that a run without them reads as before."""
-    options = algos.preset_env_kwargs(algo, args.preset) if args.preset is not None else {}
-    settings = {k: options[k] for k in task_options.WRAPPER_SETTINGS if k in options}
+def _wrapper_settings(args: argparse.Namespace, preset_env: dict[str, Any]) -> dict[str, Any]:
+    """``jaxpg.envs.make``'s wrapper options (``action_scaling``): the preset's (among its
+    ``preset_env``), then the flag's; kept in the run's ``env_kwargs`` only when on, so that a run
+    without them reads as before."""
+    settings = {k: preset_env[k] for k in task_options.WRAPPER_SETTINGS if k in preset_env}
     if args.action_scaling is not None:
         settings["action_scaling"] = args.action_scaling
     return {k: v for k, v in settings.items() if v}
@@ -159,8 +159,9 @@ def plan_fresh(args: argparse.Namespace, experiment: Experiment, module: Any, al
     values.update(_explicit_config(args))
     types = config_io.field_types(config_cls)
     config = config_cls(**{k: config_io.coerce(types[k], v) for k, v in values.items()})
-    env_kwargs = {**experiment.env_kwargs, **_task_options(args, algo, task), **_explicit_env(args)}
-    env_kwargs.update(_wrapper_settings(args, algo))
+    preset_env = algos.preset_env_kwargs(algo, args.preset) if args.preset is not None else {}
+    env_kwargs = {**experiment.env_kwargs, **_task_options(args, task, preset_env), **_explicit_env(args)}
+    env_kwargs.update(_wrapper_settings(args, preset_env))
     for key in ("fidelity", "impl", "max_episode_steps"):
         if getattr(args, key) is not None:
             env_kwargs[key] = getattr(args, key)

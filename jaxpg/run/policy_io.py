@@ -17,6 +17,7 @@ import numpy as np
 
 from jaxpg import train
 from jaxpg.algos import core
+from jaxpg.envs import wrappers
 from jaxpg.run import checkpoint_format, checkpointer, config_io, layout
 
 
@@ -126,8 +127,8 @@ class LoadedPolicy:
             return action
         if self.clip:
             action = jnp.clip(action, low, high)
-        if (low, high) != (self.action_low, self.action_high):  # rescaled: [low, high] onto the task's range
-            action = self.action_low + (action - low) * ((self.action_high - self.action_low) / (high - low))
+        if (low, high) != (self.action_low, self.action_high):  # the run's RescaleAction: [-1, 1] onto the task's
+            action = wrappers.unit_to_range(action, self.action_low, self.action_high)
         return action
 
     def __call__(self, obs: Any) -> np.ndarray:

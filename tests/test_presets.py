@@ -580,6 +580,33 @@ EXPECTED = {
         ),
         ("inverted_pendulum",),
     ),
+    # SB3 RL Zoo's HalfCheetah PPO, with its networks' PyTorch initialisation (ortho_init=False)
+    ("ppo", "half_cheetah_1m"): (
+        dict(
+            num_envs=16,
+            horizon=32,
+            num_minibatches=8,
+            num_epochs=20,
+            lr=2.0633e-05,
+            clip_eps=0.1,
+            gae_lambda=0.92,
+            gamma=0.98,
+            max_grad_norm=0.8,
+            value_coef=0.58096,
+            entropy_coef=0.000401762,
+            log_std_init=-2.0,
+            policy_hidden=(256, 256),
+            value_hidden=(256, 256),
+            policy_activation="relu",
+            value_activation="relu",
+            normalize_observations=True,
+            reward_scaling=0.05,
+            network_init="pytorch",
+            eval_envs=16,
+            eval_every=500,
+        ),
+        ("half_cheetah",),
+    ),
 }
 
 # What every algorithm's presets were called, in the order its module listed them.

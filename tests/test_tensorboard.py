@@ -14,6 +14,7 @@ from jaxpg.run import metrics_log, tensorboard
 tbx = pytest.importorskip("tensorboardX")
 from tensorboardX.crc32c import crc32c as reference_crc32c  # noqa: E402
 from tensorboardX.proto.event_pb2 import Event, SessionLog  # noqa: E402
+from tensorboardX.proto.summary_pb2 import Summary  # noqa: E402
 from tensorboardX.record_writer import RecordWriter  # noqa: E402
 from tensorboardX.summary import scalar as reference_scalar  # noqa: E402
 from tensorboardX.summary import text as reference_text  # noqa: E402
@@ -43,6 +44,17 @@ def test_crc32c_is_castagnolis():
         assert tensorboard.crc32c(data) == reference_crc32c(data)
 
 
+def test_checksums_computed_together_are_tensorboardxs():
+    """``crc32c_many`` (every payload advanced together in NumPy) against tensorboardX's CRC-32C,
+    over payloads of different lengths, empty ones included; ``records`` frames as ``record``."""
+    rng = np.random.default_rng(1)
+    payloads = [rng.integers(0, 256, size, dtype=np.uint8).tobytes() for size in (0, 1, 513, 7, 0, 64, 300, 8)]
+    assert tensorboard.crc32c_many(payloads).tolist() == [reference_crc32c(p) for p in payloads]
+    assert tensorboard.crc32c_many([b"", b""]).tolist() == [0, 0]
+    assert tensorboard.records(payloads) == [tensorboard.record(p) for p in payloads]
+    assert tensorboard.records([]) == []
+
+
 def test_records_are_framed_as_tensorboardx_frames_them(tmp_path):
     payloads = [b"", b"x", bytes(range(256)) * 3]
     path = tmp_path / "reference"
@@ -60,6 +72,21 @@ def test_scalar_events_are_tensorboardxs_bytes(value, step):
     reference = Event(wall_time=wall_time, step=step, summary=reference_scalar("return_mean_policy", value))
     mine = tensorboard.event(wall_time, step, summary=tensorboard.scalar_summary("return_mean_policy", value))
     assert mine == reference.SerializeToString()
+
+
+def test_several_scalars_in_one_event_are_tensorboardxs_summary_of_them():
+    """One event per iteration and seed holds every metric: the ``Summary`` with one ``Value``
+    per tag that TensorFlow's merged summaries wrote."""
+    values = {"return_mean_policy": 3310.5, "kl": 0.0123, "wall_time_s": 61.25, "a/b c": -2.0}
+    reference = Event(
+        wall_time=5.5, step=9, summary=Summary(value=[Summary.Value(tag=k, simple_value=v) for k, v in values.items()])
+    )
+    mine = tensorboard.event(5.5, 9, summary=tensorboard.scalars_summary(values))
+    assert mine == reference.SerializeToString()
+    decoded = Event.FromString(mine)
+    assert [(v.tag, v.simple_value) for v in decoded.summary.value] == [
+        (k, float(np.float32(v))) for k, v in values.items()
+    ]
 
 
 def test_text_file_version_and_session_start_events_are_tensorboardxs_bytes():
@@ -92,9 +119,10 @@ def test_a_runs_event_files_hold_its_metrics(tmp_path):
         texts = [e for e in events if e.summary.value and e.summary.value[0].tag == "config/text_summary"]
         assert [t.summary.value[0].tensor.string_val[0] for t in texts] == [b"gamma 0.995"]
         scalars = {
-            (e.summary.value[0].tag, e.step): e.summary.value[0].simple_value
+            (value.tag, e.step): value.simple_value
             for e in events
-            if e.summary.value and e.summary.value[0].HasField("simple_value")
+            for value in e.summary.value
+            if value.HasField("simple_value")
         }
         expected = {
             (key, i + 1): float(values[i, s])

@@ -8,12 +8,13 @@ the order ``host_callbacks`` lists them, after every block of iterations:
                         block is written; from the first block on, interrupts checkpoint first;
   ``BlockClock.start_block``  the block's duration, wall times and training rate (evaluation,
                         which ran between the block's calls, left out);
-  ``write_metrics``     ``metrics.jsonl`` and TensorBoard;
+  ``write_metrics``     ``metrics.jsonl``, TensorBoard and the curves' history;
   ``show_progress``     the progress bar;
   ``Summaries``         the summary line every ``log_every`` iterations, with its ETA, and the
                         warnings about rolled-back updates and physics overflows;
   ``Checkpoints``       a checkpoint every ``checkpoint_every`` iterations and at the end, then
-                        ``curves.png``;
+                        ``curves.png`` (redrawn at most every ``PLOT_EVERY_S`` seconds, and at
+                        the end);
   ``Videos``            a video of the mean policy every ``video_every`` iterations and at the end;
   ``TimeLimit``         past ``--minutes``: checkpoint, then ``TimeUp``;
   ``StopOnRequest``     after SIGINT / SIGTERM: checkpoint, then ``Stop``;
@@ -23,6 +24,7 @@ the order ``host_callbacks`` lists them, after every block of iterations:
 from __future__ import annotations
 
 import dataclasses
+import math
 import time
 from collections.abc import Callable
 from typing import Any
@@ -63,6 +65,8 @@ class BlockClock:
 
     Attributes:
       block_times: ``(iterations, training seconds)`` of every block so far.
+      host_times: ``(iterations, seconds)`` of the host's work after every block so far (metrics,
+        checkpoints, plots, videos), which the training rate leaves out and the ETA counts.
       eval_seconds, evaluations: the evaluations of the mean policy, which ran between calls.
       samples: env steps of one iteration, all seeds.
       last_iteration: the last iteration of the latest block.
@@ -75,6 +79,7 @@ class BlockClock:
         self.t_start = self.t_last = time.perf_counter()
         self.samples = plan_.config.samples_per_iteration * len(plan_.run.seeds)
         self.block_times: list[tuple[int, float]] = []
+        self.host_times: list[tuple[int, float]] = []
         self.eval_seconds = 0.0
         self.evaluations = 0
         self.last_iteration = plan_.start
@@ -101,8 +106,10 @@ class BlockClock:
 
     def end_host_work(self, ts: Any, metrics: dict[str, np.ndarray], first: int) -> None:
         """The last callback: host work (checkpoints, plots, videos) is left out of the next
-        block's throughput."""
-        self.t_last = time.perf_counter()
+        block's throughput, and counted on its own."""
+        now = time.perf_counter()
+        self.host_times.append((block_length(metrics), now - self.t_last))
+        self.t_last = now
 
     def out_of_time(self, now: float) -> bool:
         """``plan.time_limit_s`` has passed since the end of the first block (which compiles, so
@@ -115,29 +122,37 @@ class BlockClock:
         return now - self.clock_start >= self.plan.time_limit_s
 
     def eta(self, last: int) -> float | None:
-        """Seconds left at the training rate measured after the first block (which compiles), plus
-        the evaluations still due at their measured cost, or the time limit's remainder when that
-        comes first (``--minutes``); ``None`` until a block after the first."""
-        timed = self.block_times[1:]
-        iterations = sum(n for n, _ in timed)
+        """Seconds left at the rate measured after the first block (which compiles): training and
+        the host's work between blocks, plus the evaluations still due at their measured cost, or
+        the time limit's remainder when that comes first (``--minutes``); ``None`` until a block
+        after the first."""
+        iterations = sum(n for n, _ in self.block_times[1:])
         if not iterations:
             return None
+        per_iteration = sum(t for _, t in self.block_times[1:]) / iterations
+        host_iterations = sum(n for n, _ in self.host_times[1:])
+        if host_iterations:
+            per_iteration += sum(t for _, t in self.host_times[1:]) / host_iterations
         config = self.plan.config
         left = self.plan.run.iterations - last
         per_eval = self.eval_seconds / self.evaluations if self.evaluations else 0.0
         every = int(config.eval_every) if getattr(config, "eval_envs", 0) else 0
         evals_left = (left // every if every else 0) + (1 if every else 0)
-        eta = left * sum(t for _, t in timed) / iterations + evals_left * per_eval
+        eta = left * per_iteration + evals_left * per_eval
         if self.plan.time_limit_s is not None and self.clock_start is not None:
             eta = min(eta, max(0.0, self.plan.time_limit_s - (time.perf_counter() - self.clock_start)))
         return eta
 
 
-def write_metrics(writer: metrics_log.MetricsWriter, clock: BlockClock, seeds: list[int]) -> Callback:
-    """Write each block's records (``metrics.jsonl``, TensorBoard), with the clock's wall times."""
+def write_metrics(
+    writer: metrics_log.MetricsWriter, clock: BlockClock, seeds: list[int], history: plotting.CurveHistory
+) -> Callback:
+    """Write each block's records (``metrics.jsonl``, TensorBoard), with the clock's wall times, and
+    keep its curves for ``curves.png``."""
 
     def write(ts: Any, metrics: dict[str, np.ndarray], first: int) -> None:
         writer.write(metrics_log.block_records(metrics, first, seeds, clock.wall_times))
+        history.add_block(metrics, first)
 
     return write
 
@@ -217,25 +232,36 @@ class Summaries:
             )
 
 
+PLOT_EVERY_S = 30.0
+"""Seconds between redraws of ``curves.png`` at periodic checkpoints: drawing thousands of
+iterations of many seeds takes a large part of a second, which a run whose blocks take a fraction
+of a second would otherwise pay at every checkpoint."""
+
+
 @dataclasses.dataclass
 class Checkpoints:
     """A checkpoint every ``checkpoint_every`` iterations and at the end (every process: the save
-    gathers the state; process 0 writes), then ``curves.png``; ``save_now`` for the time limit and
+    gathers the state; process 0 writes), then ``curves.png`` from ``history`` (at most every
+    ``PLOT_EVERY_S`` seconds, always at the end); ``save_now`` for the time limit and
     interrupts. ``last_saved``: the iteration of the latest checkpoint."""
 
     plan: Plan
     checkpoints: Any
     progress: Any
+    history: plotting.CurveHistory | None = None
     last_saved: int = 0
     primary: bool = dataclasses.field(default_factory=is_primary)
+    last_plot: float = -math.inf
+    plotted: int = -1
 
     def __call__(self, ts: Any, metrics: dict[str, np.ndarray], first: int) -> None:
         run, last = self.plan.run, first + block_length(metrics)
         if (run.checkpoint_every and last % run.checkpoint_every == 0) or last >= run.iterations:
-            self.save_now(ts, last, metrics)
+            self.save_now(ts, last, metrics, final=last >= run.iterations)
 
-    def save_now(self, ts: Any, step: int, metrics: dict[str, np.ndarray]) -> None:
-        """Checkpoint ``ts`` as ``step`` (scored by ``metrics``), then redraw the curves."""
+    def save_now(self, ts: Any, step: int, metrics: dict[str, np.ndarray], final: bool = True) -> None:
+        """Checkpoint ``ts`` as ``step`` (scored by ``metrics``), then redraw the curves (when
+        ``final``, or ``PLOT_EVERY_S`` after the last redraw)."""
         run = self.plan.run
         last_metrics = {
             k: float(np.nanmean(v[-1])) if not np.all(np.isnan(v[-1])) else None for k, v in metrics.items()
@@ -248,19 +274,25 @@ class Checkpoints:
             info={"task": run.task, "algo": run.algo, "seeds": run.seeds},
         )
         self.last_saved = step
-        if self.primary:
+        if self.primary and (final or time.perf_counter() - self.last_plot >= PLOT_EVERY_S):
             self.plot()
+            self.plotted = step
 
     def save_if_behind(self, ts: Any, metrics: dict[str, np.ndarray], first: int) -> None:
-        """Checkpoint the block's last iteration unless that is the latest checkpoint already."""
+        """Checkpoint the block's last iteration unless that is the latest checkpoint already, and
+        make sure ``curves.png`` shows it."""
         last = first + block_length(metrics)
         if self.last_saved != last:
             self.save_now(ts, last, metrics)
+        elif self.primary and self.plotted != last:
+            self.plot()
+            self.plotted = last
 
     def plot(self) -> None:
         """Redraw ``curves.png``; a failure is a warning line (a plot must never stop training)."""
+        self.last_plot = time.perf_counter()
         try:
-            plotting.plot_run(self.plan.run_dir, task_score_name=self.plan.env.task_score_name)
+            plotting.plot_run(self.plan.run_dir, task_score_name=self.plan.env.task_score_name, history=self.history)
         except Exception as e:  # noqa: BLE001 - a plot must never stop training
             self.progress.write(f"warning: curves.png not updated ({type(e).__name__}: {e})")
 
@@ -346,11 +378,14 @@ def host_callbacks(
 ) -> HostCallbacks:
     """The callbacks of a run, in the order they must run (module docstring)."""
     clock = BlockClock(plan_, wall_offset)
-    saving = Checkpoints(plan_, checkpoints, progress, last_saved=plan_.start)
+    # A resumed run's curves start from its metrics.jsonl, read once (truncated to plan_.start).
+    records = metrics_log.read_metrics(plan_.run_dir) if plan_.start and is_primary() else []
+    history = plotting.CurveHistory.from_records(records)
+    saving = Checkpoints(plan_, checkpoints, progress, history=history, last_saved=plan_.start)
     callables: list[Callback] = [
         guard_interrupts(interrupts),
         clock.start_block,
-        write_metrics(writer, clock, plan_.run.seeds),
+        write_metrics(writer, clock, plan_.run.seeds, history),
         show_progress(progress, clock),
         Summaries(plan_, clock, progress),
         saving,

@@ -278,7 +278,8 @@ def build_parser(experiment: Experiment, algo: str, config_cls: type | None, con
     run.add_argument(
         "--checkpoint-every",
         type=_positive,
-        help=f"iterations between checkpoints; 0: only at the end (default: {experiment.checkpoint_every})",
+        help=f"iterations between checkpoints; 0: only at the end (default: {experiment.checkpoint_every}, or "
+        "for a long run a twentieth of its iterations, rounded up to a multiple of --log-every)",
     )
     run.add_argument(
         "--keep-checkpoints",

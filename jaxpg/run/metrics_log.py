@@ -6,12 +6,14 @@ from __future__ import annotations
 import json
 import math
 import os
+import time
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from jaxpg.run import tensorboard
 from jaxpg.run.layout import METRICS_FILE, TENSORBOARD_DIR
 from jaxpg.run.tensorboard import EventWriter
 
@@ -154,16 +156,18 @@ class MetricsWriter:
                 self._writers[seed] = EventWriter(logdir, purge_step=purge)
 
     def write(self, records: Sequence[dict[str, Any]]) -> None:
+        """Append ``records`` (``block_records``); TensorBoard gets one event per record holding
+        its scalars, the events of all seeds framed together (``tensorboard.records``)."""
+        seeds, events, now = [], [], time.time()
         for record in records:
             self._file.write(json.dumps(record) + "\n")
-            writer = self._writers.get(record["seed"])
-            if writer is None:
+            if record["seed"] not in self._writers:
                 continue
-            step = record["iteration"]
-            for key, value in record.items():
-                if key in ("iteration", "seed") or value is None:
-                    continue
-                writer.add_scalar(key, value, step=step)
+            scalars = {k: v for k, v in record.items() if k not in ("iteration", "seed") and v is not None}
+            seeds.append(record["seed"])
+            events.append(tensorboard.event(now, record["iteration"], summary=tensorboard.scalars_summary(scalars)))
+        for seed, framed in zip(seeds, tensorboard.records(events), strict=True):
+            self._writers[seed].write_records([framed])
         self._file.flush()
         for writer in self._writers.values():
             writer.flush()

@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import datetime
+import math
 import re
 import time
 from collections.abc import Sequence
@@ -40,6 +41,21 @@ from jaxpg.run.memory import check_memory
 from jaxpg.run.plan import Plan
 from jaxpg.run.pre_flags import PreFlags, parse_pre_flags
 from jaxpg.run.startup_times import StartupTimes
+
+CHECKPOINTS_PER_RUN = 20
+"""A long run's default checkpoint period keeps it to about this many periodic checkpoints."""
+
+
+def default_checkpoint_every(every: int, iterations: int, log_every: int) -> int:
+    """The checkpoint period of a run without ``--checkpoint-every``: ``every`` (the command's
+    default, 50), or for a long run of short iterations (A2C's 12,500 within 1 M env steps) a
+    ``CHECKPOINTS_PER_RUN``-th of its ``iterations``, rounded up to a multiple of ``log_every`` so
+    that blocks stay ``log_every`` long. Each checkpoint holds the whole training state (tens of MB
+    with many seeds) and takes a large part of a second to write."""
+    share = math.ceil(iterations / CHECKPOINTS_PER_RUN)
+    if share <= every:
+        return every
+    return math.ceil(share / log_every) * log_every
 
 
 def _check_task(task: str, experiment: Experiment) -> None:
@@ -202,7 +218,11 @@ def plan_fresh(args: argparse.Namespace, experiment: Experiment, module: Any, al
         iterations=iterations,
         env_kwargs=env_kwargs,
         log_every=log_every,
-        checkpoint_every=experiment.checkpoint_every if args.checkpoint_every is None else args.checkpoint_every,
+        checkpoint_every=(
+            default_checkpoint_every(experiment.checkpoint_every, iterations, log_every)
+            if args.checkpoint_every is None
+            else args.checkpoint_every
+        ),
         keep_checkpoints=3 if args.keep_checkpoints is None else args.keep_checkpoints,
         video_every=experiment.video_every if args.video_every is None else args.video_every,
         preset=args.preset,

@@ -25,6 +25,7 @@ from jaxpg.run import config_io, console, layout, metrics_log
 
 CURVES = (("return_stochastic", "stochastic policy", "-"), ("return_mean_policy", "mean policy", "--"))
 TASK_SCORE_CURVES = (("task_score", "stochastic policy", "-"), ("task_score_mean_policy", "mean policy", "--"))
+CURVE_KEYS = tuple(key for key, _, _ in CURVES + TASK_SCORE_CURVES)
 
 
 def seed_curves(records: Sequence[dict[str, Any]], key: str) -> tuple[np.ndarray, np.ndarray]:
@@ -43,16 +44,63 @@ def seed_curves(records: Sequence[dict[str, Any]], key: str) -> tuple[np.ndarray
     return iterations, values
 
 
+class CurveHistory:
+    """The plotted metrics of a run (``CURVE_KEYS``), kept by the training process block by block
+    so that redrawing ``curves.png`` never re-reads ``metrics.jsonl`` (hundreds of MB for a long
+    run of many seeds).
+
+    ``curve(key)`` is ``(iterations [n], values [n, num_seeds])``, NaN where not measured, as
+    ``seed_curves`` reads it from records.
+    """
+
+    def __init__(self) -> None:
+        self._iterations: list[np.ndarray] = []
+        self._values: dict[str, list[np.ndarray]] = {key: [] for key in CURVE_KEYS}
+
+    @classmethod
+    def from_records(cls, records: Sequence[dict[str, Any]]) -> CurveHistory:
+        """The history of ``metrics.jsonl``'s records (a resumed run's, or a finished run's)."""
+        history = cls()
+        if records:
+            iterations = None
+            for key in CURVE_KEYS:
+                iterations, values = seed_curves(records, key)
+                history._values[key].append(values)
+            history._iterations.append(iterations)
+        return history
+
+    def add_block(self, metrics: dict[str, np.ndarray], first_iteration: int) -> None:
+        """Append a block of ``update`` metrics (``[n]`` or ``[n, num_seeds]`` arrays) whose first
+        iteration has 0-based index ``first_iteration``."""
+        n = len(next(iter(metrics.values())))
+        self._iterations.append(np.arange(first_iteration + 1, first_iteration + n + 1, dtype=np.int64))
+        for key in CURVE_KEYS:
+            values = metrics.get(key)
+            shape = next(iter(metrics.values())).shape
+            column = np.full(shape, np.nan) if values is None else np.asarray(values, np.float64)
+            self._values[key].append(column.reshape(n, -1))
+
+    def curve(self, key: str) -> tuple[np.ndarray, np.ndarray]:
+        """``(iterations [n], values [n, num_seeds])`` of ``key`` (one of ``CURVE_KEYS``)."""
+        if not self._iterations:
+            return np.zeros(0, np.int64), np.zeros((0, 0))
+        return np.concatenate(self._iterations), np.concatenate(self._values[key])
+
+    def measured(self, key: str) -> bool:
+        """Whether any iteration of any seed measured ``key``."""
+        return any(np.isfinite(v).any() for v in self._values[key])
+
+
 def _draw(
     ax: Any,
-    records: Sequence[dict[str, Any]],
+    history: CurveHistory,
     curves: Sequence[tuple[str, str, str]],
     colors: Sequence[Any],
     label: str,
 ) -> bool:
     drawn = False
     for (key, name, style), color in zip(curves, colors, strict=True):
-        iterations, values = seed_curves(records, key)
+        iterations, values = history.curve(key)
         if values.size == 0:
             continue
         rows = ~np.all(np.isnan(values), axis=1)  # iterations where any seed measured it
@@ -71,12 +119,12 @@ def _draw(
 
 
 def plot_runs(
-    runs: Sequence[tuple[str, Sequence[dict[str, Any]]]],
+    runs: Sequence[tuple[str, Sequence[dict[str, Any]] | CurveHistory]],
     path: str | os.PathLike,
     title: str | None = None,
     task_score_name: str | None = None,
 ) -> Path:
-    """Draw ``[(label, records)]`` into ``path`` (png, pdf, svg ...) and return the path."""
+    """Draw ``[(label, records or CurveHistory)]`` into ``path`` (png, pdf, svg ...) and return the path."""
     # Here, not at the top: matplotlib takes 0.4 s to import, which a run pays at its first plot,
     # after its first block, not before its first line.
     import matplotlib
@@ -85,22 +133,21 @@ def plot_runs(
     import matplotlib.pyplot as plt
     from matplotlib.ticker import MaxNLocator
 
+    histories = [(label, h if isinstance(h, CurveHistory) else CurveHistory.from_records(h)) for label, h in runs]
     show_task_score = task_score_name not in (None, "return") and any(
-        r.get("task_score") is not None or r.get("task_score_mean_policy") is not None
-        for _, records in runs
-        for r in records
+        h.measured(key) for _, h in histories for key, _, _ in TASK_SCORE_CURVES
     )
     fig, axes = plt.subplots(
         2 if show_task_score else 1, 1, figsize=(7.5, 7.0 if show_task_score else 4.2), sharex=True, squeeze=False
     )
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
-    for i, (label, records) in enumerate(runs):
+    for i, (label, history) in enumerate(histories):
         # One run: a colour per curve; several: a colour per run (line style tells the curves apart).
-        prefix = f"{label}: " if len(runs) > 1 else ""
-        pair = colors[:2] if len(runs) == 1 else [colors[i % len(colors)]] * 2
-        _draw(axes[0, 0], records, CURVES, pair, prefix)
+        prefix = f"{label}: " if len(histories) > 1 else ""
+        pair = colors[:2] if len(histories) == 1 else [colors[i % len(colors)]] * 2
+        _draw(axes[0, 0], history, CURVES, pair, prefix)
         if show_task_score:
-            _draw(axes[1, 0], records, TASK_SCORE_CURVES, pair, prefix)
+            _draw(axes[1, 0], history, TASK_SCORE_CURVES, pair, prefix)
     axes[0, 0].set_ylabel("episode return")
     if show_task_score:
         axes[1, 0].set_ylabel(str(task_score_name).replace("_", " "))
@@ -128,14 +175,19 @@ def run_title(run: config_io.RunConfig) -> str:
 
 
 def plot_run(
-    run_dir: str | os.PathLike, path: str | os.PathLike | None = None, task_score_name: str | None = None
+    run_dir: str | os.PathLike,
+    path: str | os.PathLike | None = None,
+    task_score_name: str | None = None,
+    history: CurveHistory | None = None,
 ) -> Path:
-    """``curves.png`` of one run directory (from its ``metrics.jsonl``)."""
+    """``curves.png`` of one run directory, from ``history`` (the training process's) or else its
+    ``metrics.jsonl``."""
     run_dir = Path(run_dir)
     run = config_io.RunConfig.load(run_dir)
-    records = metrics_log.read_metrics(run_dir / layout.METRICS_FILE)
+    if history is None:
+        history = CurveHistory.from_records(metrics_log.read_metrics(run_dir / layout.METRICS_FILE))
     out = run_dir / layout.CURVES_FILE if path is None else Path(path)
-    return plot_runs([(run_dir.name, records)], out, title=run_title(run), task_score_name=task_score_name)
+    return plot_runs([(run_dir.name, history)], out, title=run_title(run), task_score_name=task_score_name)
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -307,6 +307,7 @@ def _report_end(plan_: Plan, clock: BlockClock, first_block: FirstBlock | None =
     secs = sum(t for _, t in timed)
     total = sum(t for _, t in clock.block_times)
     total += clock.eval_seconds
+    host = sum(t for _, t in clock.host_times)
     if iters and secs > 0:
         rate = clock.samples * iters / secs
         show(f"done in {total:.1f} s: {secs / iters:.3f} s per iteration, {rate:,.0f} env steps/s after compilation")
@@ -321,6 +322,12 @@ def _report_end(plan_: Plan, clock: BlockClock, first_block: FirstBlock | None =
         show(
             f"evaluation: {clock.evaluations} of the mean policy ({run.config.get('eval_envs')} episodes each), "
             f"{clock.eval_seconds:.1f} s ({share:.1f}% of the training loop's wall clock)"
+        )
+    if host >= 1.0:
+        every = f" every {run.checkpoint_every} iterations" if run.checkpoint_every else ""
+        show(
+            f"host work between blocks: {host:.1f} s beside those {total:.1f} s (metrics.jsonl, TensorBoard, "
+            f"checkpoints{every}, curves.png, videos)"
         )
     if plan_.profile and iters:
         seeds = f", {len(run.seeds)} seeds vmapped" if run.vmap_seeds else ""

@@ -9,8 +9,9 @@ Python callback).
 The format: a file ``events.out.tfevents.<time>.<host>.<pid>`` of records, each ``length``
 (uint64 little-endian), the masked CRC-32C of those 8 bytes (uint32), the data, and the data's
 masked CRC-32C; each record's data is a serialized ``tensorflow.Event`` protocol buffer. The first
-event names the format (``file_version: "brain.Event:2"``); a scalar is an event with a
-``Summary`` holding one ``simple_value``, text one with a string tensor for the ``text`` plugin.
+event names the format (``file_version: "brain.Event:2"``); scalars are an event whose
+``Summary`` holds one ``Value`` (a ``simple_value``) per tag, text one with a string tensor for the
+``text`` plugin.
 ``purge_step`` (a resumed run) adds a ``SessionLog`` START event at that step, from which
 TensorBoard drops the earlier events of higher steps.
 
@@ -21,11 +22,15 @@ TensorBoard drops the earlier events of higher steps.
 
 from __future__ import annotations
 
+import functools
 import os
 import socket
 import struct
 import time
+from collections.abc import Mapping, Sequence
 from pathlib import Path
+
+import numpy as np
 
 FILE_VERSION = "brain.Event:2"
 
@@ -53,6 +58,33 @@ def crc32c(data: bytes) -> int:
     return crc ^ 0xFFFFFFFF
 
 
+def crc32c_many(datas: Sequence[bytes]) -> np.ndarray:
+    """CRC-32C of each of ``datas`` (``[len(datas)]`` uint32), all advanced byte by byte together
+    in NumPy: a block of a many-seed run frames hundreds of events, which one at a time in Python
+    cost about 0.1 ms each."""
+    lengths = np.array([len(d) for d in datas], np.int64)
+    crc = np.full(len(datas), 0xFFFFFFFF, np.uint32)
+    if not len(datas) or not lengths.max():
+        return crc ^ np.uint32(0xFFFFFFFF)
+    width = int(lengths.max())
+    data = np.zeros((len(datas), width), np.uint32)
+    for row, d in enumerate(datas):
+        data[row, : len(d)] = np.frombuffer(d, np.uint8)
+    table = np.asarray(_TABLE, np.uint32)
+    # Rows sorted by length, longest first: at byte p only the rows longer than p advance, a prefix.
+    order = np.argsort(-lengths, kind="stable")
+    data, lengths, crc = data[order], lengths[order], crc[order]
+    active = len(datas)
+    for p in range(width):
+        while lengths[active - 1] <= p:
+            active -= 1
+        state = crc[:active]
+        crc[:active] = table[(state ^ data[:active, p]) & 0xFF] ^ (state >> 8)
+    out = np.empty_like(crc)
+    out[order] = crc ^ np.uint32(0xFFFFFFFF)
+    return out
+
+
 def masked_crc32c(data: bytes) -> int:
     """The record format's checksum: CRC-32C rotated right by 15 bits plus 0xA282EAD8 (mod 2**32)."""
     crc = crc32c(data)
@@ -63,6 +95,20 @@ def record(data: bytes) -> bytes:
     """``data`` framed as one record (length, its checksum, data, its checksum)."""
     length = struct.pack("<Q", len(data))
     return length + struct.pack("<I", masked_crc32c(length)) + data + struct.pack("<I", masked_crc32c(data))
+
+
+def _mask(crc: np.ndarray) -> np.ndarray:
+    """``masked_crc32c``'s rotation and offset, on an array of CRCs."""
+    crc = crc.astype(np.uint64)
+    return ((((crc >> 15) | (crc << 17)) + 0xA282EAD8) & 0xFFFFFFFF).astype(np.uint32)
+
+
+def records(datas: Sequence[bytes]) -> list[bytes]:
+    """Each of ``datas`` framed as ``record`` frames it, the checksums computed together."""
+    lengths = [struct.pack("<Q", len(d)) for d in datas]
+    sums = _mask(crc32c_many([*lengths, *datas]))
+    n = len(datas)
+    return [lengths[i] + struct.pack("<I", sums[i]) + datas[i] + struct.pack("<I", sums[n + i]) for i in range(n)]
 
 
 # Protocol-buffer encoding, the few field kinds an event needs (wire types 0, 1, 2 and 5).
@@ -112,9 +158,24 @@ def event(
     return out
 
 
+@functools.lru_cache(maxsize=1024)
+def _value_prefix(tag: str) -> bytes:
+    """The bytes of a scalar ``Value`` of ``tag`` before its float: the ``Value`` field's key and
+    length, the tag (field 1), the ``simple_value`` key (field 2, wire type 5)."""
+    tag_field = _bytes_field(1, tag.encode())
+    return _varint(1 << 3 | 2) + _varint(len(tag_field) + 5) + tag_field + _varint(2 << 3 | 5)
+
+
 def scalar_summary(tag: str, value: float) -> bytes:
     """A serialized ``Summary`` of one value: ``tag`` (field 1 of ``Value``), ``simple_value`` (2)."""
-    return _bytes_field(1, _bytes_field(1, tag.encode()) + _float_field(2, value))
+    return scalars_summary({tag: value})
+
+
+def scalars_summary(values: Mapping[str, float]) -> bytes:
+    """A serialized ``Summary`` of several scalars, one ``Value`` each in the order given (what
+    TensorFlow's merged summaries wrote: TensorBoard reads every ``Value`` of an event as its own
+    tag's point at the event's step)."""
+    return b"".join(_value_prefix(tag) + struct.pack("<f", value) for tag, value in values.items())
 
 
 def text_summary(tag: str, text: str) -> bytes:
@@ -153,6 +214,16 @@ class EventWriter:
 
     def add_scalar(self, tag: str, value: float, step: int) -> None:
         self._file.write(record(event(time.time(), step, summary=scalar_summary(tag, value))))
+
+    def write_records(self, framed: Sequence[bytes]) -> None:
+        """Append records framed already (``records``)."""
+        self._file.write(b"".join(framed))
+
+    def add_scalars(self, values: Mapping[str, float], step: int) -> None:
+        """Every scalar of ``values`` at ``step`` in one event (one record, one checksum: a run with
+        32 seeds writes about 22 scalars per seed and iteration)."""
+        if values:
+            self._file.write(record(event(time.time(), step, summary=scalars_summary(values))))
 
     def add_text(self, tag: str, text: str, step: int = 0) -> None:
         self._file.write(record(event(time.time(), step, summary=text_summary(tag, text))))

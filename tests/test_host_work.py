@@ -1,0 +1,119 @@
+"""The host's work between blocks stays small for long runs of many seeds: the curves are kept in
+memory (never re-read from ``metrics.jsonl``) and redrawn at most every ``PLOT_EVERY_S`` seconds
+and at the end; a long run's default checkpoint period keeps it to about 20 checkpoints; the ETA
+counts the host's work. No JAX program is compiled here."""
+
+from __future__ import annotations
+
+import types
+
+import numpy as np
+import pytest
+
+from jaxpg.run import callbacks, metrics_log, plotting
+from jaxpg.run.planning import default_checkpoint_every
+
+
+@pytest.mark.parametrize(
+    ("iterations", "log_every", "expected"),
+    [(120, 10, 50), (1000, 10, 50), (1020, 10, 60), (1953, 10, 100), (12500, 10, 630), (12500, 7, 630), (99, 3, 50)],
+)
+def test_a_long_runs_default_checkpoint_period_is_a_twentieth_of_it(iterations, log_every, expected):
+    every = default_checkpoint_every(50, iterations, log_every)
+    assert every == expected
+    assert every == 50 or every % log_every == 0
+
+
+def block(first, returns, task_scores=None):
+    """A block of metrics ``[n, num_seeds]`` starting at 0-based iteration ``first``."""
+    returns = np.asarray(returns, np.float64)
+    out = {"return_stochastic": returns, "kl": np.zeros_like(returns)}
+    if task_scores is not None:
+        out["task_score_mean_policy"] = np.asarray(task_scores, np.float64)
+    return out
+
+
+def test_the_curves_kept_in_memory_are_those_read_from_metrics_jsonl():
+    """``CurveHistory`` built block by block, and continued after a resume from the records of
+    ``metrics.jsonl``, holds what ``seed_curves`` reads from all records."""
+    seeds = [4, 7]
+    blocks = [
+        (0, block(0, [[1.0, 2.0], [np.nan, 3.0]])),
+        (2, block(2, [[4.0, 5.0], [6.0, np.nan]], task_scores=[[0.5, np.nan], [0.7, 0.8]])),
+        (4, block(4, [[7.0, 8.0]])),
+    ]
+    records = [r for first, m in blocks for r in metrics_log.block_records(m, first, seeds, [0.0] * len(m["kl"]))]
+    live = plotting.CurveHistory()
+    for first, m in blocks:
+        live.add_block(m, first)
+    resumed = plotting.CurveHistory.from_records(records[:8])  # iterations 1-4, then 5 live
+    resumed.add_block(blocks[2][1], 4)
+    for key in plotting.CURVE_KEYS:
+        iterations, values = plotting.seed_curves(records, key)
+        for history in (live, resumed):
+            got_iterations, got_values = history.curve(key)
+            np.testing.assert_array_equal(got_iterations, iterations)
+            np.testing.assert_array_equal(got_values, values)
+    assert live.measured("task_score_mean_policy") and not live.measured("return_mean_policy")
+
+
+class FakeCheckpointer:
+    def __init__(self):
+        self.saved = []
+
+    def save(self, step, ts, score, metrics, info):
+        self.saved.append(step)
+
+
+def fake_plan(tmp_path, iterations=100, checkpoint_every=10):
+    run = types.SimpleNamespace(
+        iterations=iterations, checkpoint_every=checkpoint_every, task="t", algo="a", seeds=[0], log_every=10
+    )
+    return types.SimpleNamespace(
+        run=run,
+        run_dir=tmp_path,
+        config=types.SimpleNamespace(eval_envs=0),
+        env=types.SimpleNamespace(task_score_name=None),
+        time_limit_s=None,
+        start=0,
+    )
+
+
+def test_curves_are_redrawn_at_most_every_plot_every_s_and_always_at_the_end(tmp_path, monkeypatch):
+    drawn = []
+    monkeypatch.setattr(plotting, "plot_run", lambda run_dir, task_score_name=None, history=None: drawn.append(history))
+    clock = [0.0]
+    monkeypatch.setattr(callbacks.time, "perf_counter", lambda: clock[0])
+    history = plotting.CurveHistory()
+    saver = callbacks.Checkpoints(fake_plan(tmp_path), FakeCheckpointer(), progress=None, history=history, primary=True)
+    metrics = block(0, [[1.0]] * 10)
+    for first in range(0, 40, 10):  # checkpoints at 10, 20, 30, 40, within one second: one redraw
+        clock[0] += 0.25
+        saver(None, metrics, first)
+    assert saver.checkpoints.saved == [10, 20, 30, 40] and len(drawn) == 1 and drawn[0] is history
+    clock[0] += callbacks.PLOT_EVERY_S
+    saver(None, metrics, 40)  # iteration 50, PLOT_EVERY_S later: redrawn
+    assert len(drawn) == 2
+    saver(None, metrics, 50)  # iteration 60, at once: not redrawn ...
+    assert len(drawn) == 2
+    saver.save_if_behind(None, metrics, 50)  # ... until a time limit or an interrupt stops the run there
+    assert saver.checkpoints.saved == [10, 20, 30, 40, 50, 60] and len(drawn) == 3
+    saver(None, metrics, 90)  # the last iteration (100): always redrawn
+    assert saver.checkpoints.saved[-1] == 100 and len(drawn) == 4
+
+
+def test_the_eta_counts_the_hosts_work_between_blocks(tmp_path, monkeypatch):
+    """Blocks of 10 iterations taking 1 s to train and 3 s of host work: 4 s per block left."""
+    clock = [0.0]
+    monkeypatch.setattr(callbacks.time, "perf_counter", lambda: clock[0])
+    plan = fake_plan(tmp_path, iterations=100)
+    plan.config = types.SimpleNamespace(samples_per_iteration=8, eval_envs=0)
+    timer = callbacks.BlockClock(plan, wall_offset=0.0)
+    metrics = block(0, [[1.0]] * 10)
+    for first in range(0, 30, 10):
+        clock[0] += 1.0
+        timer.start_block(None, metrics, first)
+        clock[0] += 3.0
+        timer.end_host_work(None, metrics, first)
+    assert timer.eta(30) == pytest.approx(7 * 4.0)
+    assert timer.steps_per_s == pytest.approx(80.0)  # the training rate leaves the host's work out

@@ -64,11 +64,12 @@ def test_gymnasium_check_env_accepts_the_single_env(name, gym_id):
 # 27 s in fast physics against 56 s in Gymnasium's, Walker2d's 10 s against 31 s (and about three times
 # as long when both test processes compile at once). Gymnasium's physics of every task is compiled and
 # checked against Gymnasium step by step in test_envs.py's parity runs; the ids' specs, in
-# test_envs.py's check_gymnasium_id.
+# test_envs.py's check_gymnasium_id. HumanoidStandup's id is left out here: its env is Humanoid's
+# class of calls on a model of the same sizes, and its check took as long (48 s on two busy cores).
 SUITE_IDS = {
     task: gym_id
     for task, (gym_id, _) in envs.GYMNASIUM_COUNTERPARTS.items()
-    if task not in ("inverted_pendulum", "cartpole")
+    if task not in ("inverted_pendulum", "cartpole", "humanoid_standup")
 }
 
 

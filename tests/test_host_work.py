@@ -5,6 +5,7 @@ counts the host's work. No JAX program is compiled here."""
 
 from __future__ import annotations
 
+import json
 import types
 
 import numpy as np
@@ -117,3 +118,18 @@ def test_the_eta_counts_the_hosts_work_between_blocks(tmp_path, monkeypatch):
         timer.end_host_work(None, metrics, first)
     assert timer.eta(30) == pytest.approx(7 * 4.0)
     assert timer.steps_per_s == pytest.approx(80.0)  # the training rate leaves the host's work out
+
+
+def test_the_host_work_benchmark_times_each_kind_of_work(tmp_path, capsys):
+    """``benchmarks/throughput.py host`` at tiny sizes: a row per kind of work, and the JSON of them."""
+    from script_loader import load_script
+
+    throughput = load_script("benchmarks/throughput.py")
+    out = tmp_path / "host.json"
+    throughput.host_main(["--seeds", "2", "--keys", "8", "--iterations", "40", "--repeats", "1", "--json", str(out)])
+    printed = capsys.readouterr().out
+    for work in ("records", "per_scalar", "curves", "reread"):
+        assert f"| {work} | " in printed
+    rows = json.loads(out.read_text())["rows"]
+    assert [r["work"] for r in rows] == ["records", "per_scalar", "curves", "reread"]
+    assert all(r["seconds"] > 0 for r in rows)

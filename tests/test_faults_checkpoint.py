@@ -177,9 +177,12 @@ def test_end_of_run_report_never_recommends_a_damaged_best(pristine_run, run_cop
     ckpt.close()
     run = config_io.RunConfig.load(run_copy)
     plan = types.SimpleNamespace(run=run, run_dir=run_copy, profile=False)
-    callbacks = types.SimpleNamespace(block_times=[(2, 1.0)], eval_seconds=0.0, evaluations=0, samples=32)
+    callbacks = types.SimpleNamespace(
+        block_times=[(2, 1.0)], host_times=[(2, 1.5)], eval_seconds=0.0, evaluations=0, samples=32
+    )
     session._report_end(plan, callbacks)
     captured = capsys.readouterr()
     assert "best checkpoint: iteration 2 (return 2.0); evaluate it with --step best" in captured.out, captured.out
+    assert "host work between blocks: 1.5 s beside those 1.0 s" in captured.out, captured.out
     assert "iteration 4" not in captured.out
     assert re.search(rf"warning: checkpoint 4 is damaged \({damage_reason(4, 'state')}", captured.err), captured.err

@@ -1145,6 +1145,7 @@ def host_main(argv: Sequence[str]) -> None:
         env = envs.make(task, impl="jax", **algos.preset_env_kwargs(algo, preset))
         module = algos.get(algo)
         state = train.init_seeds(module.init, seeds, env, module.Config(**algos.preset(algo, preset, task)))
+        (work / "checkpoints").mkdir()
         saver = checkpointer.Checkpointer(work / "checkpoints", keep=2)
         step = [0]
 

@@ -72,11 +72,11 @@ class CurveHistory:
     def add_block(self, metrics: dict[str, np.ndarray], first_iteration: int) -> None:
         """Append a block of ``update`` metrics (``[n]`` or ``[n, num_seeds]`` arrays) whose first
         iteration has 0-based index ``first_iteration``."""
-        n = len(next(iter(metrics.values())))
+        shape = next(iter(metrics.values())).shape
+        n = shape[0]
         self._iterations.append(np.arange(first_iteration + 1, first_iteration + n + 1, dtype=np.int64))
         for key in CURVE_KEYS:
             values = metrics.get(key)
-            shape = next(iter(metrics.values())).shape
             column = np.full(shape, np.nan) if values is None else np.asarray(values, np.float64)
             self._values[key].append(column.reshape(n, -1))
 

@@ -215,12 +215,6 @@ class EventWriter:
         """Append records framed already (``records``)."""
         self._file.write(b"".join(framed))
 
-    def add_scalars(self, values: Mapping[str, float], step: int) -> None:
-        """Every scalar of ``values`` at ``step`` in one event (one record, one checksum: a run with
-        32 seeds writes about 22 scalars per seed and iteration)."""
-        if values:
-            self._file.write(record(event(time.time(), step, summary=scalars_summary(values))))
-
     def add_text(self, tag: str, text: str, step: int = 0) -> None:
         self._file.write(record(event(time.time(), step, summary=text_summary(tag, text))))
 

@@ -275,8 +275,7 @@ class Checkpoints:
         )
         self.last_saved = step
         if self.primary and (final or time.perf_counter() - self.last_plot >= PLOT_EVERY_S):
-            self.plot()
-            self.plotted = step
+            self.plot(step)
 
     def save_if_behind(self, ts: Any, metrics: dict[str, np.ndarray], first: int) -> None:
         """Checkpoint the block's last iteration unless that is the latest checkpoint already, and
@@ -285,12 +284,12 @@ class Checkpoints:
         if self.last_saved != last:
             self.save_now(ts, last, metrics)
         elif self.primary and self.plotted != last:
-            self.plot()
-            self.plotted = last
+            self.plot(last)
 
-    def plot(self) -> None:
-        """Redraw ``curves.png``; a failure is a warning line (a plot must never stop training)."""
-        self.last_plot = time.perf_counter()
+    def plot(self, step: int) -> None:
+        """Redraw ``curves.png`` through iteration ``step``; a failure is a warning line (a plot must
+        never stop training)."""
+        self.last_plot, self.plotted = time.perf_counter(), step
         try:
             plotting.plot_run(self.plan.run_dir, task_score_name=self.plan.env.task_score_name, history=self.history)
         except Exception as e:  # noqa: BLE001 - a plot must never stop training

@@ -15,6 +15,7 @@ import sys
 from pathlib import Path
 
 import imageio.v2 as imageio
+import mujoco
 import numpy as np
 import pytest
 from script_loader import load_script
@@ -448,6 +449,18 @@ def test_env_kwargs_reach_the_task_the_run_and_gymnasium(runs, tmp_path, monkeyp
         gym_env = replay.gymnasium_reference_env("ant", plan.run.env_kwargs)
         assert gym_env.observation_space.shape == (size,), name
     assert not (runs / "planned").exists()
+
+    # Ant's A2C preset trains in Gymnasium's physics; --fidelity, given, wins; the replay's own
+    # env is Gymnasium's whatever the run's fidelity.
+    a2c = ["--algo", "a2c", "--preset", "ant_1m"]
+    for extra, fidelity, integrator in (([], "gymnasium", "RK4"), (["--fidelity", "fast"], "fast", "EULER")):
+        plan = planning.plan([*base, *a2c, *extra], experiment)
+        assert plan.run.env_kwargs["fidelity"] == fidelity, extra
+        assert plan.env.unwrapped.mj_model.opt.integrator == getattr(mujoco.mjtIntegrator, "mjINT_" + integrator)
+        assert plan.env.observation_size == 27, extra
+    assert "fidelity" not in plans["preset"].run.env_kwargs
+    gym_env = replay.gymnasium_reference_env("ant", plan.run.env_kwargs)
+    assert gym_env.observation_space.shape == (27,)
 
     run = dataclasses.replace(plans["flag"].run, env_kwargs={"healthy_z_range": (0.3, 1.0), "impl": "jax"})
     run.save(tmp_path)

@@ -714,7 +714,7 @@ def test_every_preset_builds_a_valid_config_for_its_tasks(key):
     row = presets.TABLE[key]
     config = algos.get(algo).Config(**algos.preset(algo, name))
     assert row.tasks is None or (row.tasks and set(row.tasks) <= set(envs.names())), row.tasks
-    task_only = {k: v for k, v in row.env_kwargs.items() if k not in task_options.WRAPPER_SETTINGS}
+    task_only = {k: v for k, v in row.env_kwargs.items() if k not in task_options.PRESET_ENV_SETTINGS}
     for task in row.tasks or ANY_TASK_CHECKS:
         assert task_options.check_options(task, task_only) == task_only
         config.validate(env(task, tuple(row.env_kwargs.items())))
@@ -724,14 +724,15 @@ def test_every_preset_builds_a_valid_config_for_its_tasks(key):
 
 def test_presets_that_set_task_options():
     """Only the 1 M-step presets of Ant and Humanoid set a task option (the observation without
-    the contact forces, as Ant-v3's effectively was), Humanoid's with its actions in [-1, 1], and
-    the lookup hands out a copy."""
+    the contact forces, as Ant-v3's effectively was), Humanoid's with its actions in [-1, 1], Ant's
+    A2C in Gymnasium's physics, and the lookup hands out a copy."""
     no_contact_forces = {"include_cfrc_ext_in_observation": False}
     humanoid = {**no_contact_forces, "action_scaling": True}
     assert {key: dict(row.env_kwargs) for key, row in presets.TABLE.items() if row.env_kwargs} == {
-        (algo, name): humanoid if name == "humanoid_1m" else no_contact_forces
-        for algo in ("a2c", "ppo")
-        for name in ("ant_1m", "humanoid_1m")
+        ("a2c", "ant_1m"): {**no_contact_forces, "fidelity": "gymnasium"},
+        ("ppo", "ant_1m"): no_contact_forces,
+        ("a2c", "humanoid_1m"): humanoid,
+        ("ppo", "humanoid_1m"): humanoid,
     }
     copy = algos.preset_env_kwargs("ppo", "ant_1m")
     copy["include_cfrc_ext_in_observation"] = True

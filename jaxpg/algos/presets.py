@@ -18,6 +18,7 @@ from typing import Any
 from jaxpg.algos.preset_settings import (
     A2C_MINPY,
     A2C_TIANSHOU,
+    ANT_1M_A2C_ENV,
     ATARI_NETWORKS,
     HUMANOID_1M_ENV,
     LYCEUM_SETTINGS,
@@ -225,13 +226,12 @@ TABLE: Mapping[tuple[str, str], Preset] = MappingProxyType(
         ),
         ("a2c", "minpy"): Preset(overrides=A2C_MINPY),
         # Within 1 M env steps at Tianshou's MuJoCo A2C settings (preset_settings.A2C_TIANSHOU),
-        # contact forces out of the observation; Humanoid's policy acting in [-1, 1], scaled to its
-        # [-0.4, 0.4] (HUMANOID_1M_ENV). Gymnasium v5 medians on one GPU: Ant 2843 at 1 M env steps
-        # (16 seeds; PPO's ant_1m: 2260); Humanoid 4106 at 0.8 M (32 seeds, 25 above Tianshou's 1726;
-        # its end at 1 M not measured yet; 647 at 0.91 M with its actions in Humanoid's units).
-        ("a2c", "ant_1m"): Preset(
-            tasks=("ant",), overrides=A2C_TIANSHOU, env_kwargs=NO_CONTACT_FORCES, iterations=12500
-        ),
+        # contact forces out of the observation; Ant trained in Gymnasium's own physics
+        # (ANT_1M_A2C_ENV), Humanoid's policy acting in [-1, 1], scaled to its [-0.4, 0.4]
+        # (HUMANOID_1M_ENV). Gymnasium v5 medians on one GPU at 1 M env steps: Ant 3551 (16 seeds;
+        # 2420 in the fast physics, PPO's ant_1m 2260); Humanoid 4482 (32 seeds, 29 above
+        # Tianshou's 1726; 647 at 0.91 M with its actions in Humanoid's units).
+        ("a2c", "ant_1m"): Preset(tasks=("ant",), overrides=A2C_TIANSHOU, env_kwargs=ANT_1M_A2C_ENV, iterations=12500),
         ("a2c", "humanoid_1m"): Preset(
             tasks=("humanoid",), overrides=A2C_TIANSHOU, env_kwargs=HUMANOID_1M_ENV, iterations=12500
         ),

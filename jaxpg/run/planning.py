@@ -91,7 +91,7 @@ def _task_options(args: argparse.Namespace, task: str, preset_env: dict[str, Any
         keys = [key for key, _ in args.env_kwargs]
         twice = sorted({key for key in keys if keys.count(key) > 1})
         raise UsageError(f"--env-kwargs gives {', '.join(twice)} more than once")
-    options = {k: v for k, v in preset_env.items() if k not in task_options.WRAPPER_SETTINGS}
+    options = {k: v for k, v in preset_env.items() if k not in task_options.PRESET_ENV_SETTINGS}
     try:
         return task_options.check_options(task, {**options, **given})
     except ValueError as e:
@@ -179,8 +179,11 @@ def plan_fresh(args: argparse.Namespace, experiment: Experiment, module: Any, al
     env_kwargs = {**experiment.env_kwargs, **_task_options(args, task, preset_env), **_explicit_env(args)}
     env_kwargs.update(_wrapper_settings(args, preset_env))
     for key in ("fidelity", "impl", "max_episode_steps"):
-        if getattr(args, key) is not None:
-            env_kwargs[key] = getattr(args, key)
+        value = getattr(args, key)
+        if value is None and key in task_options.PRESET_SIMULATION_SETTINGS:
+            value = preset_env.get(key)
+        if value is not None:
+            env_kwargs[key] = value
     if args.max_episode_steps is not None and args.max_episode_steps < 1:
         raise UsageError(f"--max-episode-steps must be >= 1, got {args.max_episode_steps}")
     num_seeds = len(args.seeds) if args.seeds else 1

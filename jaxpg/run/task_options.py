@@ -23,6 +23,11 @@ BUFFER_SIZES = ("naconmax", "njmax")
 # ``jaxpg.envs.make``'s own keyword arguments that a preset's ``env_kwargs`` may set beside the
 # task options (each has its own flag).
 WRAPPER_SETTINGS = ("action_scaling",)
+# The simulation settings that a preset's ``env_kwargs`` may set too (the physics it was chosen
+# in); the flag, where given, wins.
+PRESET_SIMULATION_SETTINGS = ("fidelity",)
+# What a preset's ``env_kwargs`` may hold that is not a task option.
+PRESET_ENV_SETTINGS = WRAPPER_SETTINGS + PRESET_SIMULATION_SETTINGS
 
 
 def parse_assignment(text: str) -> tuple[str, Any]:

@@ -303,7 +303,11 @@ def build_parser(experiment: Experiment, algo: str, config_cls: type | None, con
         default=None,
         help="time each phase of one iteration before training",
     )
-    run.add_argument("--fidelity", choices=("fast", "gymnasium"), help="MJX physics settings (default: fast)")
+    run.add_argument(
+        "--fidelity",
+        choices=("fast", "gymnasium"),
+        help="MJX physics settings (default: the preset's, else fast; --algo a2c --preset ant_1m trains in gymnasium)",
+    )
     run.add_argument("--impl", choices=("jax", "warp"), help="MJX implementation (default: warp on a GPU, else jax)")
     run.add_argument("--max-episode-steps", type=int, help="time limit of an episode (default: the task's)")
     run.add_argument(

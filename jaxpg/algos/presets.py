@@ -43,7 +43,8 @@ class Preset:
     made for (``None``: any task), the ``iterations`` a run of the preset takes by default on
     the command line (``None``: the command's own default) and the task options it sets
     (``env_kwargs``, keyword arguments of ``jaxpg.envs.make`` with Gymnasium's meaning, which the
-    Gymnasium replay passes on too)."""
+    Gymnasium replay passes on too; besides them the policy's ``action_scaling`` and the physics
+    ``fidelity`` it was chosen in, which the command line's flags override)."""
 
     overrides: Mapping[str, Any]
     tasks: tuple[str, ...] | None = None

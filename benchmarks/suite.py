@@ -566,6 +566,13 @@ def play_physics(job: tuple[str, int, str, str, int]) -> dict[str, Any]:
             "early": int((lengths < limit).sum()), "mean": float(returns.mean()), "opt": physics}  # fmt: skip
 
 
+def played_line(result: dict[str, Any], done: int, total: int) -> str:
+    """One progress line for a finished ``play_physics`` job: ``[done/total] RUN seed S, VARIANT,
+    ACTION: MEAN (E early)``."""
+    where = f"{Path(result['run_dir']).name} seed {result['seed']}, {result['variant']}, {result['action']}"
+    return f"[{done}/{total}] {where}: {result['mean']:.0f} ({result['early']} early)"
+
+
 def physics_main(argv: Sequence[str]) -> None:
     parser = argparse.ArgumentParser(prog="suite.py physics", description=PHYSICS_DOC, formatter_class=RAW)
     parser.add_argument("run_dirs", nargs="+", metavar="RUN_DIR")
@@ -584,8 +591,11 @@ def physics_main(argv: Sequence[str]) -> None:
     seeds = {run_dir: policy_io.load_run_config(run_dir).seeds for run_dir in args.run_dirs}
     plays = [(v, a) for v in args.variants for a in args.actions]
     jobs = [(r, s, v, a, args.episodes) for r in args.run_dirs for s in seeds[r] for v, a in plays]
+    results = []
     with multiprocessing.get_context("spawn").Pool(args.workers) as pool:
-        results = pool.map(play_physics, jobs, chunksize=1)
+        for result in pool.imap(play_physics, jobs, chunksize=1):  # in the jobs' order, each as it is done
+            results.append(result)
+            print(played_line(result, len(results), len(jobs)), file=sys.stderr, flush=True)
     name = {(v, a): v if len(args.actions) == 1 else f"{v}, {a}" for v, a in plays}
     by = {(r["run_dir"], r["seed"], name[r["variant"], r["action"]]): r for r in results}
     unique = len({Path(r).name for r in seeds}) == len(seeds)

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from pathlib import Path
 
 import jax
 import jax.numpy as jnp
@@ -177,3 +178,6 @@ def test_suite_physics_replays_either_action(pendulum_run, clipped_mean_run):
         policy = jaxpg.load_policy(run_dir, clipped_mean=clipped_mean)
         returns, _, _ = replay.evaluate_gymnasium(policy, "inverted_pendulum", {}, 2)
         assert played["action"] == action and played["returns"] == returns.tolist()
+    # The progress line printed as each job finishes names the job and its result.
+    job = f"{Path(clipped_mean_run).name} seed 0, gymnasium, mode"
+    assert suite.played_line(played, 3, 4) == f"[3/4] {job}: {played['mean']:.0f} ({played['early']} early)"

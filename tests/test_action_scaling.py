@@ -109,7 +109,7 @@ def test_humanoids_1m_presets_act_in_the_unit_box():
         options = jaxpg.algos.preset_env_kwargs(algo, "humanoid_1m")
         assert options == {"include_cfrc_ext_in_observation": False, "action_scaling": True}
         assert jaxpg.algos.preset(algo, "humanoid_1m", "humanoid")["log_std_init"] == -0.5
-        task_only = {k: v for k, v in options.items() if k not in task_options.WRAPPER_SETTINGS}
+        task_only = {k: v for k, v in options.items() if k not in task_options.PRESET_ENV_SETTINGS}
         assert task_options.check_options("humanoid", task_only) == {"include_cfrc_ext_in_observation": False}
 
 

@@ -453,13 +453,14 @@ def test_env_kwargs_reach_the_task_the_run_and_gymnasium(runs, tmp_path, monkeyp
     # Ant's A2C preset trains in Gymnasium's physics; --fidelity, given, wins; the replay's own
     # env is Gymnasium's whatever the run's fidelity.
     a2c = ["--algo", "a2c", "--preset", "ant_1m"]
+    a2c_plans = {}
     for extra, fidelity, integrator in (([], "gymnasium", "RK4"), (["--fidelity", "fast"], "fast", "EULER")):
-        plan = planning.plan([*base, *a2c, *extra], experiment)
+        plan = a2c_plans[fidelity] = planning.plan([*base, *a2c, *extra], experiment)
         assert plan.run.env_kwargs["fidelity"] == fidelity, extra
         assert plan.env.unwrapped.mj_model.opt.integrator == getattr(mujoco.mjtIntegrator, "mjINT_" + integrator)
         assert plan.env.observation_size == 27, extra
     assert "fidelity" not in plans["preset"].run.env_kwargs
-    gym_env = replay.gymnasium_reference_env("ant", plan.run.env_kwargs)
+    gym_env = replay.gymnasium_reference_env("ant", a2c_plans["gymnasium"].run.env_kwargs)
     assert gym_env.observation_space.shape == (27,)
 
     run = dataclasses.replace(plans["flag"].run, env_kwargs={"healthy_z_range": (0.3, 1.0), "impl": "jax"})

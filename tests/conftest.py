@@ -27,15 +27,15 @@ from jaxpg.run.checkpointer import Checkpointer
 #   251 ms); Pong's A2C block (4 seeds x 50 iterations, test_pong's learning test) in 6.2 s against
 #   12.0 s, running in 7.41 s against 7.39 s; Humanoid's command-line smoke run took 52.6 s against 60.3 s.
 # Both decide how XLA generates code, not what it computes, though rounding may differ.
-# Tried and rejected (2 cores, 2026-12-01): LLVM's level 0 compiled Pusher's smoke-run block in 19.8 s
-# against 25.6 s, but the pendulum's NPG and PPO learning tests ran 33.9 and 35.2 s against 26.4 and 15.6 s;
-# JAX's persistent cache shared by the whole session (and the notebooks' kernels) found nothing to reuse:
-# notebook 05 added 381 programs to notebook 01's 159, and test_envs.py with and without it, side by
-# side on one core each, had run the same number of tests (62, 63 of 98) after 20 minutes.
 # Set before JAX starts a backend, which reads XLA_FLAGS once (the imports above start none). Only
 # those this XLA knows: an unknown flag ends the process, and XLA in jaxlib 0.11.2 has no
 # xla_cpu_use_fusion_emitters (every test failed there). Tried once, in pytest's first process; the
 # xdist workers and every process a test starts inherit the result.
+# Tried and rejected (2 cores, 2026-12-01): LLVM's level 0 compiled Pusher's smoke-run block in 19.8 s
+# against 25.6 s, but the pendulum's NPG and PPO learning tests ran 33.9 and 35.2 s against 26.4 and 15.6 s.
+# JAX's persistent cache shared by the whole session (and the notebooks' kernels) saved nothing measurable:
+# notebook 05 added 381 programs to notebook 01's 159, and test_envs.py with and without it, side by
+# side on one core each, had run the same number of tests (62, 63 of 98) after 20 minutes.
 
 TEST_XLA_OPTIONS = (("xla_cpu_use_fusion_emitters", "false"), ("xla_backend_optimization_level", "1"))
 if os.environ.get("JAXPG_TEST_XLA_OPTIONS_SET") != "1":

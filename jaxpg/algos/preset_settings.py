@@ -239,7 +239,8 @@ TRPO_TIANSHOU: Mapping[str, Any] = MappingProxyType(
 # place of Euler and 4 solver iterations). Ant is the suite's task whose model asks for RK4 at a
 # large step and touches the floor with four legs. Seeds 0-15 in one program on one GPU, each
 # final policy replayed in Gymnasium: median 3551 (10 of 16 above Tianshou's 3485) against 2420 in
-# the fast physics (0 of 16; p = 0.0003), at about 3.7 times the training time (BENCHMARKS.md).
+# the fast physics (0 of 16; p = 0.0003), at about 3.7 times the training time; over 32 seeds in
+# two programs 3488, 16 of 32 above 3485 (BENCHMARKS.md).
 ANT_1M_A2C_ENV: Mapping[str, Any] = MappingProxyType({**NO_CONTACT_FORCES, "fidelity": "gymnasium"})
 
 # Humanoid's task options for its 1 M-step presets: the contact forces out of the observation, and

@@ -229,8 +229,8 @@ TABLE: Mapping[tuple[str, str], Preset] = MappingProxyType(
         # Within 1 M env steps at Tianshou's MuJoCo A2C settings (preset_settings.A2C_TIANSHOU),
         # contact forces out of the observation; Ant trained in Gymnasium's own physics
         # (ANT_1M_A2C_ENV), Humanoid's policy acting in [-1, 1], scaled to its [-0.4, 0.4]
-        # (HUMANOID_1M_ENV). Gymnasium v5 medians on one GPU at 1 M env steps: Ant 3551 (16 seeds;
-        # 2420 in the fast physics, PPO's ant_1m 2260); Humanoid 4482 (32 seeds, 29 above
+        # (HUMANOID_1M_ENV). Gymnasium v5 medians on one GPU at 1 M env steps: Ant 3488 (32 seeds;
+        # seeds 0-15: 3551 against 2420 in the fast physics, PPO's ant_1m 2260); Humanoid 4482 (32 seeds, 29 above
         # Tianshou's 1726; 647 at 0.91 M with its actions in Humanoid's units).
         ("a2c", "ant_1m"): Preset(tasks=("ant",), overrides=A2C_TIANSHOU, env_kwargs=ANT_1M_A2C_ENV, iterations=12500),
         ("a2c", "humanoid_1m"): Preset(

@@ -24,7 +24,7 @@ from jaxpg.run.checkpointer import Checkpointer
 #   (jaxpg itself picks them only for Pusher's programs: jaxpg.envs.compile_options.)
 # - LLVM's optimisation level 1 in place of XLA's default: Hopper's NPG update (16 envs x 64 steps)
 #   compiled in 16.9 and 18.2 s against 24.6 and 23.0 s and ran at the same speed (208-243 ms against
-#   251 ms); Pong's A2C block (4 seeds x 50 iterations, test_pong's learning test) in 6.2 s against
+#   251 ms); Pong's A2C block (4 seeds x 50 iterations, as test_pong's learning test then had) in 6.2 s against
 #   12.0 s, running in 7.41 s against 7.39 s; Humanoid's command-line smoke run took 52.6 s against 60.3 s.
 # Both decide how XLA generates code, not what it computes, though rounding may differ.
 # Set before JAX starts a backend, which reads XLA_FLAGS once (the imports above start none). Only
@@ -36,6 +36,8 @@ from jaxpg.run.checkpointer import Checkpointer
 # JAX's persistent cache shared by the whole session (and the notebooks' kernels) saved nothing measurable:
 # notebook 05 added 381 programs to notebook 01's 159, and test_envs.py with and without it, side by
 # side on one core each, had run the same number of tests (62, 63 of 98) after 20 minutes.
+# Tried and rejected (2 cores, 2026-12-02): xla_llvm_disable_expensive_passes on top of both options: Pusher's smoke
+# run 48.2 s against 53.2 s, but the pendulum's NPG and PPO learning tests 34.4 and 20.8 s against 30.2 and 19.3 s.
 
 TEST_XLA_OPTIONS = (("xla_cpu_use_fusion_emitters", "false"), ("xla_backend_optimization_level", "1"))
 if os.environ.get("JAXPG_TEST_XLA_OPTIONS_SET") != "1":

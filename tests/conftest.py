@@ -38,6 +38,10 @@ from jaxpg.run.checkpointer import Checkpointer
 # side on one core each, had run the same number of tests (62, 63 of 98) after 20 minutes.
 # Tried and rejected (2 cores, 2026-12-02): xla_llvm_disable_expensive_passes on top of both options: Pusher's smoke
 # run 48.2 s against 53.2 s, but the pendulum's NPG and PPO learning tests 34.4 and 20.8 s against 30.2 and 19.3 s.
+# Tried and undone (2026-12-02): Pusher planned, not trained, from the command line (its smoke run took 97-104 s in
+# the suite). test_envs.py's first parity test then waited 136 s for the float64 parity worker, against 50 s: the smoke
+# runs overlap that worker, so the module took no less time. The suite took 1987 s against 1943 s before both this
+# and Pong's cut to three seeds (and 2087 s with a per-test timing plugin): the machine's drift hides either.
 
 TEST_XLA_OPTIONS = (("xla_cpu_use_fusion_emitters", "false"), ("xla_backend_optimization_level", "1"))
 if os.environ.get("JAXPG_TEST_XLA_OPTIONS_SET") != "1":

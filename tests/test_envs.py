@@ -639,15 +639,12 @@ def test_make_unknown_name_lists_known_names():
     assert envs.names() == sorted(expected)
 
 
-# Humanoid, HumanoidStandup and Pusher are left out of the command-line smoke run: their training
-# programs took the longest (Humanoid's 95-106 s each, Pusher's 97-104 s, on two busy cores; the
-# others 22-45 s) and run the same code as the other tasks' on a larger model. They are planned from
-# the command line instead (test_command_line_plans_a_task_run); their steps run through Gymnasium's
-# checker (test_gymnasium_api.py), Humanoid's reset state is checked against MuJoCo's
-# (test_humanoid_reset_state_matches_mujocos_forward_pass), Pusher's whole episode against
-# Gymnasium's in float64 (test_gymnasium_parity_whole_episode) and its kinematics compiled as its
-# training programs are (test_pusher_programs_are_compiled_with_the_legacy_cpu_emitters).
-SMOKE_TASKS = tuple(task for task in EXACT_MODEL_TASKS if task not in ("humanoid", "humanoid_standup", "pusher"))
+# Humanoid and HumanoidStandup are left out of the command-line smoke run: their training programs
+# took the longest (95-106 s each on two busy cores) and run the same code as the other tasks' on a
+# larger model. They are planned from the command line instead (test_command_line_plans_a_task_run);
+# Humanoid's step runs through Gymnasium's checker (test_gymnasium_api.py) and its reset state is
+# checked against MuJoCo's (test_humanoid_reset_state_matches_mujocos_forward_pass).
+SMOKE_TASKS = tuple(task for task in EXACT_MODEL_TASKS if task not in ("humanoid", "humanoid_standup"))
 
 
 def check_gymnasium_id(task: str) -> None:

@@ -1441,6 +1441,24 @@ def humanoid_parity(task: str, env, reset, step, seeds: int = PARITY_SEEDS) -> d
     return result
 
 
+def state_type_changes(env, reset, step) -> list[str]:
+    """The leaves of the ``State`` whose type (shape, dtype, weak type) ``step`` changes from what
+    ``reset`` gave, as ``"path: before -> after"``. Any such leaf makes a jitted ``step`` compile
+    twice, once for the reset state and once for every later one (a float32 zero in a reset's
+    metrics against the float64 the step computes with ``JAX_ENABLE_X64=1`` cost 18-27 s of
+    compilation a task on two cores). Compiles ``reset`` and ``step`` for seed 0's reset state."""
+    before = reset(jax.random.key(0))
+    after = step(before, jnp.zeros(env.action_size))
+    if jax.tree.structure(before) != jax.tree.structure(after):
+        return [f"structure: {jax.tree.structure(before)} -> {jax.tree.structure(after)}"]
+    leaves = zip(jax.tree_util.tree_leaves_with_path(before), jax.tree.leaves(after), strict=True)
+    return [
+        f"{jax.tree_util.keystr(path)}: {jax.typeof(a)} -> {jax.typeof(b)}"
+        for (path, a), b in leaves
+        if jax.typeof(a) != jax.typeof(b) or jax.typeof(a).weak_type != jax.typeof(b).weak_type
+    ]
+
+
 def parity_worker_main(tasks: list[str]) -> dict:
     """The float64 worker's findings for each of ``tasks``: ``gymnasium_parity`` ("random"),
     ``time_limit_parity`` ("time_limit") and ``coincidence_parity`` ("coincidence"), all on one
@@ -1452,12 +1470,13 @@ def parity_worker_main(tasks: list[str]) -> dict:
     for task in tasks:
         started = time.process_time()
         env, reset, step = _parity_env(task)
+        changed = state_type_changes(env, reset, step)
         if task in CONTACT_FRAME_TASKS:
-            results[task] = contact_frame_parity(task, env, reset, step)
+            results[task] = contact_frame_parity(task, env, reset, step) | {"state_types_changed": changed}
             results[task]["cpu_seconds"] = time.process_time() - started
             continue
         if task in WITHOUT_TERMINATION:
-            results[task] = {"episode": episode_parity(task, env, reset, step)}
+            results[task] = {"episode": episode_parity(task, env, reset, step), "state_types_changed": changed}
             results[task]["cpu_seconds"] = {"episode": time.process_time() - started}
             continue
         if task in HUMANOID_TASKS:
@@ -1467,7 +1486,12 @@ def parity_worker_main(tasks: list[str]) -> dict:
         seconds = {"random": time.process_time() - started}
         if task == "humanoid_standup":  # never terminates: the time limit alone, at the episode part's end
             full = {"truncation": coincidence_parity(task, env, reset, step, STANDUP_EPISODE_STEPS)}
-            results[task] = {"random": random, "time_limit": full, "cpu_seconds": seconds}
+            results[task] = {
+                "random": random,
+                "time_limit": full,
+                "cpu_seconds": seconds,
+                "state_types_changed": changed,
+            }
             continue
         if task in WITHOUT_STABILISING_POLICY:
             full = {"truncation": coincidence_parity(task, env, reset, step, random["episode_lengths"][0] - 1)}
@@ -1475,7 +1499,13 @@ def parity_worker_main(tasks: list[str]) -> dict:
             full = time_limit_parity(task, env, reset, step)
         seconds["time_limit"] = time.process_time() - started - seconds["random"]
         coincidence = coincidence_parity(task, env, reset, step, random["episode_lengths"][0])
-        results[task] = {"random": random, "time_limit": full, "coincidence": coincidence, "cpu_seconds": seconds}
+        results[task] = {
+            "random": random,
+            "time_limit": full,
+            "coincidence": coincidence,
+            "cpu_seconds": seconds,
+            "state_types_changed": changed,
+        }
     return results
 
 
@@ -1521,6 +1551,16 @@ def parity_results(parity_worker) -> dict:
     err.seek(0)
     assert proc.returncode == 0, err.read()[-4000:]
     return json.loads(out.read().strip().splitlines()[-1])
+
+
+@pytest.mark.parametrize("task", list(GYM_IDS))
+def test_gymnasium_parity_step_keeps_the_reset_state_types(task, parity_results):
+    """With ``JAX_ENABLE_X64=1`` (the float64 worker), ``step`` returns a ``State`` of the same
+    structure and leaf types as ``reset``'s, so that a jitted step compiles once
+    (``state_type_changes``). In float32 the two always agreed; in float64 the reset metrics of
+    seven tasks were float32 zeros where the step computed float64, and every jitted step compiled
+    twice."""
+    assert parity_results[task]["state_types_changed"] == [], parity_results[task]["state_types_changed"]
 
 
 @pytest.mark.parametrize("task", TERMINATING)

@@ -166,7 +166,7 @@ class Ant(MjxEnv):
         data = self.physics_state(qpos, qvel)
         # What mj_forward would give the first step's x_before: a free body's xpos is its joint's position.
         data = data.replace(xpos=data.xpos.at[TORSO].set(data.qpos[:3]))
-        zero = jnp.zeros((), jnp.float32)
+        zero = jnp.zeros((), data.qpos.dtype)  # the dtype of the step's metrics: one compiled step
         metrics = {
             "reward_forward": zero,
             "reward_ctrl": zero,

@@ -65,7 +65,7 @@ class HalfCheetah(MjxEnv):
         qpos = self.init_qpos + jax.random.uniform(kq, (self.nq,), minval=-s, maxval=s)
         qvel = self.init_qvel + s * jax.random.normal(kv, (self.nv,))
         data = self.physics_state(qpos, qvel)
-        zero = jnp.zeros((), jnp.float32)
+        zero = jnp.zeros((), data.qpos.dtype)  # the dtype of the step's metrics: one compiled step
         metrics = {
             "reward_forward": zero,
             "reward_ctrl": zero,

@@ -83,7 +83,7 @@ class Hopper(MjxEnv):
         qpos = self.init_qpos + jax.random.uniform(kq, (self.nq,), minval=-s, maxval=s)
         qvel = self.init_qvel + jax.random.uniform(kv, (self.nv,), minval=-s, maxval=s)
         data = self.physics_state(qpos, qvel)
-        zero = jnp.zeros((), jnp.float32)
+        zero = jnp.zeros((), data.qpos.dtype)  # the dtype of the step's metrics: one compiled step
         metrics = {
             "reward_forward": zero,
             "reward_ctrl": zero,
@@ -101,7 +101,7 @@ class Hopper(MjxEnv):
         x_velocity = (data.qpos[0] - x_before) / self.dt
         healthy = self.is_healthy(data.qpos, data.qvel)
         forward = self.forward_reward_weight * x_velocity
-        survive = self.healthy_reward * healthy.astype(jnp.float32)
+        survive = self.healthy_reward * healthy.astype(data.qpos.dtype)
         ctrl_cost = self.ctrl_cost_weight * jnp.sum(jnp.square(action))
         reward = forward + survive - ctrl_cost
         metrics = {

@@ -105,7 +105,7 @@ class Reacher(MjxEnv):
         # The observation reads the bodies' positions: the kinematic pass computes them.
         data = self.physics_state(qpos, qvel, kinematics=True)
         _, terms = self.reward(data, jnp.zeros(self.action_size))
-        zero = jnp.zeros((), jnp.float32)
+        zero = jnp.zeros((), data.qpos.dtype)  # the dtype of the step's metrics: one compiled step
         metrics = {"reward_dist": zero, "reward_ctrl": zero, "task_score": terms["task_score"]}
         return data, self.observation(data), metrics
 

@@ -66,7 +66,7 @@ class Swimmer(MjxEnv):
         qpos = self.init_qpos + jax.random.uniform(kq, (self.nq,), minval=-s, maxval=s)
         qvel = self.init_qvel + jax.random.uniform(kv, (self.nv,), minval=-s, maxval=s)
         data = self.physics_state(qpos, qvel)
-        zero = jnp.zeros((), jnp.float32)
+        zero = jnp.zeros((), data.qpos.dtype)  # the dtype of the step's metrics: one compiled step
         metrics = {
             "reward_forward": zero,
             "reward_ctrl": zero,

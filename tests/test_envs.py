@@ -837,7 +837,9 @@ def test_warp_matches_jax_on_hopper():
         env = AutoReset(task)
         if impl == "warp":
             assert env.unwrapped._data0._impl.naconmax == 16 * WARP_ENVS
-        states = jax.vmap(env.reset)(jax.random.split(jax.random.key(0), WARP_ENVS))
+        # A jitted reset: eagerly computed states are partly uncommitted to a device, and a jitted step
+        # fed those first and its own (committed) outputs after compiles twice.
+        states = jax.jit(jax.vmap(env.reset))(jax.random.split(jax.random.key(0), WARP_ENVS))
         step = jax.jit(jax.vmap(env.step))
         qpos, done = [], []
         for key in jax.random.split(jax.random.key(1), WARP_STEPS):
@@ -866,7 +868,7 @@ def test_warp_ant_computes_contact_forces():
     for impl in ("jax", "warp"):
         env = envs.make_task("ant", impl=impl, max_batch=WARP_ENVS)
         assert (impl == "warp") == bool(getattr(env.mjx_model.opt._impl, "run_rne_postconstraint", False))
-        states = jax.vmap(env.reset)(jax.random.split(jax.random.key(0), WARP_ENVS))
+        states = jax.jit(jax.vmap(env.reset))(jax.random.split(jax.random.key(0), WARP_ENVS))  # compiles one step
         step = jax.jit(jax.vmap(env.step))
         obs, cost = [], []
         for key in jax.random.split(jax.random.key(1), 12):

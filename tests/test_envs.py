@@ -609,9 +609,11 @@ def test_evaluate_rollout_matches_a_python_loop_of_the_mean_policy(pendulum_case
     eps = policy_episodes.play_episodes(env, ts.policy, ts.params, ts.obs_stats, seed=3, num_episodes=2, horizon=8)
 
     reset_key, _ = jax.random.split(jax.random.PRNGKey(3))
-    step = jax.jit(env.step)
+    # A jitted reset, so that the step compiles once: an eager reset's state is partly uncommitted to a
+    # device, and a jitted step fed it, then its own (committed) outputs, compiles twice.
+    reset, step = jax.jit(env.reset), jax.jit(env.step)
     for i, k in enumerate(jax.random.split(reset_key, 2)):
-        state, qpos, total, score = env.reset(k), [], 0.0, None
+        state, qpos, total, score = reset(k), [], 0.0, None
         qpos.append(np.asarray(state.data.qpos))
         while not bool(state.done):
             state = step(state, ts.policy.mode(ts.params, ts.obs_stats.normalize(state.obs[None]))[0])
@@ -837,8 +839,8 @@ def test_warp_matches_jax_on_hopper():
         env = AutoReset(task)
         if impl == "warp":
             assert env.unwrapped._data0._impl.naconmax == 16 * WARP_ENVS
-        # A jitted reset: eagerly computed states are partly uncommitted to a device, and a jitted step
-        # fed those first and its own (committed) outputs after compiles twice.
+        # A jitted reset, so that each impl's step compiles once (the reason is in
+        # test_evaluate_rollout_matches_a_python_loop_of_the_mean_policy).
         states = jax.jit(jax.vmap(env.reset))(jax.random.split(jax.random.key(0), WARP_ENVS))
         step = jax.jit(jax.vmap(env.step))
         qpos, done = [], []

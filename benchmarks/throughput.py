@@ -36,7 +36,6 @@ import optax
 
 from jaxpg import envs, returns
 from jaxpg import value as value_lib
-from jaxpg.envs.mjx_env import MjxEnv, warp_available
 from jaxpg.policies import ValueFunction
 
 RAW = argparse.RawDescriptionHelpFormatter
@@ -85,7 +84,7 @@ def make_runner(variant: str, name: str, kwargs: dict, batch: int, horizon: int)
     ``kwargs``; ``run`` takes ``horizon`` steps of ``batch`` envs and is the function timed."""
     task = envs.make_task(name, **kwargs)
     if variant == "raw":
-        if isinstance(task, MjxEnv):
+        if envs.is_mjx(name):
             init_one = lambda key: task.reset(key).data
             step_one = task.physics_step
         else:  # CartPole: the dynamics on the bare state vector
@@ -93,7 +92,7 @@ def make_runner(variant: str, name: str, kwargs: dict, batch: int, horizon: int)
             step_one = task.dynamics
     else:
         env = task if variant == "task" else envs.AutoReset(envs.make(name, **kwargs))
-        if variant == "env_all" and isinstance(task, MjxEnv):
+        if variant == "env_all" and envs.is_mjx(name):
             env.unwrapped.select_physics = lambda pick_new, new, old: old.where(pick_new, new)
         init_one, step_one = env.reset, env.step
 
@@ -146,6 +145,14 @@ def task_kwargs(name: str, fidelity: str, impl: str, batch: int) -> dict:
     kwargs: dict[str, Any] = {"fidelity": fidelity, "impl": impl}
     # MuJoCo Warp's buffers serve the whole batch: the registry sizes them (as envs.make(batch=...)).
     return {**kwargs, **envs.warp_capacity(name, kwargs, batch)}
+
+
+def warp_available() -> bool:
+    """Whether MJX steps with MuJoCo Warp here; imports MJX, so asked only when warp is asked for
+    (a CartPole run imports no MuJoCo)."""
+    from jaxpg.envs.mjx_env import warp_available as mjx_has_warp
+
+    return mjx_has_warp()
 
 
 def configurations(args: argparse.Namespace) -> list[tuple[str, str, str]]:

@@ -140,6 +140,16 @@ def test_the_command_lines_import_no_simulator_plots_or_checkpoints_and_touch_no
     assert imported_in_a_fresh_interpreter("jaxpg.run.plotting", "'jax' in sys.modules") == "False"
 
 
+def test_tasks_without_mujoco_import_none():
+    """CartPole and Pong, made with a batch as the command lines make them, leave MuJoCo (with MJX
+    and MuJoCo Warp: seconds to import) unimported: ``envs.is_mjx`` tells an MJX task from another
+    without importing MJX, and ``envs.warp_capacity`` asks it. An MJX task is one."""
+    made = "[envs.make(name, batch=16) is not None for name in ('cartpole', 'pong')]"
+    asked = "[envs.is_mjx(name) for name in ('cartpole', 'pong')], envs.warp_capacity('pong', {}, 16)"
+    check = f"{made}, {asked}, 'mujoco' in sys.modules, envs.is_mjx('hopper')"
+    assert imported_in_a_fresh_interpreter("jaxpg.envs as envs", check) == "[True, True] [False, False] {} False True"
+
+
 MAX_LINES = 400
 
 

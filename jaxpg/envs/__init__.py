@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import functools
 import importlib
+import sys
 from typing import Any
 
 from jaxpg.envs.base import Env, State
@@ -79,10 +80,20 @@ def warp_capacity(name: str, env_kwargs: dict[str, Any], batch: int) -> dict[str
     """``{"max_batch": batch}`` (at least MJX's default 8192) for an MJX task on MuJoCo Warp, whose
     contact buffer is sized for the whole vmapped batch (``MjxEnv``); ``{}`` otherwise. Pass it to
     ``make`` with the task's other ``env_kwargs`` when ``batch`` envs will step together."""
-    from jaxpg.envs.mjx_env import MjxEnv, default_impl
+    if not is_mjx(name):
+        return {}
+    warp = (env_kwargs.get("impl") or sys.modules["jaxpg.envs.mjx_env"].default_impl()) == "warp"
+    return {"max_batch": max(batch, 8192)} if warp else {}
 
-    warp = (env_kwargs.get("impl") or default_impl()) == "warp"
-    return {"max_batch": max(batch, 8192)} if issubclass(task_class(name), MjxEnv) and warp else {}
+
+def is_mjx(name: str) -> bool:
+    """Whether task ``name`` runs on MJX (its class subclasses ``jaxpg.envs.mjx_env.MjxEnv``).
+    Imports the task's own module only: for CartPole and Pong, MuJoCo (with MJX and MuJoCo Warp,
+    seconds to import) stays unimported. ``ValueError`` for an unknown name."""
+    task = task_class(name)
+    # MjxEnv's subclasses exist only after its module ran: if it has not, this task is none of them.
+    mjx_env = sys.modules.get("jaxpg.envs.mjx_env")
+    return mjx_env is not None and issubclass(task, mjx_env.MjxEnv)
 
 
 def gymnasium_env(name: str, **make_kwargs: Any) -> Any:
@@ -151,6 +162,7 @@ __all__ = [
     "Wrapper",
     "gymnasium_env",
     "gymnasium_vector_env",
+    "is_mjx",
     "make",
     "make_shared",
     "make_task",

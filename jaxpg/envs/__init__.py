@@ -82,7 +82,9 @@ def warp_capacity(name: str, env_kwargs: dict[str, Any], batch: int) -> dict[str
     ``make`` with the task's other ``env_kwargs`` when ``batch`` envs will step together."""
     if not is_mjx(name):
         return {}
-    warp = (env_kwargs.get("impl") or sys.modules["jaxpg.envs.mjx_env"].default_impl()) == "warp"
+    from jaxpg.envs.mjx_env import default_impl  # already imported: the task is MJX's
+
+    warp = (env_kwargs.get("impl") or default_impl()) == "warp"
     return {"max_batch": max(batch, 8192)} if warp else {}
 
 

@@ -11,3 +11,5 @@ date -u > $D/lr4a.end; cp $D/runs/lr4a/half_cheetah-*/config.json $D/lr4a_config
 python3 benchmarks/suite.py physics $(ls -d $D/runs/lr4a/half_cheetah-*/) --variants gymnasium \
  --episodes 10 --workers 14 --json $D/physics_lr4a.json > $D/physics_lr4a.log 2>&1; date -u > $D/physics_lr4a.end
 touch $D/done
+# How it ran: on a third freshly started H200 (lr4a_gpu.txt, lr4a_start.txt), the code at c5ba11f, started
+# with setsid and polled, its files copied off in the same call; 279 s whole process.

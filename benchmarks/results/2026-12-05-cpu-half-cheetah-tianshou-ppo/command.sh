@@ -1,7 +1,8 @@
 # 2 CPU cores (this program on one: taskset -c 0), JAX 0.10.2, MJX 3.17.0 (its JAX implementation), fast physics,
 # 2026-12-05, the code at acab5c1, seeds 0-3 in one vmapped program (training 1312 s).
-# HalfCheetah with PPO at Tianshou's own MuJoCo PPO settings (mujoco_ppo.py: 64 envs x 32 steps = 2048
-# samples, 10 epochs x 32 minibatches, lr 3e-4 decaying linearly over its 3 M-step run (1500 updates;
+# HalfCheetah with PPO at Tianshou's own MuJoCo PPO settings (mujoco_ppo.py; 64 envs x 32 steps = 2048
+# samples, where its current script uses 8 envs x 256; its recompute_advantage is not reproduced),
+# 10 epochs x 32 minibatches, lr 3e-4 decaying linearly over its 3 M-step run (1500 updates;
 # two thirds left at 1 M), clip 0.2, value weight 0.25, no entropy bonus, gradient norm 0.5, no
 # advantage normalisation, returns normalised, 64x64 tanh networks with orthogonal init and the
 # policy head x 0.01, initial log-std -0.5, observation normalisation), 488 updates (0.999 M env steps).

@@ -7,8 +7,8 @@ python -m jaxpg.cli --env reacher --algo trpo --preset reacher_1m --seeds 0 1 2 
 for S in 0 1 2 3; do python decompose.py run-base $S 50; done > decompose.log
 # 3. the cross-entropy method at every step (25-step plans, 512 x 8 rounds), episodes 1000-1009, the two
 #    halves side by side, one core each
-POP=512 ELITE=32 ITERS=8 python reacher_mpc.py 25 0,1,2,3,4 > cem_episodes0-4.log
-POP=512 ELITE=32 ITERS=8 python reacher_mpc.py 25 5,6,7,8,9 > cem_episodes5-9.log
+POP=512 ELITE=32 ITERS=8 taskset -c 0 python reacher_mpc.py 25 0,1,2,3,4 > cem_episodes0-4.log
+POP=512 ELITE=32 ITERS=8 taskset -c 1 python reacher_mpc.py 25 5,6,7,8,9 > cem_episodes5-9.log
 # 4. gradient descent on all 50 actions through MJX: from zero actions (300 Adam steps at 0.05), and from
 #    TRPO seed 3's own actions (1000 steps at 0.01); output as the script printed it
 python reacher_gradopt.py 0,1,2,3,4,5,6,7,8,9 300 1 0.05 > gradopt_from_zero.log

@@ -65,12 +65,12 @@ def solve(u0: jax.Array, qpos0: jax.Array, qvel0: jax.Array) -> tuple[jax.Array,
         upd, s = opt.update(g, s)
         return (optax.apply_updates(u, upd), s), c
 
-    (u, _), cs = jax.lax.scan(body, (u0, opt.init(u0)), None, length=STEPS)
+    (u, _), _ = jax.lax.scan(body, (u0, opt.init(u0)), None, length=STEPS)
     return u, cost(u, qpos0, qvel0)
 
 
 solve_all = jax.jit(jax.vmap(solve))
-inits, rng = [], np.random.default_rng(0)
+rng = np.random.default_rng(0)
 q0s, v0s = [], []
 for ep in EPS:
     env.reset(seed=1000 + ep)

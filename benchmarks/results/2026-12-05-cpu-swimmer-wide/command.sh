@@ -8,5 +8,7 @@ taskset -c 1 python -m jaxpg.cli --env swimmer --algo trpo --preset swimmer_fast
 for V in base wide; do for S in 0 1 2 3; do
   python -m jaxpg.evaluate run-$V --gymnasium --episodes 10 --train-seed $S > gymnasium_${V}_seed$S.log
 done; done
-# Ran as above. Gymnasium: base 357, 346, 291, 147 (in-run MJX 364, 354, 297, 147);
+# seed 0 of base played as its clipped mean, E[clip(a)], in place of clip(mean)
+python -m jaxpg.evaluate run-base --gymnasium --episodes 10 --train-seed 0 --mean-action clipped_mean > gymnasium_base_seed0_clipped_mean.log
+# Ran as above (clipped mean: 356.45 against 357.32). Gymnasium: base 357, 346, 291, 147 (in-run MJX 364, 354, 297, 147);
 # wide 351, 346, 140 (the slow gait), 352 (in-run 366, 352, 135, 355).

@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import dataclasses
+import functools
 
 import jax
 import jax.numpy as jnp
@@ -353,3 +354,125 @@ def test_normalize_rewards_in_the_update(name, cartpole):
     assert float(metrics["update_rejected"]) == 0.0
     returns = np.asarray(new.reward_normalizer.returns)
     assert np.all(np.isfinite(returns)) and np.any(returns > 0)
+
+
+def numpy_ppo_epochs(ts, batch, traj, key):
+    """PPO's epochs in NumPy (float64 losses and gradients by ``numpy_reference``; optax's
+    clipping and Adam applied to them): from ``ts`` and ``batch`` as ``ppo.update`` hands them to
+    its epochs (the value-target statistics have absorbed the batch), the same minibatch orders
+    (``key`` split per epoch, one permutation each), each minibatch's advantages standardised on
+    their own with ``normalize_minibatch_advantages``, and with ``recompute_advantages`` every
+    epoch after the first on advantages and targets recomputed from ``traj`` by a plain GAE loop
+    with the current value network. Returns the joint parameters after the last step."""
+    config = ts.config
+    opt = ppo.optimizer(config)
+    joint = ref.to_numpy(actor_critic.joint_params(ts))
+    opt_state = ts.opt_state
+    steps, envs = traj.rewards.shape
+    mean, std = float(ts.value_stats.mean[0]), float(ts.value_stats.std[0])
+
+    def network_values(value_layers, obs):
+        out, _ = ref.mlp_forward(value_layers, obs.reshape(-1, obs.shape[-1]), config.value_activation)
+        return out[:, 0].reshape(obs.shape[:-1])
+
+    def return_units(value_layers, obs):
+        out = network_values(value_layers, obs)
+        return mean + std * out if config.normalize_value_targets else out
+
+    def env_major(x):
+        return np.swapaxes(x, 0, 1).reshape(envs * steps)
+
+    obs = np.asarray(ts.obs_stats.normalize(traj.obs), np.float64)
+    next_obs = np.asarray(ts.obs_stats.normalize(traj.next_obs), np.float64)
+    rewards = np.asarray(traj.rewards, np.float64) * config.reward_scaling
+    terminated, truncated = np.asarray(traj.terminated), np.asarray(traj.truncated)
+    first = {name: np.asarray(getattr(batch, name), np.float64) for name in ref.BATCH_FIELDS}
+    first["actions"] = np.asarray(batch.actions)
+    first_old_values = network_values(joint["value"], first["obs"])
+    n = config.samples_per_iteration
+    for epoch, epoch_key in enumerate(jax.random.split(key, config.num_epochs)):
+        data, old_values = first, first_old_values
+        if config.recompute_advantages and epoch > 0:
+            values = return_units(joint["value"], obs)
+            advantages = ref.gae(
+                rewards, values, return_units(joint["value"], next_obs), terminated, truncated,
+                config.gamma, config.gae_lambda,
+            )  # fmt: skip
+            targets = advantages + values
+            if config.normalize_advantages:
+                advantages = (advantages - advantages.mean()) / (advantages.std() + 1e-8)
+            if config.normalize_value_targets:
+                targets = (targets - mean) / std
+            data = {**first, "advantages": env_major(advantages), "value_targets": env_major(targets)}
+            old_values = network_values(joint["value"], first["obs"])
+        order = np.asarray(jax.random.permutation(epoch_key, n)).reshape(config.num_minibatches, -1)
+        for idx in order:
+            mb = {name: x[idx] for name, x in data.items()}
+            if config.normalize_minibatch_advantages:
+                mb["advantages"] = (mb["advantages"] - mb["advantages"].mean()) / (mb["advantages"].std() + 1e-8)
+            _, _, grads = ref.actor_critic_loss(
+                "categorical", joint, mb, config.clip_eps, config.value_clip_eps, old_values[idx],
+                config.value_coef, config.entropy_coef, config.policy_activation, config.value_activation,
+            )  # fmt: skip
+            as_f32 = functools.partial(jax.tree.map, jnp.float32)
+            updates, opt_state = opt.update(as_f32(grads), opt_state, as_f32(joint))
+            joint = ref.to_numpy(optax.apply_updates(as_f32(joint), updates))
+    return joint
+
+
+# Three epochs of two minibatches, a learning rate that moves the value network enough for the
+# recomputed advantages to matter: with normalised value targets and value clipping (whose old
+# predictions recomputation renews), and with minibatch advantages on their own.
+EPOCH_VARIANTS = {
+    "recompute": dict(recompute_advantages=True, normalize_value_targets=True, value_clip_eps=0.2),
+    "minibatch_advantages": dict(normalize_minibatch_advantages=True, normalize_advantages=False),
+}
+
+
+@pytest.mark.parametrize("variant", sorted(EPOCH_VARIANTS))
+def test_ppo_epochs_against_numpy(variant, cartpole):
+    """``recompute_advantages`` and ``normalize_minibatch_advantages`` against a NumPy PPO
+    (``numpy_ppo_epochs``): the update's parameters are the reference's, and not those of the
+    reference with the option off."""
+    overrides = EPOCH_VARIANTS[variant]
+    config = ppo.Config(**{**TINY, "num_minibatches": 2, "num_epochs": 3, "lr": 1e-2, **overrides})
+    ts = ppo.init(jax.random.PRNGKey(4), cartpole, config)
+    new, metrics = jax.jit(ppo.update)(ts)
+    assert float(metrics["update_rejected"]) == 0.0
+
+    sampled, traj, key = core.phase_sample(ts)
+    epochs_key, _ = jax.random.split(key)
+    batch = actor_critic.phase_advantages(sampled, traj)
+    fit_ts, fit_batch = core.standardise_value_targets(sampled, batch)
+    got = ref.flat({"policy": new.params, "value": new.value_params})
+    option = next(name for name in ("recompute_advantages", "normalize_minibatch_advantages") if name in overrides)
+    errors = {}
+    for on in (True, False):
+        reference_ts = fit_ts.replace(config=dataclasses.replace(config, **{option: on}))
+        want = ref.flat(numpy_ppo_epochs(reference_ts, fit_batch, traj, epochs_key))
+        errors[on] = np.max(np.abs(got - want))
+    # Six Adam steps of 1e-2 from float32 gradients: each step's size is lr * m / (sqrt(v) + 1e-5),
+    # which a float32 gradient error (~1e-7 of the gradient) moves by at most lr * 1e-7 |g| / 1e-5
+    # where the gradient is near Adam's epsilon; the option's own effect is some 1e-3.
+    assert errors[True] < 2e-4, errors
+    assert errors[False] > 10 * max(errors[True], 1e-4), errors
+
+
+def test_minibatch_advantages_against_numpy():
+    """A minibatch's advantages standardised over its valid samples by their population std (as
+    ``jnp.std``, Brax; PyTorch's ``std`` in SB3 and CleanRL divides by n - 1, a factor 1.008 at 64
+    samples), against NumPy; masked samples come out as 0 and take no part."""
+    rng = np.random.default_rng(3)
+    advantages = rng.normal(2.0, 5.0, 12)
+    weights = (rng.random(12) < 0.75).astype(np.float64)
+    valid = weights > 0
+    want = np.zeros(12)
+    want[valid] = (advantages[valid] - advantages[valid].mean()) / (advantages[valid].std() + 1e-8)
+    zeros = jnp.zeros(12)
+    batch = core.Batch(
+        obs=zeros[:, None], actions=zeros, log_probs=zeros, advantages=jnp.asarray(advantages, jnp.float32),
+        value_targets=zeros, weights=jnp.asarray(weights, jnp.float32),
+    )  # fmt: skip
+    got = ppo.minibatch_advantages(batch)
+    np.testing.assert_allclose(np.asarray(got.advantages), want, rtol=1e-5, atol=1e-6)
+    assert 3 <= valid.sum() < 12

@@ -87,6 +87,10 @@ FIELD_HELP: dict[str, str] = {
     "num_minibatches": "PPO minibatches per epoch",
     "clip_eps": "PPO's clipping of the probability ratio",
     "value_clip_eps": "clip value predictions to this distance from the old ones (0: no clipping)",
+    "normalize_minibatch_advantages": "standardise each minibatch's advantages before its step (SB3, CleanRL, "
+    "Tianshou, Brax)",
+    "recompute_advantages": "recompute advantages and value targets with the current value network before every "
+    "epoch after the first (Tianshou's recompute_advantage)",
 }
 
 # Values a string field accepts, where they are the same for every algorithm.

@@ -7,8 +7,11 @@ One iteration:
      (``actor_critic.phase_advantages``), standardised with ``normalize_value_targets``
      (``core.standardise_value_targets``);
   3. ``num_epochs`` passes over the batch, each in a fresh random order cut into
-     ``num_minibatches`` minibatches; on each minibatch one optimizer step on the joint loss
-     (eq. 9 of the paper)
+     ``num_minibatches`` minibatches (with ``recompute_advantages``, every pass after the first
+     takes its advantages and value targets afresh from the value network as the previous
+     passes left it); on each minibatch (its advantages standardised on their own with
+     ``normalize_minibatch_advantages``) one optimizer step on the joint loss (eq. 9 of the
+     paper)
 
          L = -E[min(r A, clip(r, 1 - eps, 1 + eps) A)] + value_coef * L_V - entropy_coef * H,
          r = pi(a|s) / pi_old(a|s),
@@ -25,14 +28,17 @@ Both scans (epochs, minibatches) run inside ``jit``.
 from __future__ import annotations
 
 import dataclasses
+from typing import Any
 
 import jax
 import jax.numpy as jnp
 import optax
 
+from jaxpg import returns
 from jaxpg.algos import actor_critic, core, presets
 from jaxpg.algos.core import TrainState
 from jaxpg.envs import Env
+from jaxpg.rollout import Trajectory
 
 
 @dataclasses.dataclass(frozen=True)
@@ -50,6 +56,13 @@ class Config(actor_critic.ActorCriticConfig):
     ``value_target`` is ``"gae"`` (lambda-returns) or ``"returns"`` (discounted returns);
     ``normalize_value_targets`` trains the value network on standardised targets (the value loss,
     and ``value_clip_eps``, are then in standardised units).
+    Advantages: ``normalize_advantages`` standardises them over the batch;
+    ``normalize_minibatch_advantages`` standardises each minibatch's on their own before its
+    step, as Stable-Baselines3, CleanRL, Tianshou and Brax do (population std, epsilon 1e-8);
+    ``recompute_advantages`` recomputes advantages and value targets (GAE from the same
+    samples) with the current value network before every epoch after the first, as Tianshou's
+    ``recompute_advantage`` does; the value-target statistics absorb each batch once, and value
+    clipping then takes the epoch's starting predictions as the old ones.
     """
 
     num_envs: int = 32
@@ -61,6 +74,8 @@ class Config(actor_critic.ActorCriticConfig):
     max_grad_norm: float = 0.5
     clip_eps: float = 0.2
     value_clip_eps: float = 0.0
+    normalize_minibatch_advantages: bool = False
+    recompute_advantages: bool = False
 
     @property
     def minibatch_size(self) -> int:
@@ -116,30 +131,62 @@ def init(key: jax.Array, env: Env, config: Config) -> TrainState:
     return actor_critic.init_state(key, env, config, optimizer(config))
 
 
-def phase_epochs(ts: TrainState, batch: core.Batch, key: jax.Array) -> tuple[TrainState, dict[str, jax.Array]]:
+def epoch_batch(ts: TrainState, joint: dict[str, Any], traj: Trajectory) -> core.Batch:
+    """``recompute_advantages``' batch for an epoch: ``traj``'s (the learning trajectory, rewards
+    as GAE sees them before scaling) advantages and value targets from the value network in
+    ``joint``, the targets standardised by ``ts.value_stats`` as they stand. ``[N, ...]``."""
+    now = ts.replace(value_params=joint["value"])
+    return core.standardised_targets(now, actor_critic.phase_advantages(now, traj))
+
+
+def minibatch_advantages(batch: core.Batch) -> core.Batch:
+    """``batch`` (one minibatch, ``[n]`` samples) with its advantages standardised over its valid
+    samples (``returns.normalize``)."""
+    return batch.replace(advantages=returns.normalize(batch.advantages, mask=batch.weights))
+
+
+def phase_epochs(
+    ts: TrainState, batch: core.Batch, key: jax.Array, traj: Trajectory | None = None
+) -> tuple[TrainState, dict[str, jax.Array]]:
     """``num_epochs`` passes of ``num_minibatches`` clipped-surrogate steps, each epoch in a fresh
-    random order. Returns the state with the new parameters and optimizer state, and the
-    diagnostics of ``actor_critic.gradient_step`` averaged over all steps."""
+    random order. ``batch`` (``[N, ...]``) is what the first epoch trains on; with
+    ``recompute_advantages`` each later epoch trains on ``epoch_batch`` of ``traj`` (required
+    then). Returns the state with the new parameters and optimizer state, and the diagnostics of
+    ``actor_critic.gradient_step`` averaged over all steps."""
     config = ts.config
+    if config.recompute_advantages and traj is None:
+        raise ValueError("recompute_advantages needs the learning trajectory (traj)")
     opt = optimizer(config)
     n = config.samples_per_iteration
     old_values = ts.value_fn.apply(ts.value_params, batch.obs)
 
     def minibatch(carry: tuple, idx: jax.Array) -> tuple[tuple, dict[str, jax.Array]]:
-        joint, opt_state = carry
-        mb = jax.tree.map(lambda x: x[idx], batch)
+        joint, opt_state, data, data_old_values = carry
+        mb = jax.tree.map(lambda x: x[idx], data)
+        if config.normalize_minibatch_advantages:
+            mb = minibatch_advantages(mb)
         joint, opt_state, diagnostics = actor_critic.gradient_step(
-            ts, opt, joint, opt_state, mb, config.clip_eps, config.value_clip_eps, old_values[idx]
+            ts, opt, joint, opt_state, mb, config.clip_eps, config.value_clip_eps, data_old_values[idx]
+        )
+        return (joint, opt_state, data, data_old_values), diagnostics
+
+    def epoch(carry: tuple, inputs: tuple[jax.Array, jax.Array]) -> tuple[tuple, dict[str, jax.Array]]:
+        joint, opt_state = carry
+        epoch_key, index = inputs
+        data, data_old_values = batch, old_values
+        if config.recompute_advantages:
+            first = index == 0
+            fresh = epoch_batch(ts, joint, traj)
+            data = jax.tree.map(lambda a, b: jnp.where(first, a, b), batch, fresh)
+            data_old_values = jnp.where(first, old_values, ts.value_fn.apply(joint["value"], batch.obs))
+        order = jax.random.permutation(epoch_key, n).reshape(config.num_minibatches, config.minibatch_size)
+        (joint, opt_state, _, _), diagnostics = jax.lax.scan(
+            minibatch, (joint, opt_state, data, data_old_values), order
         )
         return (joint, opt_state), diagnostics
 
-    def epoch(carry: tuple, epoch_key: jax.Array) -> tuple[tuple, dict[str, jax.Array]]:
-        order = jax.random.permutation(epoch_key, n).reshape(config.num_minibatches, config.minibatch_size)
-        return jax.lax.scan(minibatch, carry, order)
-
-    (joint, opt_state), diagnostics = jax.lax.scan(
-        epoch, (actor_critic.joint_params(ts), ts.opt_state), jax.random.split(key, config.num_epochs)
-    )
+    epochs = (jax.random.split(key, config.num_epochs), jnp.arange(config.num_epochs))
+    (joint, opt_state), diagnostics = jax.lax.scan(epoch, (actor_critic.joint_params(ts), ts.opt_state), epochs)
     return actor_critic.with_joint_params(ts, joint, opt_state), jax.tree.map(jnp.mean, diagnostics)
 
 
@@ -151,7 +198,7 @@ def update(ts: TrainState) -> tuple[TrainState, dict[str, jax.Array]]:
     ts, learning_traj = actor_critic.phase_rewards(ts, traj)
     batch = actor_critic.phase_advantages(ts, learning_traj)
     ts, fit_batch = core.standardise_value_targets(ts, batch)
-    ts, diagnostics = phase_epochs(ts, fit_batch, epochs_key)
+    ts, diagnostics = phase_epochs(ts, fit_batch, epochs_key, learning_traj)
     # The exact mean KL(pi_old || pi_new) over the batch, as every algorithm reports it.
     kl = core.mean_kl(ts, old.params, ts.params, batch)
     metrics = {**diagnostics, "learning_rate": learning_rate(ts.config, old.iteration)}

@@ -57,6 +57,7 @@ from jaxpg.algos.core.value_fit import (
     absorb_value_targets,
     phase_value_fit,
     standardise_value_targets,
+    standardised_targets,
     value_optimizer,
 )
 
@@ -102,6 +103,7 @@ __all__ = [
     "shard_state",
     "split_over_envs",
     "standardise_value_targets",
+    "standardised_targets",
     "value_optimizer",
     "value_predictions",
     "weighted_mean",

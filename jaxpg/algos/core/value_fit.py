@@ -44,8 +44,17 @@ def standardise_value_targets(ts: TrainState, batch: Batch) -> tuple[TrainState,
     if not ts.config.normalize_value_targets:
         return ts, batch
     ts = absorb_value_targets(ts, batch)
+    return ts, standardised_targets(ts, batch)
+
+
+def standardised_targets(ts: TrainState, batch: Batch) -> Batch:
+    """``batch`` with its value targets ``[N]`` in the units the value network is trained in:
+    standardised by ``ts.value_stats`` as they stand (nothing absorbed) with
+    ``config.normalize_value_targets``, as they are without it."""
+    if not ts.config.normalize_value_targets:
+        return batch
     stats = ts.value_stats
-    return ts, batch.replace(value_targets=(batch.value_targets - stats.mean[0]) / stats.std[0])
+    return batch.replace(value_targets=(batch.value_targets - stats.mean[0]) / stats.std[0])
 
 
 def phase_value_fit(ts: TrainState, batch: Batch, key: jax.Array) -> tuple[TrainState, jax.Array]:

@@ -256,7 +256,8 @@ HUMANOID_1M_ENV: Mapping[str, Any] = MappingProxyType({**NO_CONTACT_FORCES, "act
 # PyTorch's default initialisation (the Zoo's ortho_init=False): over 16 seeds on one GPU every
 # seed scored 4878-7868 in Gymnasium (median 5623), where glorot_uniform left 3 of 16 under 2300
 # (median 5366); 4 CPU seeds agreed. Seeds 16-31 scored 3273-7006 (median 5145): 5514 over 32
-# (BENCHMARKS.md).
+# (BENCHMARKS.md). Advantages are standardised over the batch of 512; the Zoo's per-minibatch
+# standardisation (normalize_minibatch_advantages) scored 5746 over 32 seeds, within chance.
 PPO_ZOO_HALF_CHEETAH: Mapping[str, Any] = MappingProxyType(
     dict(
         num_envs=16,

@@ -12,3 +12,8 @@ $C --seeds 1 2 --modes warm --json $D/card_b.json > $D/card_b.log 2>&1
 $C --seeds 1 2 --modes cold --json $D/card_c.json > $D/card_c.log 2>&1
 date -u > $D/card.end; cp $D/card/*.log $D/ 2>/dev/null
 touch $D/done
+# How it ran: on a freshly started H200 (card/gpu.txt, card/start.txt) with 220 s of the session's device time
+# left, the code at 998f390, started with setsid and polled by poll.sh 130; the first try of the same call
+# failed at `from mujoco import mjx` (mujoco and mujoco-mjx installed by two pip calls into one --target: the
+# second left MJX out); the second installed MJX's wheels into another folder and copied them over. The lease
+# ended after the bare run of seed 0 and the warm runs of seeds 0 and 1 (seed 2's log is cut off).

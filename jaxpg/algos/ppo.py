@@ -160,30 +160,27 @@ def phase_epochs(
     n = config.samples_per_iteration
     old_values = ts.value_fn.apply(ts.value_params, batch.obs)
 
-    def minibatch(carry: tuple, idx: jax.Array) -> tuple[tuple, dict[str, jax.Array]]:
-        joint, opt_state, data, data_old_values = carry
-        mb = jax.tree.map(lambda x: x[idx], data)
-        if config.normalize_minibatch_advantages:
-            mb = minibatch_advantages(mb)
-        joint, opt_state, diagnostics = actor_critic.gradient_step(
-            ts, opt, joint, opt_state, mb, config.clip_eps, config.value_clip_eps, data_old_values[idx]
-        )
-        return (joint, opt_state, data, data_old_values), diagnostics
-
     def epoch(carry: tuple, inputs: tuple[jax.Array, jax.Array]) -> tuple[tuple, dict[str, jax.Array]]:
-        joint, opt_state = carry
         epoch_key, index = inputs
         data, data_old_values = batch, old_values
         if config.recompute_advantages:
+            joint = carry[0]
             first = index == 0
-            fresh = epoch_batch(ts, joint, traj)
-            data = jax.tree.map(lambda a, b: jnp.where(first, a, b), batch, fresh)
+            data = jax.tree.map(lambda a, b: jnp.where(first, a, b), batch, epoch_batch(ts, joint, traj))
             data_old_values = jnp.where(first, old_values, ts.value_fn.apply(joint["value"], batch.obs))
+
+        def minibatch(carry: tuple, idx: jax.Array) -> tuple[tuple, dict[str, jax.Array]]:
+            joint, opt_state = carry
+            mb = jax.tree.map(lambda x: x[idx], data)
+            if config.normalize_minibatch_advantages:
+                mb = minibatch_advantages(mb)
+            joint, opt_state, diagnostics = actor_critic.gradient_step(
+                ts, opt, joint, opt_state, mb, config.clip_eps, config.value_clip_eps, data_old_values[idx]
+            )
+            return (joint, opt_state), diagnostics
+
         order = jax.random.permutation(epoch_key, n).reshape(config.num_minibatches, config.minibatch_size)
-        (joint, opt_state, _, _), diagnostics = jax.lax.scan(
-            minibatch, (joint, opt_state, data, data_old_values), order
-        )
-        return (joint, opt_state), diagnostics
+        return jax.lax.scan(minibatch, carry, order)
 
     epochs = (jax.random.split(key, config.num_epochs), jnp.arange(config.num_epochs))
     (joint, opt_state), diagnostics = jax.lax.scan(epoch, (actor_critic.joint_params(ts), ts.opt_state), epochs)

@@ -390,6 +390,7 @@ def numpy_ppo_epochs(ts, batch, traj, key):
     first["actions"] = np.asarray(batch.actions)
     first_old_values = network_values(joint["value"], first["obs"])
     n = config.samples_per_iteration
+    as_f32 = functools.partial(jax.tree.map, jnp.float32)
     for epoch, epoch_key in enumerate(jax.random.split(key, config.num_epochs)):
         data, old_values = first, first_old_values
         if config.recompute_advantages and epoch > 0:
@@ -414,7 +415,6 @@ def numpy_ppo_epochs(ts, batch, traj, key):
                 "categorical", joint, mb, config.clip_eps, config.value_clip_eps, old_values[idx],
                 config.value_coef, config.entropy_coef, config.policy_activation, config.value_activation,
             )  # fmt: skip
-            as_f32 = functools.partial(jax.tree.map, jnp.float32)
             updates, opt_state = opt.update(as_f32(grads), opt_state, as_f32(joint))
             joint = ref.to_numpy(optax.apply_updates(as_f32(joint), updates))
     return joint

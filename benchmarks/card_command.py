@@ -72,7 +72,10 @@ kernel build alone), and the start-up's own parts from the run's ``start-up:`` l
 compilation cache, MuJoCo Warp kernel cache and CUDA driver compute cache (``CUDA_CACHE_PATH``:
 the driver compiles the PTX it is handed for the GPU and keeps the result there; 34 MB after one
 run on an H100, and with it kept a run with the other two caches empty took 26-35 s less);
-``--warm`` runs again with the caches that a first run filled.
+``--warm`` runs again with the caches that a first run filled. A bare machine still has the
+Python bytecode that ``pip install`` compiles; where MuJoCo, MJX or Warp was installed without it
+(``--no-compile``), a first line says so, since each run (or the first, where Python may write
+bytecode) then compiles their sources.
 
     python benchmarks/card_command.py card --seeds 0 1 2 --modes cold warm --json card.json
 """
@@ -227,6 +230,8 @@ def card_main(argv: Sequence[str]) -> None:
 
     out = Path(args.out or tempfile.mkdtemp(prefix="card-"))
     out.mkdir(parents=True, exist_ok=True)
+    if (note := harness.bytecode_note(harness.bytecode())) is not None:
+        print(note, flush=True)
     shared_caches = out / "caches-warm"
     rows, pending = [], []
     for mode in args.modes:

@@ -8,7 +8,8 @@
 - ``time_for(call, seconds)``: how many synchronised calls fit in ``seconds``;
 - ``time_back_to_back(fn, state, calls)``: seconds per call of ``calls`` calls dispatched back to
   back and synchronised once (as ``jaxpg.train`` dispatches its compiled calls);
-- ``environment()``: the device, backend and the versions of Python, JAX, MuJoCo and jaxpg;
+- ``environment()``: the device, backend and the versions of Python, JAX, MuJoCo and jaxpg, and
+  ``bytecode()``: whether the Python of MuJoCo, MJX and Warp was compiled to bytecode at install;
 - ``write_json(path, rows, **meta)``: the rows with ``environment()`` and ``meta``;
 - ``table(rows, columns)``: a Markdown table, and ``rate(x)``: ``1.23 M`` / ``45.6 k``;
 - ``run_modes(script, modes, doc)``: the command line of a script with modes
@@ -23,6 +24,7 @@ module as their sibling: Python puts a script's own directory first on ``sys.pat
 
 from __future__ import annotations
 
+import importlib.util
 import json
 import os
 import platform
@@ -124,7 +126,50 @@ def environment() -> dict[str, Any]:
         "host": platform.node(),
         "python": platform.python_version(),
         **{name: _version(name) for name in ("jax", "jaxlib", "mujoco", "mujoco-mjx", "warp-lang", "jaxpg")},
+        "bytecode": bytecode(),
     }
+
+
+BYTECODE_PACKAGES = ("mujoco.mjx", "warp")
+"""The packages whose import dominates a run's start (``import mujoco.mjx`` imports Warp's)."""
+
+
+def bytecode(packages: Sequence[str] = BYTECODE_PACKAGES) -> dict[str, Any]:
+    """Whether each package's ``__init__.py`` has its compiled bytecode beside it (``None``: not
+    installed), and whether this Python writes bytecode (``PYTHONDONTWRITEBYTECODE`` unset).
+
+    Both matter to a timed start: a package installed with ``pip install --no-compile`` has none,
+    and where Python writes none either, every process compiles its sources again (about 0.8 s of
+    ``import mujoco.mjx`` on a 2-core CPU, ``benchmarks/results/2026-12-05-cpu-bytecode/``). A
+    plain ``pip install`` compiles them. Nothing is imported: the packages are located on
+    ``sys.path``."""
+    compiled: dict[str, bool | None] = {}
+    for name in packages:
+        top, *rest = name.split(".")
+        spec = importlib.util.find_spec(top)
+        if spec is None or not spec.submodule_search_locations:
+            compiled[name] = None
+            continue
+        init = Path(next(iter(spec.submodule_search_locations)), *rest, "__init__.py")
+        compiled[name] = Path(importlib.util.cache_from_source(str(init))).exists() if init.exists() else None
+    return {"compiled": compiled, "writes_bytecode": not sys.dont_write_bytecode}
+
+
+def bytecode_note(state: dict[str, Any]) -> str | None:
+    """One line when a timed process will compile installed packages' sources (``bytecode()``'s
+    ``state``): the packages without bytecode, and whether each process pays or the first alone."""
+    missing = [name for name, done in state["compiled"].items() if done is False]
+    if not missing:
+        return None
+    who = (
+        "the first process compiles them and writes the bytecode"
+        if state["writes_bytecode"]
+        else "PYTHONDONTWRITEBYTECODE is set, so every process compiles them again"
+    )
+    return (
+        f"note: {', '.join(missing)} have no compiled bytecode (installed with --no-compile?): {who}; "
+        "`python -m compileall` on their site-packages does what pip install does by default"
+    )
 
 
 def describe() -> str:

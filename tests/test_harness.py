@@ -301,3 +301,22 @@ def test_suite_band_holds_each_seed_last_value():
     low, mid, high = band(curves, [0.0, 1.0, 2.5, 3.0])
     assert low[0] != low[0] and mid[0] != mid[0]  # NaN before any curve starts
     assert (low[1:], mid[1:], high[1:]) == ([10.0, 10.0, 20.0], [10.0, 15.0, 25.0], [10.0, 20.0, 30.0])
+
+
+def test_bytecode_finds_a_package_without_its_compiled_sources_and_with_them(harness, tmp_path, monkeypatch):
+    """``harness.bytecode`` looks for the bytecode of a package's ``__init__.py`` (compileall writes
+    it where pip install would), and the note names the packages without it."""
+    package = tmp_path / "fakepkg" / "sub"
+    package.mkdir(parents=True)
+    (tmp_path / "fakepkg" / "__init__.py").write_text("")
+    (package / "__init__.py").write_text("X = 1\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    state = harness.bytecode(("fakepkg.sub", "no_such_package_here"))
+    assert state["compiled"] == {"fakepkg.sub": False, "no_such_package_here": None}
+    monkeypatch.setattr(sys, "dont_write_bytecode", True)
+    note = harness.bytecode_note(harness.bytecode(("fakepkg.sub",)))
+    assert "fakepkg.sub" in note and "every process compiles them again" in note
+    subprocess.run([sys.executable, "-m", "compileall", "-q", str(tmp_path / "fakepkg")], check=True)
+    state = harness.bytecode(("fakepkg.sub",))
+    assert state["compiled"] == {"fakepkg.sub": True}
+    assert harness.bytecode_note(state) is None

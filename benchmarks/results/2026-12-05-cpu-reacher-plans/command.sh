@@ -35,12 +35,15 @@ python compare_policies.py eval40.log $L > compare.txt
 #    976 updates (8 M env steps), both cores; its policies appended to eval40.log, compare.txt written again
 python -m jaxpg.cli --env reacher --algo trpo --preset reacher_1m --seeds 0 1 --num-envs 8 --iterations 976 --run-dir runs/big8 --no-progress > train_trpo_big8.log
 python eval40.py runs/big8 0,1 1000 40 >> eval40.log
+# 8. updates 16 times as large: 32 envs x 1024 steps (32768 samples) for 488 updates (16 M env steps), both cores
+python -m jaxpg.cli --env reacher --algo trpo --preset reacher_1m --seeds 0 1 --num-envs 32 --iterations 488 --run-dir runs/big32 --no-progress > train_trpo_big32.log
+python eval40.py runs/big32 0,1 1000 40 >> eval40.log
 python compare_policies.py eval40.log $L > compare.txt
 # Ran as above. summary_40.txt (steps 1-3): the best plans -3.330 over 40 episodes, the seed-0 policy -3.753;
 # 24 starts on episodes 1000-1009 changed one episode's best (1002). Then (eval40.log) five of the other seven
 # policies beat those plans on 1-3 episodes each, and step 6 lifted the best plans to -3.251 (summary.txt,
 # compare.txt), above every policy in every episode. Step 7: 8192 samples an update for 976 updates scored
-# -3.43 and -3.39, within 0.18 and 0.13 of the plans. Training: 1 M 134 s, 2 M 237 s, 4 M 467 s, 256x256 561 s,
-# 8192 x 976 887 s.
+# -3.43 and -3.39, within 0.18 and 0.13 of the plans; step 8, 32768 samples for 488 updates, -3.39 and -3.38.
+# Training: 1 M 134 s, 2 M 237 s, 4 M 467 s, 256x256 561 s, 8192 x 976 887 s, 32768 x 488 1728 s.
 # The scripts were formatted for ruff after the runs (line breaks, type hints, the scipy objective moved
 # into adj.objective); what they compute is unchanged.

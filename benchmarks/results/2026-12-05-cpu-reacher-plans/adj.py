@@ -4,10 +4,12 @@
 the time of one gradient."""
 
 from collections.abc import Callable
+from typing import Any
 
 import gymnasium as gym
 import mujoco
 import numpy as np
+import scipy.optimize as so
 
 env = gym.make("Reacher-v5")
 m = env.unwrapped.model
@@ -112,6 +114,44 @@ def objective(qpos0: np.ndarray, qvel0: np.ndarray) -> Callable[[np.ndarray], tu
         return c, g.ravel()
 
     return f
+
+
+def improve(
+    f: Callable[[np.ndarray], tuple[float, np.ndarray]], x0: np.ndarray, maxiter: int = 600, ftol: float = 1e-12
+) -> so.OptimizeResult:
+    """L-BFGS-B on ``f`` (``objective``'s) from actions ``x0`` [50, 2] or [100], within [-1, 1]."""
+    return so.minimize(
+        f,
+        np.ravel(x0),
+        jac=True,
+        method="L-BFGS-B",
+        bounds=[(-1, 1)] * 100,
+        options={"maxiter": maxiter, "ftol": ftol, "gtol": 1e-8},
+    )
+
+
+def replay(seed: int, actions: np.ndarray) -> tuple[float, list[float]]:
+    """Actions [50, 2] played in Gymnasium from reset ``seed``: the return and the distance after each step."""
+    env.reset(seed=seed)
+    dists, ret = [], 0.0
+    for a in actions:
+        _, r, _, _, info = env.step(a)
+        ret += r
+        dists.append(-info["reward_dist"])
+    return ret, dists
+
+
+def policy_episode(policy: Callable[[np.ndarray], Any], seed: int) -> tuple[np.ndarray, float]:
+    """A trained policy played closed loop from reset ``seed`` (its actions clipped to [-1, 1]): its
+    actions [50, 2] and its return."""
+    obs, _ = env.reset(seed=seed)
+    acts, ret = [], 0.0
+    for _ in range(50):
+        a = np.clip(np.asarray(policy(obs), np.float64), -1, 1)
+        acts.append(a)
+        obs, r, *_ = env.step(a)
+        ret += r
+    return np.asarray(acts), ret
 
 
 if __name__ == "__main__":

@@ -7,8 +7,7 @@ import sys
 import time
 
 import numpy as np
-import scipy.optimize as so
-from adj import env, objective
+from adj import env, improve, objective, policy_episode, replay
 
 import jaxpg
 
@@ -17,16 +16,11 @@ policy = jaxpg.load_policy(run_dir, seed=pseed)
 rows = []
 t0 = time.time()
 for sd in range(first, first + count):
-    obs, _ = env.reset(seed=sd)
+    env.reset(seed=sd)
     q0, v0 = env.unwrapped.data.qpos.copy(), env.unwrapped.data.qvel.copy()
     d0 = float(np.linalg.norm(env.unwrapped.get_body_com("fingertip") - env.unwrapped.get_body_com("target")))
-    acts, pol_ret = [], 0.0
-    for _ in range(50):
-        a = np.clip(np.asarray(policy(obs), np.float64), -1, 1)
-        acts.append(a)
-        obs, r, *_ = env.step(a)
-        pol_ret += r
-    starts = [("policy", np.asarray(acts)), ("zero", np.zeros((50, 2)))]
+    acts, pol_ret = policy_episode(policy, sd)
+    starts = [("policy", acts), ("zero", np.zeros((50, 2)))]
     for s0 in (-1, 1):
         for s1 in (-1, 1):
             x = np.zeros((50, 2))
@@ -36,24 +30,12 @@ for sd in range(first, first + count):
     found = {}
     best = None
     for name, x0 in starts:
-        res = so.minimize(
-            f,
-            x0.ravel(),
-            jac=True,
-            method="L-BFGS-B",
-            bounds=[(-1, 1)] * 100,
-            options={"maxiter": 600, "ftol": 1e-12, "gtol": 1e-8},
-        )
+        res = improve(f, x0)
         found[name] = round(-res.fun, 3)
         if best is None or res.fun < best.fun:
             best, best_name = res, name
     plan = best.x.reshape(50, 2)
-    env.reset(seed=sd)
-    dists, ret = [], 0.0
-    for a in plan:
-        _, r, _, _, info = env.step(a)
-        ret += r
-        dists.append(-info["reward_dist"])
+    ret, dists = replay(sd, plan)
     rows.append((sd, ret, pol_ret, d0, dists[-1]))
     print(
         f"reset seed {sd}: plan {ret:.4f} in Gymnasium, policy {pol_ret:.4f} (best start: {best_name}; {found}) "

@@ -7,8 +7,7 @@ import sys
 import time
 
 import numpy as np
-import scipy.optimize as so
-from adj import env, objective
+from adj import env, improve, objective, policy_episode, replay
 
 import jaxpg
 
@@ -23,15 +22,10 @@ policy = jaxpg.load_policy(run_dir, seed=pseed)
 rng = np.random.default_rng(first)
 t0 = time.time()
 for sd in range(first, first + count):
-    obs, _ = env.reset(seed=sd)
+    env.reset(seed=sd)
     q0, v0 = env.unwrapped.data.qpos.copy(), env.unwrapped.data.qvel.copy()
-    acts, pol_ret = [], 0.0
-    for _ in range(50):
-        a = np.clip(np.asarray(policy(obs), np.float64), -1, 1)
-        acts.append(a)
-        obs, r, *_ = env.step(a)
-        pol_ret += r
-    starts = [np.asarray(acts), np.zeros((50, 2))]
+    acts, pol_ret = policy_episode(policy, sd)
+    starts = [acts, np.zeros((50, 2))]
     for mag, steps in ((0.3, 10), (0.8, 5)):
         for s0 in (-1, 1):
             for s1 in (-1, 1):
@@ -42,16 +36,8 @@ for sd in range(first, first + count):
     f = objective(q0, v0)
     found = []
     for x0 in starts:
-        res = so.minimize(
-            f,
-            x0.ravel(),
-            jac=True,
-            method="L-BFGS-B",
-            bounds=[(-1, 1)] * 100,
-            options={"maxiter": 600, "ftol": 1e-12, "gtol": 1e-8},
-        )
-        env.reset(seed=sd)
-        found.append(sum(env.step(a)[1] for a in res.x.reshape(50, 2)))
+        res = improve(f, x0)
+        found.append(replay(sd, res.x.reshape(50, 2))[0])
     found = np.array(found)
     order = np.random.default_rng(sd).permutation(len(found))  # best of k starts drawn at random
     curve = {k: round(float(np.max(found[order[:k]])), 4) for k in (1, 2, 4, 8, 16, len(found))}

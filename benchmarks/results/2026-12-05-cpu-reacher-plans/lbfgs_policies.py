@@ -5,9 +5,7 @@ usage: python lbfgs_policies.py FIRST_SEED COUNT RUN_DIR:SEED [RUN_DIR:SEED ...]
 import sys
 import time
 
-import numpy as np
-import scipy.optimize as so
-from adj import env, objective
+from adj import env, improve, objective, policy_episode, replay
 
 import jaxpg
 
@@ -23,22 +21,8 @@ for sd in range(first, first + count):
     f = objective(q0, v0)
     found = {}
     for name, policy in policies.items():
-        obs, _ = env.reset(seed=sd)
-        acts = []
-        for _ in range(50):
-            a = np.clip(np.asarray(policy(obs), np.float64), -1, 1)
-            acts.append(a)
-            obs, *_ = env.step(a)
-        res = so.minimize(
-            f,
-            np.asarray(acts).ravel(),
-            jac=True,
-            method="L-BFGS-B",
-            bounds=[(-1, 1)] * 100,
-            options={"maxiter": 600, "ftol": 1e-12, "gtol": 1e-8},
-        )
-        env.reset(seed=sd)
-        found[name] = round(float(sum(env.step(a)[1] for a in res.x.reshape(50, 2))), 4)
+        res = improve(f, policy_episode(policy, sd)[0])
+        found[name] = round(float(replay(sd, res.x.reshape(50, 2))[0]), 4)
     best = max(found, key=found.get)
     print(
         f"reset seed {sd}: plan {found[best]:.4f} in Gymnasium (from {best}); from each policy {found} "

@@ -6,8 +6,7 @@ import sys
 import time
 
 import numpy as np
-import scipy.optimize as so
-from adj import env, objective
+from adj import env, improve, objective, replay
 
 first, count, starts = int(sys.argv[1]), int(sys.argv[2]), int(sys.argv[3])
 rng = np.random.default_rng(first)
@@ -21,24 +20,12 @@ for sd in range(first, first + count):
     results, best = [], None
     for s in range(starts):
         x0 = np.zeros(100) if s == 0 else rng.uniform(-1, 1, 100) * [0.1, 0.3][s % 2]
-        res = so.minimize(
-            f,
-            x0,
-            jac=True,
-            method="L-BFGS-B",
-            bounds=[(-1, 1)] * 100,
-            options={"maxiter": 1500, "ftol": 1e-13, "gtol": 1e-8},
-        )
+        res = improve(f, x0, maxiter=1500, ftol=1e-13)
         results.append(res.fun)
         if best is None or res.fun < best.fun:
             best = res
     acts = best.x.reshape(50, 2)
-    env.reset(seed=sd)
-    dists, ret = [], 0.0
-    for a in acts:
-        _, r, _, _, info = env.step(a)
-        ret += r
-        dists.append(-info["reward_dist"])
+    ret, dists = replay(sd, acts)
     rows.append((sd, ret, d0, float(np.sum(acts**2)), sum(dists), dists[-1]))
     print(
         f"reset seed {sd}: Gymnasium {ret:.4f} (plan {-best.fun:.4f}; "

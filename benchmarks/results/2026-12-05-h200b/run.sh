@@ -18,7 +18,7 @@ replay() {  # run name, task
 hc() {
   python3 benchmarks/suite.py run --runs half_cheetah:ppo:half_cheetah_1m --seeds $(seq 0 31) --vmap-seeds --episodes 0 \
    --out $D/runs/hc --json $D/hc.json --extra --lr 4e-5 --anneal-lr-iterations 1953 --normalize-minibatch-advantages \
-   --minutes 8 > $D/hc.log 2>&1; date -u > $D/hc.end; replay hc half_cheetah
+   --minutes 12 > $D/hc.log 2>&1; date -u > $D/hc.end; replay hc half_cheetah
 }
 reacher() {  # run name, value batch size
   python3 benchmarks/suite.py run --runs reacher:trpo:reacher_1m --seeds 0 1 2 3 --vmap-seeds --episodes 0 \

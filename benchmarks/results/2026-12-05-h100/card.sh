@@ -5,7 +5,7 @@
 # (XLA_FLAGS=--xla_gpu_autotune_level=0) to see what autotuning costs in compilation and gains in training;
 # each run's final policy scored in Gymnasium as it goes. The XLA cache is listed after each step.
 # MuJoCo, MJX and warp-lang are installed with --no-compile and then compiled to bytecode with compileall,
-# as a user's `pip install` leaves them.
+# as a user's `pip install` leaves them. SHORT=1 (a short lease): no second and third bare runs, one run without autotuning.
 D=/tmp/out; mkdir -p $D; rm -rf /tmp/repo; cp -r "$PWD" /tmp/repo; rm -rf /tmp/repo/.w?? /tmp/repo/.wc? /tmp/repo/.whl; cd /tmp/repo
 export PYTHONPATH=/tmp/repo:/tmp/site PYTHONUNBUFFERED=1
 nvidia-smi -L > $D/gpu.txt 2>&1; nproc >> $D/gpu.txt; lscpu | grep 'Model name' >> $D/gpu.txt; date -u > $D/start.txt
@@ -15,9 +15,9 @@ lsc() { echo "== after $1: $(date -u +%T)"; ls -la $D/card/caches-warm/xla 2>/de
 $C --seeds 0 --modes cold warm --json $D/card_a.json > $D/card_a.log 2>&1; lsc "cold 0, warm 0" >> $D/xla_cache.txt
 $C --seeds 1 --modes warm --json $D/card_b.json > $D/card_b.log 2>&1; lsc "warm 1" >> $D/xla_cache.txt
 $C --seeds 2 --modes warm --json $D/card_c.json > $D/card_c.log 2>&1; lsc "warm 2" >> $D/xla_cache.txt
-$C --seeds 1 2 --modes cold --json $D/card_d.json > $D/card_d.log 2>&1; lsc "cold 1 2" >> $D/xla_cache.txt
+[ "${SHORT:-0}" = 1 ] || { $C --seeds 1 2 --modes cold --json $D/card_d.json > $D/card_d.log 2>&1; lsc "cold 1 2" >> $D/xla_cache.txt; }
 date -u > $D/card.end
-XLA_FLAGS=--xla_gpu_autotune_level=0 python3 benchmarks/card_command.py card --out $D/noautotune --seeds 3 4 --modes cold \
+XLA_FLAGS=--xla_gpu_autotune_level=0 python3 benchmarks/card_command.py card --out $D/noautotune --seeds 3 $([ "${SHORT:-0}" = 1 ] || echo 4) --modes cold \
  --json $D/card_noautotune.json > $D/card_noautotune.log 2>&1
 date -u > $D/noautotune.end
 touch $D/done

@@ -6,8 +6,8 @@
 # each run's final policy scored in Gymnasium as it goes. The XLA cache is listed after each step.
 # MuJoCo, MJX and warp-lang are installed with --no-compile and then compiled to bytecode with compileall,
 # as a user's `pip install` leaves them. SHORT=1 (a short lease): no second and third bare runs, one run without autotuning.
-D=/tmp/out; mkdir -p $D; rm -rf /tmp/repo; cp -r "$PWD" /tmp/repo; rm -rf /tmp/repo/.w?? /tmp/repo/.wc? /tmp/repo/.whl; cd /tmp/repo
-export PYTHONPATH=/tmp/repo:/tmp/site PYTHONUNBUFFERED=1
+D=${D:-/tmp/out}; R=/tmp/repo-$(basename $0 .sh); mkdir -p $D; rm -rf $R; cp -r "$PWD" $R; rm -rf $R/.w?? $R/.wc? $R/.whl; cd $R
+export PYTHONPATH=$R:/tmp/site PYTHONUNBUFFERED=1
 nvidia-smi -L > $D/gpu.txt 2>&1; nproc >> $D/gpu.txt; lscpu | grep 'Model name' >> $D/gpu.txt; date -u > $D/start.txt
 git log -1 --format=%h >> $D/start.txt 2>/dev/null; env | grep ^PYTHON > $D/python_env.txt
 C="python3 benchmarks/card_command.py card --out $D/card"

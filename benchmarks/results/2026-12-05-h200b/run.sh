@@ -7,8 +7,8 @@
 #   r64k / r128: Reacher's TRPO (reacher_1m) with updates 16 times as large (32768 samples) from 512 envs x
 #        64 steps, the value fit in minibatches of 1024 (r64k) or of the preset's 128 (r128); seeds 0-3 in
 #        one vmapped program each, one after the other beside hc.
-D=/tmp/out; mkdir -p $D; rm -rf /tmp/repo; cp -r "$PWD" /tmp/repo; rm -rf /tmp/repo/.w?? /tmp/repo/.wc? /tmp/repo/.whl; cd /tmp/repo
-export PYTHONPATH=/tmp/repo:/tmp/site PYTHONUNBUFFERED=1
+D=${D:-/tmp/out}; R=/tmp/repo-$(basename $0 .sh); mkdir -p $D; rm -rf $R; cp -r "$PWD" $R; rm -rf $R/.w?? $R/.wc? $R/.whl; cd $R
+export PYTHONPATH=$R:/tmp/site PYTHONUNBUFFERED=1
 nvidia-smi -L > $D/gpu.txt 2>&1; nproc >> $D/gpu.txt; lscpu | grep 'Model name' >> $D/gpu.txt; date -u > $D/start.txt
 git log -1 --format=%h >> $D/start.txt 2>/dev/null
 replay() {  # run name, task

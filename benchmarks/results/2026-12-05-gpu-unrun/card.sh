@@ -1,5 +1,5 @@
 #!/bin/bash
-# The card's command as typed, `python experiments/hopper.py --num-envs 256`, on one H100: a bare-machine
+# The card's command as typed, `python experiments/hopper.py --num-envs 256`, on one GPU: a bare-machine
 # run (card_command.py empties the XLA, Warp-kernel and CUDA-driver caches itself), three warm runs from the
 # caches it filled, two more bare-machine runs, then two bare-machine runs with XLA's GPU autotuning off
 # (XLA_FLAGS=--xla_gpu_autotune_level=0) to see what autotuning costs in compilation and gains in training;

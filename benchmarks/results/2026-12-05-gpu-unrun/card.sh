@@ -12,7 +12,7 @@ nvidia-smi -L > $D/gpu.txt 2>&1; nproc >> $D/gpu.txt; lscpu | grep 'Model name' 
 git log -1 --format=%h >> $D/start.txt 2>/dev/null; env | grep ^PYTHON > $D/python_env.txt
 python3 -m compileall -q -j 0 /tmp/site > $D/compileall.log 2>&1  # the bytecode a user's pip install writes
 C="python3 benchmarks/card_command.py card --out $D/card"
-lsc() { echo "== after $1: $(date -u +%T)"; ls -la $D/card/caches-warm/xla 2>/dev/null | tail -n +2; } 
+lsc() { echo "== after $1: $(date -u +%T)"; ls -la $D/card/caches-warm/xla 2>/dev/null | tail -n +2; }
 $C --seeds 0 --modes cold warm --json $D/card_a.json > $D/card_a.log 2>&1; lsc "cold 0, warm 0" >> $D/xla_cache.txt
 $C --seeds 1 --modes warm --json $D/card_b.json > $D/card_b.log 2>&1; lsc "warm 1" >> $D/xla_cache.txt
 $C --seeds 2 --modes warm --json $D/card_c.json > $D/card_c.log 2>&1; lsc "warm 2" >> $D/xla_cache.txt

@@ -1,6 +1,6 @@
 #!/bin/bash
 # Scripts written for the day's GPU lease, not yet run: every start of a device machine failed (H100 and
-# H200, twelve tries between 09:15 and 11:08 UTC; other sessions' tries failed as well). The next session
+# H200, fourteen tries between 09:15 and 11:33 UTC; other sessions' tries failed as well). The next session
 # with a machine runs them as they are:
 #   card.sh       the card's command: bare, warm, bare again, and bare with XLA's GPU autotuning off, MuJoCo,
 #                 MJX and Warp compiled to bytecode after the install (SHORT=1: one bare, three warm, one

@@ -105,6 +105,12 @@ scored at or above ``--bar``, the share below it, the lowest and the median, and
 """
 
 
+def score_text(value: float) -> str:
+    """A return as the tables print it: whole numbers from 100 up (``3346``), two decimals below,
+    where the tasks' differences lie (Reacher's ``-3.48``, Pusher's ``-28.74``); ``nan`` as is."""
+    return f"{value:.0f}" if abs(value) >= 100 else f"{value:.2f}"
+
+
 def parse_run(text: str) -> tuple[str, str, str]:
     """``"walker2d:ppo:walker2d_fast"`` -> ``("walker2d", "ppo", "walker2d_fast")``."""
     parts = text.split(":")
@@ -382,9 +388,9 @@ def run_main(argv: Sequence[str]) -> None:
             [
                 ("task:algo:preset", lambda g: g["run"]),
                 ("seeds", lambda g: g["seeds"]),
-                ("Gymnasium v5, each seed", lambda g: ", ".join(f"{s:.0f}" for s in g["scores"]) or "-"),
-                ("in-run mean policy, each seed", lambda g: ", ".join(f"{s:.0f}" for s in g["in_run"]) or "-"),
-                ("median", lambda g: f"{g['median']:.0f}"),
+                ("Gymnasium v5, each seed", lambda g: ", ".join(map(score_text, g["scores"])) or "-"),
+                ("in-run mean policy, each seed", lambda g: ", ".join(map(score_text, g["in_run"])) or "-"),
+                ("median", lambda g: score_text(g["median"])),
                 ("env steps", lambda g: f"{g['env_steps']:,.0f}"),
                 ("whole process s", lambda g: f"{g['wall_s']:.0f}"),
                 ("target", lambda g: g["verdict"]),
@@ -489,9 +495,9 @@ def count_main(argv: Sequence[str]) -> None:
                 ("seeds", lambda e: e["seeds"]),
                 (f">= {args.bar:g}", lambda e: e["reached"]),
                 ("below", lambda e: f"{100 * (1 - e['reached'] / e['seeds']):.1f} %"),
-                ("lowest", lambda e: f"{e['lowest']:.0f}"),
-                ("median", lambda e: f"{e['median']:.0f}"),
-                ("seeds below (score)", lambda e: ", ".join(f"{s} ({v:.0f})" for s, v in e["below"]) or "-"),
+                ("lowest", lambda e: score_text(e["lowest"])),
+                ("median", lambda e: score_text(e["median"])),
+                ("seeds below (score)", lambda e: ", ".join(f"{s} ({score_text(v)})" for s, v in e["below"]) or "-"),
             ],
         )
     )
@@ -570,7 +576,7 @@ def played_line(result: dict[str, Any], done: int, total: int) -> str:
     """One progress line for a finished ``play_physics`` job: ``[done/total] RUN seed S, VARIANT,
     ACTION: MEAN (E early)``."""
     where = f"{Path(result['run_dir']).name} seed {result['seed']}, {result['variant']}, {result['action']}"
-    return f"[{done}/{total}] {where}: {result['mean']:.0f} ({result['early']} early)"
+    return f"[{done}/{total}] {where}: {score_text(result['mean'])} ({result['early']} early)"
 
 
 def physics_main(argv: Sequence[str]) -> None:
@@ -605,12 +611,13 @@ def physics_main(argv: Sequence[str]) -> None:
         for s in seeds[r]
     ]
     columns = [("run", lambda row: row["run"]), ("seed", lambda row: row["seed"])]
-    columns += [(v, lambda row, v=v: f"{row[v]['mean']:.0f} ({row[v]['early']} early)") for v in name.values()]
+    columns += [(v, lambda row, v=v: f"{score_text(row[v]['mean'])} ({row[v]['early']} early)") for v in name.values()]
     print(harness.table(rows, columns))
     for v in name.values():
         means = [row[v]["mean"] for row in rows]
         early = sum(row[v]["early"] for row in rows)
-        print(f"{v}: median {statistics.median(means):.0f}, {sum(m >= args.bar for m in means)} of {len(means)} "
+        median = score_text(statistics.median(means))
+        print(f"{v}: median {median}, {sum(m >= args.bar for m in means)} of {len(means)} "
               f"seeds >= {args.bar:g}, {early} of {len(means) * args.episodes} episodes ended early")  # fmt: skip
     harness.write_json(args.json, results, argv=list(argv))
 

@@ -88,19 +88,26 @@ def test_curves_are_redrawn_at_most_every_plot_every_s_and_always_at_the_end(tmp
     history = plotting.CurveHistory()
     saver = callbacks.Checkpoints(fake_plan(tmp_path), FakeCheckpointer(), progress=None, history=history, primary=True)
     metrics = block(0, [[1.0]] * 10)
-    for first in range(0, 40, 10):  # checkpoints at 10, 20, 30, 40, within one second: one redraw
+    for first in range(0, 40, 10):  # checkpoints at 10, 20, 30, 40 in the first second: not drawn yet
         clock[0] += 0.25
         saver(None, metrics, first)
-    assert saver.checkpoints.saved == [10, 20, 30, 40] and len(drawn) == 1 and drawn[0] is history
+    assert saver.checkpoints.saved == [10, 20, 30, 40] and not drawn
     clock[0] += callbacks.PLOT_EVERY_S
-    saver(None, metrics, 40)  # iteration 50, PLOT_EVERY_S later: redrawn
-    assert len(drawn) == 2
+    saver(None, metrics, 40)  # iteration 50, PLOT_EVERY_S after the start: drawn
+    assert len(drawn) == 1 and drawn[0] is history
     saver(None, metrics, 50)  # iteration 60, at once: not redrawn ...
-    assert len(drawn) == 2
+    assert len(drawn) == 1
     saver.save_if_behind(None, metrics, 50)  # ... until a time limit or an interrupt stops the run there
-    assert saver.checkpoints.saved == [10, 20, 30, 40, 50, 60] and len(drawn) == 3
+    assert saver.checkpoints.saved == [10, 20, 30, 40, 50, 60] and len(drawn) == 2
     saver(None, metrics, 90)  # the last iteration (100): always redrawn
-    assert saver.checkpoints.saved[-1] == 100 and len(drawn) == 4
+    assert saver.checkpoints.saved[-1] == 100 and len(drawn) == 3
+
+    # A run shorter than PLOT_EVERY_S draws its curves once, at the end.
+    drawn.clear()
+    short = callbacks.Checkpoints(fake_plan(tmp_path, iterations=20), FakeCheckpointer(), progress=None, primary=True)
+    short(None, metrics, 0)
+    short(None, metrics, 10)
+    assert short.checkpoints.saved == [10, 20] and len(drawn) == 1
 
 
 def test_the_eta_counts_the_hosts_work_between_blocks(tmp_path, monkeypatch):

@@ -305,3 +305,11 @@ TRPO_ZOO_MUJOCO: Mapping[str, Any] = MappingProxyType(
 # 4 seeds in the slow gait. Reacher: log-std -0.5 (its control cost punishes wide actions).
 TRPO_ZOO_SWIMMER: Mapping[str, Any] = MappingProxyType({**TRPO_ZOO_MUJOCO, "gamma": 0.9999, "log_std_init": 0.5})
 TRPO_ZOO_REACHER: Mapping[str, Any] = MappingProxyType({**TRPO_ZOO_MUJOCO, "log_std_init": -0.5})
+
+# Reacher's fast preset: `reacher_1m` with 16 times the samples an update (512 envs x 64 steps, 15.99 M
+# env steps in 488 updates), the value network fitted in minibatches of 1024 (640 steps an update), the
+# mean policy evaluated every 50 iterations. One H100, one seed a process, evaluated every 61: Gymnasium
+# median -3.48 in 59 s warm (PPO's large batch, the earlier fast preset: -3.64 in 67 s).
+TRPO_REACHER_FAST: Mapping[str, Any] = MappingProxyType(
+    {**TRPO_ZOO_REACHER, "num_envs": 512, "horizon": 64, "value_batch_size": 1024, "eval_every": 50}
+)

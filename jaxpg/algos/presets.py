@@ -31,6 +31,7 @@ from jaxpg.algos.preset_settings import (
     PPO_SMALL_BATCH,
     PPO_ZOO_HALF_CHEETAH,
     TIANSHOU_INIT,
+    TRPO_REACHER_FAST,
     TRPO_TIANSHOU,
     TRPO_ZOO_REACHER,
     TRPO_ZOO_SWIMMER,
@@ -137,21 +138,8 @@ TABLE: Mapping[tuple[str, str], Preset] = MappingProxyType(
             overrides={**TRPO_ZOO_SWIMMER, "num_envs": 16, "horizon": 128, "eval_every": 50},
             iterations=488,
         ),
-        # Reacher's fast preset: `reacher_1m` with 16 times the samples an update (512 envs x 64 steps,
-        # 15.99 M env steps), the value network fitted in minibatches of 1024, the mean policy
-        # evaluated every 50 iterations. One H100, one seed a process, evaluated every 61: Gymnasium
-        # median -3.48 in 59 s warm (PPO's large batch, the earlier fast preset: -3.64 in 67 s).
-        ("trpo", "reacher_fast"): Preset(
-            tasks=("reacher",),
-            overrides={
-                **TRPO_ZOO_REACHER,
-                "num_envs": 512,
-                "horizon": 64,
-                "value_batch_size": 1024,
-                "eval_every": 50,
-            },
-            iterations=488,
-        ),
+        # Reacher's fast preset: `reacher_1m` with 16 times the samples an update (preset_settings).
+        ("trpo", "reacher_fast"): Preset(tasks=("reacher",), overrides=TRPO_REACHER_FAST, iterations=488),
         # --- REINFORCE ---
         # On inverted_pendulum: the Gymnasium REINFORCE tutorial. Shared tanh trunk 16 -> 32,
         # linear mean and softplus-std heads, AdamW lr 1e-4, gamma 0.99, one update per episode,

@@ -244,7 +244,9 @@ class Checkpoints:
     """A checkpoint every ``checkpoint_every`` iterations and at the end (every process: the save
     gathers the state; process 0 writes), then ``curves.png`` from ``history`` (at most every
     ``PLOT_EVERY_S`` seconds, the first time ``PLOT_EVERY_S`` after the start; always at the
-    end); ``save_now`` for the time limit and interrupts. ``last_saved``: the iteration of the latest checkpoint."""
+    end); ``save_now`` for the time limit and interrupts. ``last_saved``: the iteration of the
+    latest checkpoint; ``last_plot``: when ``curves.png`` was last drawn (at first: when the run's
+    callbacks were made, before its first block)."""
 
     plan: Plan
     checkpoints: Any
@@ -252,7 +254,7 @@ class Checkpoints:
     history: plotting.CurveHistory | None = None
     last_saved: int = 0
     primary: bool = dataclasses.field(default_factory=is_primary)
-    last_plot: float = dataclasses.field(default_factory=lambda: time.perf_counter())  # the start
+    last_plot: float = dataclasses.field(default_factory=lambda: time.perf_counter())
     plotted: int = -1
 
     def __call__(self, ts: Any, metrics: dict[str, np.ndarray], first: int) -> None:

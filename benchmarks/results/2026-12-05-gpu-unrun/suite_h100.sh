@@ -1,16 +1,21 @@
 #!/bin/bash
-# Written 2026-12-05 for a later GPU lease, not yet run: the suite's rows that have no H100 figure yet.
-#   PART=1m (default): every 1 M-step preset measured elsewhere (H200 or CPU), 5 seeds in one vmapped
-#     program each, all six programs side by side on one H100 (the 1 M figures are scores at a step
-#     budget, not times), then each seed's final mean policy replayed 10 episodes in Gymnasium v5:
-#     half_cheetah ppo, ant a2c, humanoid a2c, swimmer trpo, reacher trpo, pusher npg.
+# The suite's rows with no H100 figure yet, in parts that each fit one lease (30 minutes of device time,
+# about 25 after the machine's start and the wheels' staging). Not yet run as written.
+# Six programs side by side do not fit a lease: on 2026-12-05 (benchmarks/results/2026-12-05-h100b/),
+# sharing one H100 six ways, Pusher, Reacher and Swimmer reached only 0.16-0.29 M env steps in 10 minutes.
+# Ant's and Humanoid's A2C (12,500 small iterations each) set the pace: on one H200 the two side by side
+# took about 11.5 minutes (Ant, 16 seeds) and 647 s (Humanoid, 32 seeds).
+#   PART=a2c:   ant a2c and humanoid a2c, 5 seeds in one vmapped program each, the two side by side;
+#   PART=rest:  half_cheetah ppo, swimmer trpo, reacher trpo, pusher npg, one program after another;
 #   PART=swimmer_fast: TRPO's swimmer_fast as typed, seed 0 bare, then seeds 0-2 warm, one process each.
+# Each 1 M program's final mean policy (5 seeds) is replayed 10 episodes in Gymnasium v5.
 # Start with setsid and poll for $D/done:
-#   setsid nohup bash benchmarks/results/2026-12-05-gpu-unrun/suite_h100.sh > /tmp/suite.log 2>&1 < /dev/null &
+#   PART=a2c setsid nohup bash benchmarks/results/2026-12-05-gpu-unrun/suite_h100.sh > /tmp/suite.log 2>&1 < /dev/null &
 D=${D:-/tmp/out}; R=/tmp/repo-suite; mkdir -p $D; rm -rf $R; cp -r "$PWD" $R; rm -rf $R/.w?? $R/.wc? $R/.whl; cd $R
 export PYTHONPATH=$R:/tmp/site PYTHONUNBUFFERED=1
 nvidia-smi -L > $D/gpu.txt 2>&1; nproc >> $D/gpu.txt; lscpu | grep 'Model name' >> $D/gpu.txt; date -u > $D/start.txt
 git log -1 --format=%h >> $D/start.txt 2>/dev/null
+python3 -m compileall -q -j 0 /tmp/site > $D/compileall.log 2>&1  # the bytecode a user's pip install writes
 replay() {  # name, task
   python3 benchmarks/suite.py physics $(ls -d $D/runs/$1/$2-*/) --variants gymnasium \
     --episodes 10 --workers 4 --json $D/physics_$1.json > $D/physics_$1.log 2>&1
@@ -20,12 +25,11 @@ one_m() {  # task, algo
     --out $D/runs/$1 --json $D/$1.json > $D/$1.log 2>&1
   date -u > $D/$1.end; replay $1 $1
 }
-if [ "${PART:-1m}" = 1m ]; then
-  one_m half_cheetah ppo & one_m ant a2c & one_m humanoid a2c &
-  one_m swimmer trpo & one_m reacher trpo & one_m pusher npg &
-  wait
-else
-  python3 benchmarks/suite.py run --runs swimmer:trpo:swimmer_fast --seeds 0 1 2 --bare-first --episodes 10 \
-    --out $D/runs/swimmer_fast --json $D/swimmer_fast.json > $D/swimmer_fast.log 2>&1
-fi
+case "${PART:-a2c}" in
+  a2c) one_m ant a2c & one_m humanoid a2c & wait ;;
+  rest) for run in half_cheetah:ppo swimmer:trpo reacher:trpo pusher:npg; do one_m ${run%:*} ${run#*:}; done ;;
+  swimmer_fast)
+    python3 benchmarks/suite.py run --runs swimmer:trpo:swimmer_fast --seeds 0 1 2 --bare-first --episodes 10 \
+      --out $D/runs/swimmer_fast --json $D/swimmer_fast.json > $D/swimmer_fast.log 2>&1 ;;
+esac
 touch $D/done

@@ -8,6 +8,8 @@
 #   5. Swimmer's fast preset as typed (suite_h100.sh PART=swimmer_fast).               -> /tmp/outsw
 # Each step touches its own marker in /tmp/out: card.end, 1m.end, reacher.end, bare45.end, then done.
 #   setsid nohup bash benchmarks/results/2026-12-05-gpu-unrun/lease.sh > /tmp/lease.log 2>&1 < /dev/null &
+# As run, this file lived in benchmarks/results/2026-12-05-gpu-unrun/ beside suite_h100.sh, whose PART=1m (the six
+# 1 M presets side by side) has since been replaced by parts that each fit a lease.
 HERE=$(cd "$(dirname "$0")" && pwd); SRC=$PWD
 D=/tmp/out; R=/tmp/repo-next; mkdir -p $D; rm -rf $R; cp -r "$SRC" $R; rm -rf $R/.w?? $R/.wc? $R/.whl; cd $R
 export PYTHONPATH=$R:/tmp/site PYTHONUNBUFFERED=1

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import logging
 import subprocess
 import sys
 import threading
@@ -326,3 +327,72 @@ def test_bytecode_finds_a_package_without_its_compiled_sources_and_with_them(har
     state = harness.bytecode(("fakepkg.sub",))
     assert state["compiled"] == {"fakepkg.sub": True}
     assert harness.bytecode_note(state) is None
+
+
+@pytest.fixture(scope="module")
+def parts():
+    """``card_command.py parts``: the card's command in this process, its programs' compile log and
+    MuJoCo Warp's callbacks timed."""
+    return load_script("benchmarks/card_command.py")
+
+
+def test_card_parts_reads_jax_compile_log_lines(parts):
+    """The compile-log lines of JAX 0.10 and 0.11 (both wordings of tracing), summed by program and
+    stage; cache hits matched to their program (``<lambda>`` is the cache's ``_lambda``)."""
+    stages, hits = parts.CompileLog().stages, set()
+    lines = [
+        "Finished tracing scan_updates for jit in 1.5 sec",
+        "Finished tracing + transforming scan_updates for pjit in 0.25 sec",
+        "Finished jaxpr to MLIR module conversion jit(scan_updates) in 0.5 sec",
+        "Persistent compilation cache hit for 'jit_scan_updates' with key 'jit_scan_updates-7d67'",
+        "Finished XLA compilation of jit(scan_updates) in 0.625 sec",
+        "Finished XLA compilation of jit(<lambda>) in 2e-3 sec",
+        "Persistent compilation cache hit for 'jit__lambda' with key 'jit__lambda-5d6c'",
+        "Compiling jit(scan_updates) with global shapes and types (ShapedArray(float32[3]),).",
+        "an unrelated line in 3 sec",
+    ]
+    for line in lines:
+        parts.parse_line(line, stages, hits)
+    assert stages["scan_updates"] == {"tracing": 1.75, "lowering": 0.5, "compile": 0.625}
+    assert stages["<lambda>"] == {"compile": 0.002}
+    assert hits == {"scan_updates", "lambda"} and parts.plain_name("<lambda>") in hits
+
+
+def test_card_parts_reads_this_jax_s_own_compile_log(parts):
+    """The lines this JAX writes under ``jax.log_compiles`` give all three stages of a new program."""
+    import jax
+
+    log, logger = parts.CompileLog(), logging.getLogger("jax")
+    logger.addHandler(log)
+    try:
+        with jax.log_compiles(True):
+            jax.jit(lambda x: x * 3.0 + 0.25)(1.0)
+    finally:
+        logger.removeHandler(log)
+    assert set(log.stages["<lambda>"]) == {"tracing", "lowering", "compile"}
+    assert all(seconds > 0 for seconds in log.stages["<lambda>"].values())
+
+
+def test_card_parts_times_each_ffi_call_and_keeps_its_result(parts, monkeypatch):
+    ffi = pytest.importorskip("warp._src.jax.ffi")
+    registered = {}
+    monkeypatch.setattr(ffi, "_register_ffi_targets", lambda name, callback: registered.setdefault(name, callback))
+    clock = parts.CallbackClock()
+    assert parts.time_warp_callbacks(clock) is None
+    outcomes = iter([None, 7, ValueError("an FFI error")])
+
+    def handler(call_frame, platform):
+        outcome = next(outcomes)
+        if isinstance(outcome, Exception):
+            raise outcome
+        return outcome
+
+    ffi._register_ffi_targets("step", handler)
+    timed = registered["step"]
+    assert timed("frame", "CUDA") is None and timed("frame", "CUDA") == 7
+    with pytest.raises(ValueError, match="an FFI error"):
+        timed("frame", "CUDA")
+    summary = clock.summary()
+    assert (summary["targets"], summary["calls"]) == (1, 3)
+    assert summary["seconds"] == pytest.approx(summary["first_calls_s"] + summary["later_calls_s"])
+    assert summary["first_calls_s"] == clock.calls["step"][0] and summary["later_median_us"] > 0

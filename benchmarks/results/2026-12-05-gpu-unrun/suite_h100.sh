@@ -7,7 +7,9 @@
 # took about 11.5 minutes (Ant, 16 seeds) and 647 s (Humanoid, 32 seeds).
 #   PART=a2c:   ant a2c and humanoid a2c, 5 seeds in one vmapped program each, the two side by side;
 #   PART=rest:  half_cheetah ppo, swimmer trpo, reacher trpo, pusher npg, one program after another;
-#   PART=swimmer_fast: TRPO's swimmer_fast as typed, seed 0 bare, then seeds 0-2 warm, one process each.
+#   PART=swimmer_fast: TRPO's swimmer_fast as typed, seed 0 bare, then seeds 0-2 warm, one process each;
+#   PART=hopper_gpu: Hopper's time to 3000 (the "Time to a score" table, measured on an H200 so far),
+#     PPO and NPG, seeds 0-2, caches filled first (--warmup). The last two fit one lease together.
 # Each 1 M program's final mean policy (5 seeds) is replayed 10 episodes in Gymnasium v5.
 # Start with setsid and poll for $D/done:
 #   PART=a2c setsid nohup bash benchmarks/results/2026-12-05-gpu-unrun/suite_h100.sh > /tmp/suite.log 2>&1 < /dev/null &
@@ -31,5 +33,10 @@ case "${PART:-a2c}" in
   swimmer_fast)
     python3 benchmarks/suite.py run --runs swimmer:trpo:swimmer_fast --seeds 0 1 2 --bare-first --episodes 10 \
       --out $D/runs/swimmer_fast --json $D/swimmer_fast.json > $D/swimmer_fast.log 2>&1 ;;
+  hopper_gpu)
+    for algo in ppo npg; do
+      python3 benchmarks/time_to_return.py run --algo $algo --preset hopper_gpu --block 10 --iterations-per-call 1 \
+        --seeds 0 1 2 --warmup --json $D/hopper_gpu_$algo.json > $D/hopper_gpu_$algo.log 2>&1
+    done ;;
 esac
 touch $D/done

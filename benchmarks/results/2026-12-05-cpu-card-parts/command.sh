@@ -8,3 +8,9 @@ python benchmarks/card_command.py parts --json parts_warp.json -- --iterations 1
 python benchmarks/card_command.py parts --json parts_jax.json -- --iterations 10 > parts_jax.log 2>&1
 # The profile of the evaluation's tracing (its lower() on the background thread under cProfile) was taken
 # by hand with a patched jaxpg.train._EarlyCompile._compile; not kept as a script.
+# The evaluation with as many episodes as training envs (256) against the preset's 16, three alternating
+# warm runs each (eval_envs_ab/):
+for i in 1 2 3; do for e in 16 256; do
+  python benchmarks/card_command.py parts --json eval_envs_ab/e${e}_$i.json -- --iterations 10 --impl warp \
+    --eval-envs $e > eval_envs_ab/e${e}_$i.log 2>&1
+done; done

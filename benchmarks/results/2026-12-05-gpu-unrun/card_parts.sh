@@ -1,5 +1,5 @@
 #!/bin/bash
-# Written 2026-12-05 for the next GPU lease, not yet run (about 2.5 minutes). Where a warm run of the card's
+# Written 2026-12-05 for the next GPU lease, not yet run (about 4 minutes). Where a warm run of the card's
 # command spends its "programs loaded" (2.9-3.3 s on one H100) and how much of its training is MuJoCo Warp's
 # Python FFI callbacks (about 19,000 calls a run: one per physics step): a bare run fills the caches, then
 # three warm runs of `card_command.py parts`, each a process, as typed. On 2 CPU cores
@@ -16,5 +16,8 @@ export JAXPG_COMPILATION_CACHE=$D/card/caches-cold-0/xla WARP_CACHE_PATH=$D/card
   CUDA_CACHE_PATH=$D/card/caches-cold-0/cuda
 for s in 1 2 3; do
   python3 benchmarks/card_command.py parts --json $D/parts$s.json -- --seed $s > $D/parts$s.log 2>&1
+  # the evaluation with the training's 256 envs: on 2 CPU cores it traced 0.4-0.5 s faster; its GPU time?
+  python3 benchmarks/card_command.py parts --json $D/parts_e256_$s.json -- --seed $s --eval-envs 256 \
+    > $D/parts_e256_$s.log 2>&1
 done
 touch $D/done

@@ -55,6 +55,7 @@ from typing import Any
 import harness
 
 RAW = argparse.RawDescriptionHelpFormatter
+CARD_COMMAND = ("experiments/hopper.py", "--num-envs", "256")  # from the repository root
 ROOT = Path(__file__).resolve().parent.parent
 CARD_DOC = """The command jaxpg is known by, timed as a user runs it, then judged in Gymnasium.
 
@@ -119,7 +120,7 @@ def train_once(seed: int, run_dir: Path, caches: Path, log: Path, extra: list[st
         "WARP_CACHE_PATH": str(caches / "warp"),
         "CUDA_CACHE_PATH": str(caches / "cuda"),  # the driver's cache of the PTX it compiled
     }
-    command = [sys.executable, "experiments/hopper.py", "--num-envs", "256", "--seed", str(seed)]
+    command = [sys.executable, *CARD_COMMAND, "--seed", str(seed)]
     status, wall, stamped = harness.run_process([*command, "--run-dir", str(run_dir), *extra], env, log)
     rows = harness.metrics_rows(run_dir)
     evaluated = [r for r in rows if r.get("return_mean_policy") is not None]
@@ -788,9 +789,9 @@ two clocks that a whole-process timing (``card_command.py card``) cannot see:
 
 - **JAX's work on each program before it runs**, from JAX's own compile log (``jax_log_compiles``):
   tracing, lowering to MLIR, and XLA's compilation or its load from the persistent cache (a cache
-  hit is named). A warm run's "programs loaded" (the first block's ``compiled in`` line) is the sum
-  of these for the training block and the evaluation, which MuJoCo Warp's runs prepare together
-  before the first block;
+  hit is named). A warm run's "programs loaded" (the first block's ``compiled in`` line) is these
+  for the training block and the evaluation, which MuJoCo Warp's runs prepare on two threads
+  before the first block: their times overlap, so the line is less than their sum;
 - **the Python time of MuJoCo Warp's FFI callbacks**: MJX calls each of MuJoCo Warp's kernels
   through an XLA FFI target whose handler is a Python function (Warp's ``ffi_callback``), run
   under the GIL at every call; on a GPU it launches a captured CUDA graph, on a CPU it runs the
@@ -804,7 +805,6 @@ Flags after ``--`` are added to the card's command. Run it after a first run fil
 (``JAXPG_COMPILATION_CACHE``, ``WARP_CACHE_PATH``) to see a warm run. The training's output is
 printed as usual; the tables follow it.
 """
-PARTS_CARD = ["--num-envs", "256"]
 # JAX's compile log: "Finished tracing + transforming NAME for pjit in S sec" (wording varies by
 # version), "Finished jaxpr to MLIR module conversion jit(NAME) in S sec", "Finished XLA
 # compilation of jit(NAME) in S sec", and "Persistent compilation cache hit for 'jit_NAME'".
@@ -914,13 +914,11 @@ def report(log: CompileLog, clock: CallbackClock, wall_s: float, note: str | Non
     ]
     big = [r for r in rows if r["tracing"] + r["lowering"] + r["compile"] >= 0.05]
     small = [r for r in rows if r not in big]
+    others = [{"program": f"{len(small)} others", **{s: sum(r[s] for r in small) for s, _ in _STAGES}}] if small else []
     print(f"\nJAX's work before each program runs (s), {harness.describe()}:")
     print(
         harness.table(
-            big
-            + (
-                [{"program": f"{len(small)} others", **{s: sum(r[s] for r in small) for s, _ in _STAGES}}] * bool(small)
-            ),
+            big + others,
             [
                 ("program", lambda r: r["program"]),
                 ("tracing", lambda r: f"{r['tracing']:.2f}"),
@@ -970,7 +968,7 @@ def parts_main(argv: Sequence[str]) -> None:
     start = time.perf_counter()
     atexit.register(lambda: report(log, clock, time.perf_counter() - start, note, args.json))
     run_dir = args.run_dir or tempfile.mkdtemp(prefix="card-parts-")
-    sys.argv = [str(ROOT / "experiments" / "hopper.py"), *PARTS_CARD, "--run-dir", run_dir, *args.extra]
+    sys.argv = [str(ROOT / CARD_COMMAND[0]), *CARD_COMMAND[1:], "--run-dir", run_dir, *args.extra]
     runpy.run_path(sys.argv[0], run_name="__main__")  # ends the process, after the atexit handlers
 
 

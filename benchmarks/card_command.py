@@ -588,7 +588,7 @@ def capture_main(argv: Sequence[str]) -> None:
 # in turn or with the import on a thread while the backend starts; then jaxpg's import of MJX
 # (``jaxpg.envs.mjx_import``, jaxpg's own import counted in the total only), with MuJoCo Warp and
 # with it left out (``JAXPG_MJX_WARP=off``, what a command that steps on JAX only does); "trimesh
-# imported": trimesh imported first, as MJX did before jaxpg deferred it (``mjx_import.DeferredTrimesh``).
+# imported": trimesh imported first, as MJX did before jaxpg deferred it (``mjx_import.DeferredModule``).
 STARTUP_SNIPPETS = {
     "in turn": """
 import json, time

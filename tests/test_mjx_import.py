@@ -158,7 +158,7 @@ from jaxpg import envs
 from jaxpg.envs import mjx_import
 mjx, _ = mjx_import.import_mjx()
 envs.make_task("hopper", impl="jax")
-print("after hopper:", type(sys.modules.get("trimesh")).__name__)
+print("after hopper:", type(sys.modules.get("trimesh")).__name__, type(sys.modules.get("scipy.spatial")).__name__)
 xml = '''<mujoco><asset><mesh name="box" vertex="0 0 0 1 0 0 0 1 0 1 1 0 0 0 1 1 0 1 0 1 1 1 1 1"/></asset>
 <worldbody><geom type="plane" size="5 5 .1"/><body><freejoint/><geom type="mesh" mesh="box"/></body></worldbody>
 </mujoco>'''
@@ -166,17 +166,19 @@ model = mjx.put_model(mujoco.MjModel.from_xml_string(xml), impl="jax")  # MJX ta
 arrays = [np.asarray(x) for x in jax.tree.leaves(model) if hasattr(x, "shape")]
 print("model:", hashlib.sha256(b"".join(x.tobytes() for x in arrays)).hexdigest())
 import trimesh
-print("after mesh:", type(trimesh).__name__, trimesh.Trimesh.__module__)
+import scipy.spatial
+print("after mesh:", type(trimesh).__name__, trimesh.Trimesh.__module__, type(scipy.spatial).__name__)
 """
 
 
-def test_mjx_imports_trimesh_only_for_a_model_with_meshes():
-    """MJX is imported with trimesh deferred: building a task (no meshes) leaves it unimported; a
-    model with a mesh imports it and gets the same MJX model as a process that imported trimesh
-    before MJX; ``import trimesh`` then gives the package itself."""
+def test_mjx_imports_trimesh_and_scipy_spatial_only_for_a_model_with_meshes():
+    """MJX is imported with trimesh and scipy.spatial deferred: building a task (no meshes) leaves
+    them unimported; a model with a mesh imports them and gets the same MJX model as a process that
+    imported both before MJX; ``import trimesh`` and ``import scipy.spatial`` then give the modules
+    themselves."""
     deferred = python(MESH_MODEL.format(first=""), JAXPG_MJX_WARP="off")
-    imported_first = python(MESH_MODEL.format(first="import trimesh"), JAXPG_MJX_WARP="off")
-    assert "after hopper: NoneType" in deferred and "after hopper: module" in imported_first
+    imported_first = python(MESH_MODEL.format(first="import trimesh, scipy.spatial"), JAXPG_MJX_WARP="off")
+    assert "after hopper: NoneType NoneType" in deferred and "after hopper: module module" in imported_first
     digest = [line for line in deferred.splitlines() if line.startswith("model:")]
     assert digest and digest[0] in imported_first.splitlines()
-    assert "after mesh: module trimesh.base" in deferred
+    assert "after mesh: module trimesh.base module" in deferred

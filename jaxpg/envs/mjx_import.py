@@ -9,11 +9,12 @@ MJX is first imported; jaxpg's command lines do so themselves (``jaxpg.run.start
 runs as it does without ``warp-lang``, and asking that process for ``impl="warp"`` is a
 ``ValueError`` that says why.
 
-MJX also imports ``trimesh``, which it uses only to take the convex hull of a model's meshes; no
-task of jaxpg's has one. That import took about 0.35 s of a command's start on two CPU cores and
-about 1 s on a GPU host (``benchmarks/card_command.py startup``). ``import_mjx`` imports MJX with a
-stand-in for it (``DeferredTrimesh``) that imports the real package the first time MJX uses it, so
-a process that converts no mesh never imports it.
+MJX also imports ``trimesh`` and ``scipy.spatial``, which it uses only to take the convex hull of a
+model's meshes; no task of jaxpg's has one. Importing trimesh took about 0.35 s of a command's
+start on two CPU cores and about 1 s on a GPU host (``benchmarks/card_command.py startup``), and
+``scipy.spatial`` about 0.2 s on two CPU cores. ``import_mjx`` imports MJX with a stand-in for each
+(``DeferredModule``) that imports the real module the first time MJX uses it, so a process that
+converts no mesh imports neither.
 
 Kept free of MuJoCo imports, so that a command can decide before MJX is imported.
 """
@@ -59,30 +60,31 @@ def leave_out_warp() -> None:
         os.environ[WARP_VARIABLE] = "off"
 
 
-class DeferredTrimesh(types.ModuleType):
-    """What MJX's ``import trimesh`` finds while ``import_mjx`` imports MJX: any attribute is the real
-    package's, imported on first use, except ``Trimesh``, which MJX's ``mesh.py`` names in an
-    annotation when it is imported: a class whose instances (and ``isinstance`` checks) are the
-    real ``trimesh.Trimesh``'s."""
+class DeferredModule(types.ModuleType):
+    """What MJX's ``import NAME`` finds while ``import_mjx`` imports MJX: any attribute is the real
+    module's, imported on first use, except the classes named in ``classes`` (trimesh's
+    ``Trimesh``, which MJX's ``mesh.py`` names in an annotation when it is imported): classes whose
+    instances (and ``isinstance`` checks) are the real module's."""
 
-    def __init__(self) -> None:
-        super().__init__("trimesh")
-        self.Trimesh = _DeferredClass("Trimesh", (), {"module": self})
+    def __init__(self, name: str, classes: tuple[str, ...] = ()) -> None:
+        super().__init__(name)
+        for cls in classes:
+            setattr(self, cls, _DeferredClass(cls, (), {"module": self}))
 
-    def __getattr__(self, name: str) -> Any:  # attributes other than Trimesh
+    def __getattr__(self, name: str) -> Any:  # attributes other than the deferred classes
         return getattr(self.real(), name)
 
     def real(self) -> types.ModuleType:
-        """The ``trimesh`` package, imported now if it was not."""
-        real = sys.modules.get("trimesh")
+        """The real module, imported now if it was not."""
+        real = sys.modules.get(self.__name__)
         if real is None or real is self:
-            sys.modules.pop("trimesh", None)
-            import trimesh as real
+            sys.modules.pop(self.__name__, None)
+            real = importlib.import_module(self.__name__)
         return real
 
 
 class _DeferredClass(type):
-    """``DeferredTrimesh.Trimesh``: calling it builds, and ``isinstance`` asks, the real class."""
+    """A class of a ``DeferredModule``: calling it builds, and ``isinstance`` asks, the real class."""
 
     def __call__(cls, *args: Any, **kwargs: Any) -> Any:
         return getattr(cls.module.real(), cls.__name__)(*args, **kwargs)
@@ -91,18 +93,35 @@ class _DeferredClass(type):
         return isinstance(instance, getattr(cls.module.real(), cls.__name__))
 
 
+DEFERRED_BY_MJX = (("trimesh", ("Trimesh",)), ("scipy.spatial", ()))
+"""The modules ``import_mjx`` defers, ``(name, deferred classes)``: MJX's ``mesh.py`` imports them
+for the convex hulls of meshes."""
+
+
+def _installed(name: str) -> bool:
+    """Whether module ``name`` can be imported (its parent package, if any, is imported to tell)."""
+    try:
+        return importlib.util.find_spec(name) is not None
+    except ImportError:  # the parent package is missing
+        return False
+
+
 @contextlib.contextmanager
-def _trimesh_deferred() -> Iterator[None]:
-    """While MJX is imported, ``import trimesh`` finds a ``DeferredTrimesh`` (unless trimesh is
-    imported already or not installed); afterwards ``import trimesh`` imports the package."""
-    defer = "trimesh" not in sys.modules and importlib.util.find_spec("trimesh") is not None
-    if defer:
-        sys.modules["trimesh"] = DeferredTrimesh()
+def _mesh_modules_deferred() -> Iterator[None]:
+    """While MJX is imported, ``import NAME`` finds a ``DeferredModule`` for each module of
+    ``DEFERRED_BY_MJX`` (unless it is imported already or not installed); afterwards ``import
+    NAME`` imports the module itself."""
+    deferred = []
+    for name, classes in DEFERRED_BY_MJX:
+        if name not in sys.modules and _installed(name):
+            sys.modules[name] = DeferredModule(name, classes)
+            deferred.append(name)
     try:
         yield
     finally:
-        if defer and isinstance(sys.modules.get("trimesh"), DeferredTrimesh):
-            del sys.modules["trimesh"]
+        for name in deferred:
+            if isinstance(sys.modules.get(name), DeferredModule):
+                del sys.modules[name]
 
 
 def import_mjx() -> tuple[Any, bool]:
@@ -120,7 +139,7 @@ def import_mjx() -> tuple[Any, bool]:
         warp.config.quiet = True  # warp-lang 1.18
         if hasattr(warp, "LOG_WARNING"):
             warp.config.log_level = warp.LOG_WARNING  # warp-lang 1.19 replaced ``quiet`` by a log level
-        with _trimesh_deferred():
+        with _mesh_modules_deferred():
             from mujoco import mjx
 
         return mjx, True
@@ -128,7 +147,7 @@ def import_mjx() -> tuple[Any, bool]:
     if hidden:
         sys.modules["warp"] = None  # type: ignore[assignment]  # `import warp` raises ImportError
     try:
-        with contextlib.redirect_stdout(io.StringIO()), _trimesh_deferred():
+        with contextlib.redirect_stdout(io.StringIO()), _mesh_modules_deferred():
             from mujoco import mjx
     finally:
         if hidden:

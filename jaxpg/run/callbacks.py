@@ -12,9 +12,10 @@ the order ``host_callbacks`` lists them, after every block of iterations:
   ``show_progress``     the progress bar;
   ``Summaries``         the summary line every ``log_every`` iterations, with its ETA, and the
                         warnings about rolled-back updates and physics overflows;
-  ``Checkpoints``       a checkpoint every ``checkpoint_every`` iterations and at the end, then
+  ``Checkpoints``       a checkpoint every ``checkpoint_every`` iterations and at the end, and
                         ``curves.png`` (redrawn at most every ``PLOT_EVERY_S`` seconds from the
-                        start, and at the end);
+                        start, and at the end, by a helper process while the checkpoint is
+                        written: ``plot_process``);
   ``Videos``            a video of the mean policy every ``video_every`` iterations and at the end;
   ``TimeLimit``         past ``--minutes``: checkpoint, then ``TimeUp``;
   ``StopOnRequest``     after SIGINT / SIGTERM: checkpoint, then ``Stop``;
@@ -35,6 +36,7 @@ from jaxpg.run import console, layout, metrics_log, plotting, policy_episodes
 from jaxpg.run.interrupts import Stop, StopAtOnce, TimeUp
 from jaxpg.run.output import is_primary, seed_slice
 from jaxpg.run.plan import Plan
+from jaxpg.run.plot_process import CurvePainter
 
 Callback = Callable[[Any, dict[str, np.ndarray], int], None]
 """``callback(train_state, metrics, first_iteration)``, as ``jaxpg.train.train`` calls it."""
@@ -256,6 +258,7 @@ class Checkpoints:
     primary: bool = dataclasses.field(default_factory=is_primary)
     last_plot: float = dataclasses.field(default_factory=lambda: time.perf_counter())
     plotted: int = -1
+    painter: CurvePainter = dataclasses.field(default_factory=CurvePainter)
 
     def __call__(self, ts: Any, metrics: dict[str, np.ndarray], first: int) -> None:
         run, last = self.plan.run, first + block_length(metrics)
@@ -269,6 +272,10 @@ class Checkpoints:
         last_metrics = {
             k: float(np.nanmean(v[-1])) if not np.all(np.isnan(v[-1])) else None for k, v in metrics.items()
         }
+        draw = self.primary and (final or time.perf_counter() - self.last_plot >= PLOT_EVERY_S)
+        beside = draw and self.painter.process is not None  # the helper draws while the checkpoint is written
+        if beside:
+            self.plot(step, final)
         self.checkpoints.save(
             step,
             ts,
@@ -277,8 +284,8 @@ class Checkpoints:
             info={"task": run.task, "algo": run.algo, "seeds": run.seeds},
         )
         self.last_saved = step
-        if self.primary and (final or time.perf_counter() - self.last_plot >= PLOT_EVERY_S):
-            self.plot(step)
+        if draw and not beside:
+            self.plot(step, final)
 
     def save_if_behind(self, ts: Any, metrics: dict[str, np.ndarray], first: int) -> None:
         """Checkpoint the block's last iteration unless that is the latest checkpoint already, and
@@ -289,14 +296,15 @@ class Checkpoints:
         elif self.primary and self.plotted != last:
             self.plot(last)
 
-    def plot(self, step: int) -> None:
-        """Redraw ``curves.png`` through iteration ``step``; a failure is a warning line (a plot must
-        never stop training)."""
-        self.last_plot, self.plotted = time.perf_counter(), step
-        try:
-            plotting.plot_run(self.plan.run_dir, task_score_name=self.plan.env.task_score_name, history=self.history)
-        except Exception as e:  # noqa: BLE001 - a plot must never stop training
-            self.progress.write(f"warning: curves.png not updated ({type(e).__name__}: {e})")
+    def plot(self, step: int, final: bool = True) -> None:
+        """Redraw ``curves.png`` through iteration ``step`` (through the painter: a periodic drawing
+        is skipped while its helper process still draws the last one); a failure is a warning line
+        (a plot must never stop training)."""
+        asked, warnings = self.painter.draw(self.plan.run_dir, self.history, self.plan.env.task_score_name, final)
+        if asked:
+            self.last_plot, self.plotted = time.perf_counter(), step
+        for warning in warnings:
+            self.progress.write(warning)
 
 
 class Videos:
@@ -369,6 +377,10 @@ class HostCallbacks:
     def last_saved(self) -> int:
         return self.checkpoints.last_saved
 
+    def close(self, wait: bool = True) -> list[str]:
+        """Let the curves' last drawing finish (unless ``wait`` is False); its warning lines."""
+        return self.checkpoints.painter.close(wait)
+
 
 def host_callbacks(
     plan_: Plan,
@@ -383,7 +395,9 @@ def host_callbacks(
     # A resumed run's curves start from its metrics.jsonl, read once (truncated to plan_.start).
     records = metrics_log.read_metrics(plan_.run_dir) if plan_.start and is_primary() else []
     history = plotting.CurveHistory.from_records(records)
-    saving = Checkpoints(plan_, checkpoints, progress, history=history, last_saved=plan_.start)
+    # curves.png is drawn by a helper process (plot_process), started now: matplotlib is ready by the first drawing.
+    painter = CurvePainter.start() if is_primary() else CurvePainter()
+    saving = Checkpoints(plan_, checkpoints, progress, history=history, last_saved=plan_.start, painter=painter)
     callables: list[Callback] = [
         guard_interrupts(interrupts),
         clock.start_block,

@@ -11,6 +11,7 @@ forward distance) when it is not the return itself. Several run directories are 
 from __future__ import annotations
 
 import argparse
+import io
 import math
 import os
 import sys
@@ -85,6 +86,25 @@ class CurveHistory:
         if not self._iterations:
             return np.zeros(0, np.int64), np.zeros((0, 0))
         return np.concatenate(self._iterations), np.concatenate(self._values[key])
+
+    def to_npz(self) -> bytes:
+        """The history as ``.npz`` bytes (``from_npz`` reads them back): ``iterations [n]`` and each
+        key's ``[n, num_seeds]``."""
+        buffer = io.BytesIO()
+        iterations, _ = self.curve(CURVE_KEYS[0])
+        np.savez(buffer, iterations=iterations, **{key: self.curve(key)[1] for key in CURVE_KEYS})
+        return buffer.getvalue()
+
+    @classmethod
+    def from_npz(cls, data: bytes) -> CurveHistory:
+        """The history that ``to_npz`` wrote."""
+        history = cls()
+        with np.load(io.BytesIO(data)) as arrays:
+            if len(arrays["iterations"]):
+                history._iterations.append(arrays["iterations"])
+                for key in CURVE_KEYS:
+                    history._values[key].append(arrays[key])
+        return history
 
     def measured(self, key: str) -> bool:
         """Whether any iteration of any seed measured ``key``."""

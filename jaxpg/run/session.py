@@ -169,6 +169,7 @@ def _train(plan_: Plan, ts: Any, wall_offset: float, interrupts: Interrupts) -> 
     status = 0
     failure: str | None = None  # the error line, once the run directory is put in order
     kept = ""  # what the error line adds when the run keeps its checkpoints
+    stopped_at_once = False  # by a second interrupt: nothing more is waited for
     callbacks: HostCallbacks | None = None
     try:
         with interrupts.attributed():
@@ -216,6 +217,7 @@ def _train(plan_: Plan, ts: Any, wall_offset: float, interrupts: Interrupts) -> 
         )
         status = exit_status(stop.signum)
     except KeyboardInterrupt:
+        stopped_at_once = True
         if progress is not None:
             progress.close()
         saved = callbacks.last_saved if callbacks is not None else plan_.start
@@ -248,6 +250,9 @@ def _train(plan_: Plan, ts: Any, wall_offset: float, interrupts: Interrupts) -> 
                     closable.close()
                 except Exception:  # noqa: BLE001 - closing after a failure must not hide it
                     pass
+        if callbacks is not None:  # the curves' last drawing, in its helper process while the above closed
+            for warning in callbacks.close(wait=not stopped_at_once):
+                print(warning, file=sys.stderr)
     saved = callbacks.last_saved if callbacks is not None else plan_.start
     note = finish_run_dir(plan_, checkpointed=saved > 0) if primary else ""
     if failure is not None:

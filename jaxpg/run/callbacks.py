@@ -16,7 +16,8 @@ the order ``host_callbacks`` lists them, after every block of iterations:
                         ``curves.png`` (redrawn at most every ``PLOT_EVERY_S`` seconds from the
                         start, and at the end, by a helper process while the checkpoint is
                         written: ``plot_process``);
-  ``Videos``            a video of the mean policy every ``video_every`` iterations and at the end;
+  ``Videos``            a video of the mean policy every ``video_every`` iterations and at the end
+                        (``jaxpg.run.videos``);
   ``TimeLimit``         past ``--minutes``: checkpoint, then ``TimeUp``;
   ``StopOnRequest``     after SIGINT / SIGTERM: checkpoint, then ``Stop``;
   ``BlockClock.end_host_work``  the host's own work is left out of the next block's rate.
@@ -31,12 +32,12 @@ from typing import Any
 
 import numpy as np
 
-from jaxpg import mesh as mesh_lib
-from jaxpg.run import console, layout, metrics_log, plotting, policy_episodes
+from jaxpg.run import console, metrics_log, plotting
 from jaxpg.run.interrupts import Stop, StopAtOnce, TimeUp
-from jaxpg.run.output import is_primary, seed_slice
+from jaxpg.run.output import is_primary
 from jaxpg.run.plan import Plan
 from jaxpg.run.plot_process import CurvePainter
+from jaxpg.run.videos import Videos
 
 Callback = Callable[[Any, dict[str, np.ndarray], int], None]
 """``callback(train_state, metrics, first_iteration)``, as ``jaxpg.train.train`` calls it."""
@@ -305,36 +306,6 @@ class Checkpoints:
             self.last_plot, self.plotted = time.perf_counter(), step
         for warning in warnings:
             self.progress.write(warning)
-
-
-class Videos:
-    """A video of the mean policy (the first seed's) every ``video_every`` iterations and at the
-    end, by process 0; the first failure disables videos with one warning line."""
-
-    def __init__(self, plan_: Plan, progress: Any):
-        self.plan, self.progress = plan_, progress
-        self.enabled = plan_.run.video_every > 0 and is_primary()
-
-    def __call__(self, ts: Any, metrics: dict[str, np.ndarray], first: int) -> None:
-        run, last = self.plan.run, first + block_length(metrics)
-        if self.enabled and (last % run.video_every == 0 or last >= run.iterations):
-            self.record(ts, last)
-
-    def record(self, ts: Any, step: int) -> None:
-        run = self.plan.run
-        path = self.plan.run_dir / layout.VIDEO_DIR / f"iter_{step:06d}.mp4"
-        try:
-            # Host copies: the video is recorded by process 0 alone, off the training mesh.
-            params = seed_slice(mesh_lib.host_copy(ts.params), 0, run.vmap_seeds)
-            stats = seed_slice(mesh_lib.host_copy(ts.obs_stats), 0, run.vmap_seeds)
-            clipped_mean = ts.config.eval_action == "clipped_mean"
-            out, ret, length = policy_episodes.record_policy(
-                self.plan.env, ts.policy, params, stats, path, seed=step, clipped_mean=clipped_mean
-            )
-            self.progress.write(f"video {out} (mean policy, seed {run.seeds[0]}: return {ret:.1f}, {length} steps)")
-        except Exception as e:  # noqa: BLE001 - videos are optional: warn once, go on training
-            self.enabled = False
-            self.progress.write(f"warning: videos disabled: {type(e).__name__}: {e}")
 
 
 def time_limit(clock: BlockClock, checkpoints: Checkpoints) -> Callback:

@@ -1,0 +1,43 @@
+"""The run's videos: ``Videos``, the host callback (``jaxpg.run.callbacks``) that records the mean
+policy every ``video_every`` iterations and at the end."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from jaxpg import mesh as mesh_lib
+from jaxpg.run import layout, policy_episodes
+from jaxpg.run.output import is_primary, seed_slice
+from jaxpg.run.plan import Plan
+
+
+class Videos:
+    """A video of the mean policy (the first seed's) every ``video_every`` iterations and at the
+    end, by process 0; the first failure disables videos with one warning line."""
+
+    def __init__(self, plan_: Plan, progress: Any):
+        self.plan, self.progress = plan_, progress
+        self.enabled = plan_.run.video_every > 0 and is_primary()
+
+    def __call__(self, ts: Any, metrics: dict[str, np.ndarray], first: int) -> None:
+        run, last = self.plan.run, first + len(next(iter(metrics.values())))
+        if self.enabled and (last % run.video_every == 0 or last >= run.iterations):
+            self.record(ts, last)
+
+    def record(self, ts: Any, step: int) -> None:
+        run = self.plan.run
+        path = self.plan.run_dir / layout.VIDEO_DIR / f"iter_{step:06d}.mp4"
+        try:
+            # Host copies: the video is recorded by process 0 alone, off the training mesh.
+            params = seed_slice(mesh_lib.host_copy(ts.params), 0, run.vmap_seeds)
+            stats = seed_slice(mesh_lib.host_copy(ts.obs_stats), 0, run.vmap_seeds)
+            clipped_mean = ts.config.eval_action == "clipped_mean"
+            out, ret, length = policy_episodes.record_policy(
+                self.plan.env, ts.policy, params, stats, path, seed=step, clipped_mean=clipped_mean
+            )
+            self.progress.write(f"video {out} (mean policy, seed {run.seeds[0]}: return {ret:.1f}, {length} steps)")
+        except Exception as e:  # noqa: BLE001 - videos are optional: warn once, go on training
+            self.enabled = False
+            self.progress.write(f"warning: videos disabled: {type(e).__name__}: {e}")

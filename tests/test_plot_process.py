@@ -6,6 +6,9 @@ compiled here."""
 from __future__ import annotations
 
 import io
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -120,3 +123,25 @@ def test_the_helper_serves_requests_until_its_input_ends(run_dir):
     assert plot_process.serve(requests, replies) == 0
     lines = replies.getvalue().splitlines()
     assert lines[0] == "ok" and lines[1].startswith("error: ") and len(lines) == 2
+
+
+def test_a_training_run_draws_its_curves_without_importing_matplotlib(tmp_path):
+    """A command's run (inverted pendulum, 2 iterations, in a process of its own) leaves matplotlib
+    to its helper process: ``curves.png`` exists once ``main`` has returned, and the training
+    process never imported matplotlib."""
+    run_dir = tmp_path / "run"
+    script = f"""
+import sys
+from jaxpg.run import main
+argv = ["--env", "inverted_pendulum", "--num-envs", "8", "--horizon", "32", "--eval-envs", "2",
+        "--eval-horizon", "32", "--max-episode-steps", "50", "--iterations", "2", "--no-progress",
+        "--run-dir", {str(run_dir)!r}]
+status = main.main(argv)
+print("status", status, "matplotlib", "matplotlib" in sys.modules)
+"""
+    root = Path(__file__).resolve().parent.parent
+    proc = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, cwd=root, timeout=600)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert proc.stdout.splitlines()[-1] == "status 0 matplotlib False"
+    assert png_size(run_dir / layout.CURVES_FILE)[0] > 0
+    assert "warning" not in proc.stderr

@@ -89,7 +89,7 @@ class CurvePainter:
         if self.process is not None and self.pending:
             if not final:
                 return False, warnings
-            warnings.append(self._give_up("did not answer"))
+            warnings.append(self._give_up("did not answer"))  # owed a drawing: never empty
         if self.process is not None and history is not None:
             payload = history.to_npz()
             header = {"run_dir": str(run_dir), "task_score_name": task_score_name, "size": len(payload)}
@@ -131,7 +131,7 @@ class CurvePainter:
             if not ready:
                 break
             chunk = os.read(fd, 65536)
-            if not chunk:  # the helper exited
+            if not chunk:  # the helper exited, owing a drawing: the warning is never empty
                 warnings.append(self._give_up("exited"))
                 break
             self._replies += chunk

@@ -4,6 +4,7 @@
 # ran since (benchmarks/results/2026-12-05-h100c/host1.md). Each part writes to its own folder and touches
 # `done` there. Poll with calls back to back: a machine left idle for 30 s between two calls is released,
 # and its files with it; pack each part's files as soon as it is done.
+# LEASE=1 ran on 2026-12-05 17:35-18:00 UTC (benchmarks/results/2026-12-05-h100d/); LEASE=2 has not run.
 #   LEASE=1: Ant's and Humanoid's 1 M A2C side by side (suite_h100.sh PART=a2c, about 12-15 minutes going by
 #            the H200) -> /tmp/out_a2c, then Swimmer's fast preset (about 7 minutes on an H100) -> /tmp/out_sw
 #   LEASE=2: suite_h100.sh PART=rest (HalfCheetah PPO, Swimmer, Reacher, Pusher 1 M, one after another)

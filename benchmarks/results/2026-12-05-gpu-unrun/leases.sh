@@ -1,20 +1,26 @@
 #!/bin/bash
-# The GPU work still owed for the suite's table, in two H100 leases (each 30 minutes of device time: about
+# The GPU work still owed for the suite's table, in three H100 leases (each 30 minutes of device time: about
 # 2.5 for the machine's start and the wheels' staging, the rest for this). Written 2026-12-05; card_parts.sh
 # ran since (benchmarks/results/2026-12-05-h100c/host1.md). Each part writes to its own folder and touches
 # `done` there. Poll with calls back to back: a machine left idle for 30 s between two calls is released,
 # and its files with it; pack each part's files as soon as it is done.
-# LEASE=1 ran on 2026-12-05 17:35-18:00 UTC (benchmarks/results/2026-12-05-h100d/); LEASE=2 has not run.
+# LEASE=1 ran on 2026-12-05 17:35-18:00 UTC (benchmarks/results/2026-12-05-h100d/): a2c took 17 minutes (Ant's
+# program 1002 s), swimmer_fast 8; 1,570 s of device time with the start. LEASE=2 and LEASE=3 have not run.
 #   LEASE=1: Ant's and Humanoid's 1 M A2C side by side (suite_h100.sh PART=a2c, about 12-15 minutes going by
 #            the H200) -> /tmp/out_a2c, then Swimmer's fast preset (about 7 minutes on an H100) -> /tmp/out_sw
 #   LEASE=2: suite_h100.sh PART=rest (HalfCheetah PPO, Swimmer, Reacher, Pusher 1 M, one after another)
-#            -> /tmp/out_rest, then PART=hopper_gpu -> /tmp/out_hg
+#            -> /tmp/out_rest (the four's 1 M-step programs at 2 to 64 envs are bound by the GPU's latency
+#            per step: about 15-20 minutes all told, estimated, not measured alone)
+#   LEASE=3: PART=hopper_gpu -> /tmp/out_hg (about 6 minutes), then PART=ant_anneal -> /tmp/out_ant
+#            (16 seeds in one program, about 13 minutes going by 5 seeds' 0.057 s an iteration)
 #   LEASE=1 setsid nohup bash benchmarks/results/2026-12-05-gpu-unrun/leases.sh > /tmp/leases.log 2>&1 < /dev/null &
 HERE=benchmarks/results/2026-12-05-gpu-unrun
 if [ "${LEASE:-1}" = 1 ]; then
   D=/tmp/out_a2c PART=a2c bash $HERE/suite_h100.sh
   D=/tmp/out_sw PART=swimmer_fast bash $HERE/suite_h100.sh
-else
+elif [ "$LEASE" = 2 ]; then
   D=/tmp/out_rest PART=rest bash $HERE/suite_h100.sh
+else
   D=/tmp/out_hg PART=hopper_gpu bash $HERE/suite_h100.sh
+  D=/tmp/out_ant PART=ant_anneal bash $HERE/suite_h100.sh
 fi

@@ -8,6 +8,7 @@
 #   PART=a2c:   ant a2c and humanoid a2c, 5 seeds in one vmapped program each, the two side by side;
 #   PART=rest:  half_cheetah ppo, swimmer trpo, reacher trpo, pusher npg, one program after another;
 #   PART=swimmer_fast: TRPO's swimmer_fast as typed, seed 0 bare, then seeds 0-2 warm, one process each;
+#   PART=ant_anneal: ant a2c ant_1m with the learning rate annealed to 0 at 1 M, seeds 0-15 in one program;
 #   PART=hopper_gpu: Hopper's time to 3000 (the "Time to a score" table, measured on an H200 so far),
 #     PPO and NPG, seeds 0-2, caches filled first (--warmup). The last two fit one lease together.
 # Each 1 M program's final mean policy (5 seeds) is replayed 10 episodes in Gymnasium v5.
@@ -33,6 +34,11 @@ case "${PART:-a2c}" in
   swimmer_fast)
     python3 benchmarks/suite.py run --runs swimmer:trpo:swimmer_fast --seeds 0 1 2 --bare-first --episodes 10 \
       --out $D/runs/swimmer_fast --json $D/swimmer_fast.json > $D/swimmer_fast.log 2>&1 ;;
+  ant_anneal)  # ant_1m's A2C with its learning rate annealed to 0 at 1 M env steps (the preset: at 3 M, as
+    # Tianshou's), seeds 0-15 in one program: after one H100's seeds 0-4 fell back between 0.8 M and 1 M
+    python3 benchmarks/suite.py run --runs ant:a2c:ant_1m --seeds $(seq 0 15) --vmap-seeds --episodes 0 \
+      --out $D/runs/ant --json $D/ant.json --extra --anneal-lr-iterations 12500 > $D/ant.log 2>&1
+    date -u > $D/ant.end; replay ant ant ;;
   hopper_gpu)
     for algo in ppo npg; do
       python3 benchmarks/time_to_return.py run --algo $algo --preset hopper_gpu --block 10 --iterations-per-call 1 \

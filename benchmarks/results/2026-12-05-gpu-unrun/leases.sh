@@ -3,14 +3,15 @@
 # 2.5 for the machine's start and the wheels' staging, the rest for this). Written 2026-12-05; card_parts.sh
 # ran since (benchmarks/results/2026-12-05-h100c/host1.md). Each part writes to its own folder and touches
 # `done` there. Poll with calls back to back: a machine left idle for 30 s between two calls is released,
-# and its files with it; pack each part's files as soon as it is done.
+# and its files with it; pack each part's files as soon as it is done (poll.sh does both in one call).
 # LEASE=1 ran on 2026-12-05 17:35-18:00 UTC (benchmarks/results/2026-12-05-h100d/): a2c took 17 minutes (Ant's
 # program 1002 s), swimmer_fast 8; 1,570 s of device time with the start. LEASE=2 and LEASE=3 have not run.
 #   LEASE=1: Ant's and Humanoid's 1 M A2C side by side (suite_h100.sh PART=a2c, about 12-15 minutes going by
 #            the H200) -> /tmp/out_a2c, then Swimmer's fast preset (about 7 minutes on an H100) -> /tmp/out_sw
-#   LEASE=2: suite_h100.sh PART=rest (HalfCheetah PPO, Swimmer, Reacher, Pusher 1 M, one after another)
-#            -> /tmp/out_rest (the four's 1 M-step programs at 2 to 64 envs are bound by the GPU's latency
-#            per step: about 15-20 minutes all told, estimated, not measured alone)
+#   LEASE=2: suite_h100.sh PART=rest (Pusher, HalfCheetah PPO, Reacher, Swimmer 1 M, one after another)
+#            -> /tmp/out_rest. Bound by the GPU's latency per step at 2 to 64 envs; about 24 minutes, going
+#            by about 1 ms a step in the fast presets of Swimmer and Reacher (1024 x 488 steps each) and
+#            HalfCheetah's 16 seeds' 261 s on an H200: no margin. Swimmer goes last.
 #   LEASE=3: PART=hopper_gpu -> /tmp/out_hg (about 6 minutes), then PART=ant_anneal -> /tmp/out_ant
 #            (16 seeds in one program, about 13 minutes going by 5 seeds' 0.057 s an iteration)
 #   LEASE=1 setsid nohup bash benchmarks/results/2026-12-05-gpu-unrun/leases.sh > /tmp/leases.log 2>&1 < /dev/null &

@@ -14,7 +14,10 @@ find runs -name metrics.jsonl -size +4M 2>/dev/null | while read -r m; do
   python3 -c "
 import json, sys
 with open(sys.argv[1]) as f, open(sys.argv[2], 'w') as g:
-    g.writelines(l for l in f if l.strip() and (json.loads(l)['iteration'] % 50 == 0 or json.loads(l).get('return_mean_policy') is not None))
+    for line in f:
+        row = json.loads(line)
+        if row['iteration'] % 50 == 0 or row.get('return_mean_policy') is not None:
+            g.write(line)
 " "$m" "${m%.jsonl}_every50.jsonl"
 done
 { find . -maxdepth 1 -type f; find runs -name config.json -o -name '*.log' -o -name 'metrics*.jsonl' -size -5M 2>/dev/null; } \

@@ -11,8 +11,8 @@
 #   PART=swimmer_fast: TRPO's swimmer_fast as typed, seed 0 bare, then seeds 0-2 warm, one process each;
 #   PART=ant_anneal: ant a2c ant_1m with the learning rate annealed to 0 at 1 M, seeds 0-15 in one program;
 #   PART=hopper_gpu: Hopper's time to 3000 (the "Time to a score" table, measured on an H200 so far),
-#     PPO and NPG, seeds 0-2, caches filled first (--warmup). The last two fit one lease together.
-# Each 1 M program's final mean policy (5 seeds) is replayed 10 episodes in Gymnasium v5.
+#     PPO and NPG, seeds 0-2, caches filled first (--warmup). It and ant_anneal fit one lease together.
+# Each 1 M program's final mean policy (5 seeds; ant_anneal's 16) is replayed 10 episodes in Gymnasium v5.
 # Start with setsid and poll for $D/done:
 #   PART=a2c setsid nohup bash benchmarks/results/2026-12-05-gpu-unrun/suite_h100.sh > /tmp/suite.log 2>&1 < /dev/null &
 D=${D:-/tmp/out}; R=/tmp/repo-suite; mkdir -p $D; rm -rf $R; cp -r "$PWD" $R; rm -rf $R/.w?? $R/.wc? $R/.whl; cd $R

@@ -34,6 +34,7 @@ import numpy as np
 
 from jaxpg.run import console, metrics_log, plotting
 from jaxpg.run.interrupts import Stop, StopAtOnce, TimeUp
+from jaxpg.run.metrics_log import block_length
 from jaxpg.run.output import is_primary
 from jaxpg.run.plan import Plan
 from jaxpg.run.plot_process import CurvePainter
@@ -41,11 +42,6 @@ from jaxpg.run.videos import Videos
 
 Callback = Callable[[Any, dict[str, np.ndarray], int], None]
 """``callback(train_state, metrics, first_iteration)``, as ``jaxpg.train.train`` calls it."""
-
-
-def block_length(metrics: dict[str, np.ndarray]) -> int:
-    """How many iterations a block of ``metrics`` holds."""
-    return len(next(iter(metrics.values())))
 
 
 def guard_interrupts(interrupts: Any) -> Callback:

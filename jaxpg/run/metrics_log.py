@@ -37,6 +37,11 @@ def _scalar(x: Any) -> float | None:
     return value if math.isfinite(value) else None
 
 
+def block_length(metrics: dict[str, np.ndarray]) -> int:
+    """How many iterations a block of ``metrics`` holds (each array's leading axis)."""
+    return len(next(iter(metrics.values())))
+
+
 def block_records(
     metrics: dict[str, np.ndarray], first_iteration: int, seeds: Sequence[int], wall_times: Sequence[float]
 ) -> list[dict[str, Any]]:
@@ -45,7 +50,7 @@ def block_records(
     ``metrics`` holds ``[n]`` arrays, or ``[n, num_seeds]`` when several seeds train together;
     ``wall_times[i]`` is the run's wall time at the end of the block's i-th iteration.
     """
-    n = len(next(iter(metrics.values())))
+    n = block_length(metrics)
     several = len(seeds) > 1
     keys = [k for k in LEADING_KEYS if k in metrics] + sorted(k for k in metrics if k not in LEADING_KEYS)
     records = []

@@ -9,6 +9,7 @@ import numpy as np
 
 from jaxpg import mesh as mesh_lib
 from jaxpg.run import layout, policy_episodes
+from jaxpg.run.metrics_log import block_length
 from jaxpg.run.output import is_primary, seed_slice
 from jaxpg.run.plan import Plan
 
@@ -22,7 +23,7 @@ class Videos:
         self.enabled = plan_.run.video_every > 0 and is_primary()
 
     def __call__(self, ts: Any, metrics: dict[str, np.ndarray], first: int) -> None:
-        run, last = self.plan.run, first + len(next(iter(metrics.values())))
+        run, last = self.plan.run, first + block_length(metrics)
         if self.enabled and (last % run.video_every == 0 or last >= run.iterations):
             self.record(ts, last)
 

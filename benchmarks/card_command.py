@@ -951,7 +951,7 @@ def report(log: CompileLog, clock: CallbackClock, wall_s: float, note: str | Non
 
 
 def parts_main(argv: Sequence[str]) -> None:
-    parser = argparse.ArgumentParser(description=PARTS_DOC, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(prog="card_command.py parts", description=PARTS_DOC, formatter_class=RAW)
     parser.add_argument("--json", default=None)
     parser.add_argument("--run-dir", default=None, help="the run's directory (default: a new temporary one)")
     parser.add_argument("extra", nargs="*", help="after --: flags added to the card's command")

@@ -5,7 +5,10 @@
 # `done` there. Poll with calls back to back: a machine left idle for 30 s between two calls is released,
 # and its files with it; pack each part's files as soon as it is done (poll.sh does both in one call).
 # LEASE=1 ran on 2026-12-05 17:35-18:00 UTC (benchmarks/results/2026-12-05-h100d/): a2c took 17 minutes (Ant's
-# program 1002 s), swimmer_fast 8; 1,570 s of device time with the start. LEASE=2 and LEASE=3 have not run.
+# program 1002 s), swimmer_fast 8; 1,570 s of device time with the start. LEASE=2 ran on 2026-12-05
+# 18:52-19:18 UTC (benchmarks/results/2026-12-05-h100e/): 26 minutes, 1,665 s of device time with the start and
+# the staging (Pusher 174 s, HalfCheetah 225 s, Reacher 415 s, Swimmer 692 s, each with its replay after).
+# LEASE=3 has not run.
 #   LEASE=1: Ant's and Humanoid's 1 M A2C side by side (suite_h100.sh PART=a2c, about 12-15 minutes going by
 #            the H200) -> /tmp/out_a2c, then Swimmer's fast preset (about 7 minutes on an H100) -> /tmp/out_sw
 #   LEASE=2: suite_h100.sh PART=rest (Pusher, HalfCheetah PPO, Reacher, Swimmer 1 M, one after another)

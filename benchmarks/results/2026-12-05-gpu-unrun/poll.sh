@@ -3,10 +3,11 @@
 # is there (top-level files, each run's config.json, logs and metrics; no checkpoints) into $OUT/$2.tgz,
 # so that a machine lost later keeps this call's files. A file comes back only under 16 MiB, so a
 # metrics.jsonl over 4 MiB travels as metrics_every50.jsonl: every 50th iteration and every evaluation.
-# Run it from the repository root on the GPU:
-#   bash benchmarks/results/2026-12-05-gpu-unrun/poll.sh /tmp/out_rest rest
-DIR=$1; NAME=$2
-for _ in $(seq 1 57); do [ -f "$DIR/done" ] && break; sleep 10; done
+# Run it from the repository root on the GPU, the third argument the longest wait in seconds (570 by
+# default; less when the lease has less than the call's 600 s left, so the packing still runs):
+#   bash benchmarks/results/2026-12-05-gpu-unrun/poll.sh /tmp/out_rest rest [570]
+DIR=$1; NAME=$2; WAIT=${3:-570}
+for _ in $(seq 1 $((WAIT / 10))); do [ -f "$DIR/done" ] && break; sleep 10; done
 for log in "$DIR"/*.log; do echo "== $log"; tail -c 700 "$log"; echo; done
 ls "$DIR"
 cd "$DIR" || exit 1

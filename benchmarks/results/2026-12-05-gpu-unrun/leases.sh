@@ -15,8 +15,10 @@
 #            -> /tmp/out_rest. Bound by the GPU's latency per step at 2 to 64 envs; about 24 minutes, going
 #            by about 1 ms a step in the fast presets of Swimmer and Reacher (1024 x 488 steps each) and
 #            HalfCheetah's 16 seeds' 261 s on an H200: no margin. Swimmer goes last.
-#   LEASE=3: PART=hopper_gpu -> /tmp/out_hg (about 6 minutes), then PART=ant_anneal -> /tmp/out_ant
-#            (16 seeds in one program, about 13 minutes going by 5 seeds' 0.057 s an iteration)
+#   LEASE=3: PART=hopper_fast -> /tmp/out_hf (about 5 minutes, going by one H200's 47 s a run), then
+#            PART=ant_anneal -> /tmp/out_ant (16 seeds in one program, about 13 minutes going by 5 seeds'
+#            0.057 s an iteration). A lease on 2026-12-05 at 20:05 UTC got no machine.
+#   LEASE=4: PART=hopper_gpu -> /tmp/out_hg (Hopper's time to 3000 on an H100, about 6 minutes)
 #   LEASE=1 setsid nohup bash benchmarks/results/2026-12-05-gpu-unrun/leases.sh > /tmp/leases.log 2>&1 < /dev/null &
 HERE=benchmarks/results/2026-12-05-gpu-unrun
 if [ "${LEASE:-1}" = 1 ]; then
@@ -24,7 +26,9 @@ if [ "${LEASE:-1}" = 1 ]; then
   D=/tmp/out_sw PART=swimmer_fast bash $HERE/suite_h100.sh
 elif [ "$LEASE" = 2 ]; then
   D=/tmp/out_rest PART=rest bash $HERE/suite_h100.sh
+elif [ "$LEASE" = 3 ]; then
+  D=/tmp/out_hf PART=hopper_fast bash $HERE/suite_h100.sh
+  D=/tmp/out_ant PART=ant_anneal bash $HERE/suite_h100.sh
 else
   D=/tmp/out_hg PART=hopper_gpu bash $HERE/suite_h100.sh
-  D=/tmp/out_ant PART=ant_anneal bash $HERE/suite_h100.sh
 fi

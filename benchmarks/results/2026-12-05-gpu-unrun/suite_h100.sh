@@ -1,7 +1,7 @@
 #!/bin/bash
 # The suite's rows with no H100 figure yet, in parts that each fit one lease (30 minutes of device time,
 # about 25 after the machine's start and the wheels' staging). PART=a2c, swimmer_fast and rest have run
-# (../2026-12-05-h100d/, ../2026-12-05-h100e/); ant_anneal and hopper_gpu have not.
+# (../2026-12-05-h100d/, ../2026-12-05-h100e/); hopper_fast, ant_anneal and hopper_gpu have not.
 # Six programs side by side do not fit a lease: on 2026-12-05 (benchmarks/results/2026-12-05-h100b/),
 # sharing one H100 six ways, Pusher, Reacher and Swimmer reached only 0.16-0.29 M env steps in 10 minutes.
 # Ant's and Humanoid's A2C (12,500 small iterations each) set the pace: on one H200 the two side by side
@@ -11,8 +11,11 @@
 #               cheapest first; Swimmer last, as its fast preset is within 1 M env steps too);
 #   PART=swimmer_fast: TRPO's swimmer_fast as typed, seed 0 bare, then seeds 0-2 warm, one process each;
 #   PART=ant_anneal: ant a2c ant_1m with the learning rate annealed to 0 at 1 M, seeds 0-15 in one program;
+#   PART=hopper_fast: Hopper's fast preset as docs/tasks.md types it (PPO's hopper_gpu, 150 iterations), seed 0
+#     bare, then seeds 0-2 warm, each replayed in Gymnasium: the suite table's H100 cell and the figure's
+#     Hopper panel (evaluated every 10 iterations, 15 times a run, for the curve; the preset: every 50);
 #   PART=hopper_gpu: Hopper's time to 3000 (the "Time to a score" table, measured on an H200 so far),
-#     PPO and NPG, seeds 0-2, caches filled first (--warmup). It and ant_anneal fit one lease together.
+#     PPO and NPG, seeds 0-2, caches filled first (--warmup); about 6 minutes.
 # Each 1 M program's final mean policy (5 seeds; ant_anneal's 16) is replayed 10 episodes in Gymnasium v5.
 # Start with setsid and poll for $D/done:
 #   PART=a2c setsid nohup bash benchmarks/results/2026-12-05-gpu-unrun/suite_h100.sh > /tmp/suite.log 2>&1 < /dev/null &
@@ -41,6 +44,10 @@ case "${PART:-a2c}" in
     python3 benchmarks/suite.py run --runs ant:a2c:ant_1m --seeds $(seq 0 15) --vmap-seeds --episodes 0 \
       --out $D/runs/ant --json $D/ant.json --extra --anneal-lr-iterations 12500 > $D/ant.log 2>&1
     date -u > $D/ant.end; replay ant ant ;;
+  hopper_fast)
+    python3 benchmarks/suite.py run --runs hopper:ppo:hopper_gpu --seeds 0 1 2 --bare-first --episodes 10 \
+      --out $D/runs/hopper_fast --json $D/hopper_fast.json --extra --iterations 150 --eval-every 10 \
+      > $D/hopper_fast.log 2>&1 ;;
   hopper_gpu)
     for algo in ppo npg; do
       python3 benchmarks/time_to_return.py run --algo $algo --preset hopper_gpu --block 10 --iterations-per-call 1 \

@@ -11,8 +11,8 @@
 #               cheapest first; Swimmer last, as its fast preset is within 1 M env steps too);
 #   PART=swimmer_fast: TRPO's swimmer_fast as typed, seed 0 bare, then seeds 0-2 warm, one process each;
 #   PART=ant_anneal: ant a2c ant_1m with the learning rate annealed to 0 at 1 M, seeds 0-15 in one program;
-#   PART=hopper_fast: Hopper's fast preset as docs/tasks.md types it (PPO's hopper_gpu, 150 iterations), seed 0
-#     bare, then seeds 0-2 warm, each replayed in Gymnasium: the suite table's H100 cell and the figure's
+#   PART=hopper_fast: Hopper's fast preset with docs/tasks.md's settings (PPO's hopper_gpu, 150 iterations) through
+#     jaxpg.cli, as suite.py runs every task; seed 0 bare, then seeds 0-2 warm, each replayed in Gymnasium: the suite table's H100 cell and the figure's
 #     Hopper panel (evaluated every 10 iterations, 15 times a run, for the curve; the preset: every 50);
 #   PART=hopper_gpu: Hopper's time to 3000 (the "Time to a score" table, measured on an H200 so far),
 #     PPO and NPG, seeds 0-2, caches filled first (--warmup); about 6 minutes.

@@ -16,7 +16,8 @@
 #     Hopper panel (evaluated every 10 iterations, 15 times a run, for the curve; the preset: every 50);
 #   PART=hopper_gpu: Hopper's time to 3000 (the "Time to a score" table, measured on an H200 so far),
 #     PPO and NPG, seeds 0-2, caches filled first (--warmup); about 6 minutes.
-# Each 1 M program's final mean policy (5 seeds; ant_anneal's 16) is replayed 10 episodes in Gymnasium v5.
+# Each 1 M program's final mean policy (5 seeds; ant_anneal's 16) is replayed 10 episodes in Gymnasium v5, 16
+# processes side by side (4 until LEASE=2: ant_anneal's 16 seeds must fit the lease).
 # Start with setsid and poll for $D/done:
 #   PART=a2c setsid nohup bash benchmarks/results/2026-12-05-gpu-unrun/suite_h100.sh > /tmp/suite.log 2>&1 < /dev/null &
 D=${D:-/tmp/out}; R=/tmp/repo-suite; mkdir -p $D; rm -rf $R; cp -r "$PWD" $R; rm -rf $R/.w?? $R/.wc? $R/.whl; cd $R
@@ -26,7 +27,7 @@ git log -1 --format=%h >> $D/start.txt 2>/dev/null
 python3 -m compileall -q -j 0 /tmp/site > $D/compileall.log 2>&1  # the bytecode a user's pip install writes
 replay() {  # name, task
   python3 benchmarks/suite.py physics $(ls -d $D/runs/$1/$2-*/) --variants gymnasium \
-    --episodes 10 --workers 4 --json $D/physics_$1.json > $D/physics_$1.log 2>&1
+    --episodes 10 --workers 16 --json $D/physics_$1.json > $D/physics_$1.log 2>&1
 }
 one_m() {  # task, algo
   python3 benchmarks/suite.py run --runs $1:$2:$1_1m --seeds 0 1 2 3 4 --vmap-seeds --episodes 0 \

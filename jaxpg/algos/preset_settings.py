@@ -194,8 +194,8 @@ TIANSHOU_NETWORKS: Mapping[str, Any] = MappingProxyType(
 # Tianshou's MuJoCo A2C (1 M env steps in 12,500 iterations): MinPy's (16 envs x 5 steps, RMSprop
 # 7e-4, entropy bonus 0.01, value weight 0.5, gradients clipped at 0.5) with PyTorch's epsilon 1e-5
 # added to the root, the learning rate decaying linearly to 0 over Tianshou's 3 M-step runs (37,500
-# iterations: two thirds remain at 1 M), GAE lambda 0.95, Tianshou's networks, advantages as they
-# are.
+# iterations: two thirds remain at 1 M; Ant's preset decays it to 0 at 1 M), GAE lambda 0.95,
+# Tianshou's networks, advantages as they are.
 A2C_TIANSHOU: Mapping[str, Any] = MappingProxyType(
     {
         **A2C_MINPY,

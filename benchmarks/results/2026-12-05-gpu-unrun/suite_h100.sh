@@ -1,7 +1,8 @@
 #!/bin/bash
 # The suite's rows with no H100 figure yet, in parts that each fit one lease (30 minutes of device time,
 # about 25 after the machine's start and the wheels' staging). PART=a2c, swimmer_fast and rest have run
-# (../2026-12-05-h100d/, ../2026-12-05-h100e/); hopper_fast, ant_anneal and hopper_gpu have not.
+# (../2026-12-05-h100d/, ../2026-12-05-h100e/), and hopper_fast and ant_anneal (../2026-12-05-h100f/); hopper_gpu
+# has not.
 # Six programs side by side do not fit a lease: on 2026-12-05 (benchmarks/results/2026-12-05-h100b/),
 # sharing one H100 six ways, Pusher, Reacher and Swimmer reached only 0.16-0.29 M env steps in 10 minutes.
 # Ant's and Humanoid's A2C (12,500 small iterations each) set the pace: on one H200 the two side by side

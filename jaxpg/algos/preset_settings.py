@@ -196,6 +196,7 @@ TIANSHOU_NETWORKS: Mapping[str, Any] = MappingProxyType(
 # added to the root, the learning rate decaying linearly to 0 over Tianshou's 3 M-step runs (37,500
 # iterations: two thirds remain at 1 M; Ant's preset decays it to 0 at 1 M), GAE lambda 0.95,
 # Tianshou's networks, advantages as they are.
+A2C_1M_ITERATIONS = 12500  # 1 M env steps at A2C_TIANSHOU's 16 envs x 5 steps
 A2C_TIANSHOU: Mapping[str, Any] = MappingProxyType(
     {
         **A2C_MINPY,

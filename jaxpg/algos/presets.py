@@ -16,6 +16,7 @@ from types import MappingProxyType
 from typing import Any
 
 from jaxpg.algos.preset_settings import (
+    A2C_1M_ITERATIONS,
     A2C_MINPY,
     A2C_TIANSHOU,
     ANT_1M_A2C_ENV,
@@ -238,12 +239,12 @@ TABLE: Mapping[tuple[str, str], Preset] = MappingProxyType(
         # Tianshou's 1726; 647 at 0.91 M with its actions in Humanoid's units).
         ("a2c", "ant_1m"): Preset(
             tasks=("ant",),
-            overrides={**A2C_TIANSHOU, "anneal_lr_iterations": 12500},
+            overrides={**A2C_TIANSHOU, "anneal_lr_iterations": A2C_1M_ITERATIONS},
             env_kwargs=ANT_1M_A2C_ENV,
-            iterations=12500,
+            iterations=A2C_1M_ITERATIONS,
         ),
         ("a2c", "humanoid_1m"): Preset(
-            tasks=("humanoid",), overrides=A2C_TIANSHOU, env_kwargs=HUMANOID_1M_ENV, iterations=12500
+            tasks=("humanoid",), overrides=A2C_TIANSHOU, env_kwargs=HUMANOID_1M_ENV, iterations=A2C_1M_ITERATIONS
         ),
         # Solves cartpole on two CPU cores and stays solved; rewards scaled by 0.1 so that the
         # value loss does not swamp the joint, clipped gradient.

@@ -12,9 +12,10 @@
 #               cheapest first; Swimmer last, as its fast preset is within 1 M env steps too);
 #   PART=swimmer_fast: TRPO's swimmer_fast as typed, seed 0 bare, then seeds 0-2 warm, one process each;
 #   PART=ant_anneal: ant a2c ant_1m with the learning rate annealed to 0 at 1 M, seeds 0-15 in one program;
-#   PART=hopper_fast: Hopper's fast preset with docs/tasks.md's settings (PPO's hopper_gpu, 150 iterations) through
-#     jaxpg.cli, as suite.py runs every task; seed 0 bare, then seeds 0-2 warm, each replayed in Gymnasium: the suite table's H100 cell and the figure's
-#     Hopper panel (evaluated every 10 iterations, 15 times a run, for the curve; the preset: every 50);
+#   PART=hopper_fast: Hopper's fast preset with docs/tasks.md's settings (PPO's hopper_gpu, 150 iterations)
+#     through jaxpg.cli, as suite.py runs every task; seed 0 bare, then seeds 0-2 warm, each replayed in
+#     Gymnasium: the suite table's H100 cell and the figure's Hopper panel (evaluated every 10 iterations,
+#     15 times a run, for the curve; the preset: every 50);
 #   PART=hopper_gpu: Hopper's time to 3000 (the "Time to a score" table, measured on an H200 so far),
 #     PPO and NPG, seeds 0-2, caches filled first (--warmup); about 6 minutes.
 # Each 1 M program's final mean policy (5 seeds; ant_anneal's 16) is replayed 10 episodes in Gymnasium v5, 16
@@ -41,8 +42,9 @@ case "${PART:-a2c}" in
   swimmer_fast)
     python3 benchmarks/suite.py run --runs swimmer:trpo:swimmer_fast --seeds 0 1 2 --bare-first --episodes 10 \
       --out $D/runs/swimmer_fast --json $D/swimmer_fast.json > $D/swimmer_fast.log 2>&1 ;;
-  ant_anneal)  # ant_1m's A2C with its learning rate annealed to 0 at 1 M env steps (the preset: at 3 M, as
-    # Tianshou's), seeds 0-15 in one program: after one H100's seeds 0-4 fell back between 0.8 M and 1 M
+  ant_anneal)  # ant_1m's A2C with its learning rate annealed to 0 at 1 M env steps (the preset then: at 3 M,
+    # as Tianshou's; its own value since this ran), seeds 0-15 in one program: after one H100's seeds 0-4
+    # fell back between 0.8 M and 1 M
     python3 benchmarks/suite.py run --runs ant:a2c:ant_1m --seeds $(seq 0 15) --vmap-seeds --episodes 0 \
       --out $D/runs/ant --json $D/ant.json --extra --anneal-lr-iterations 12500 > $D/ant.log 2>&1
     date -u > $D/ant.end; replay ant ant ;;

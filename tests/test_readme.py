@@ -19,7 +19,7 @@ tasks, algorithms, run directories, GPUs, Pong, notebooks) are checked here as i
 * The install, test and venv steps are what ``.ci/run`` runs.
 * The README's "API in ten lines" runs, on a small scale, on the CPU.
 * The README stays under 200 lines, every relative link of the README, BENCHMARKS.md and
-  ``docs/*.md`` reaches an existing file (and heading), and ``benchmarks/`` holds at most 12 scripts,
+  ``docs/*.md`` reaches an existing file (and heading), and ``benchmarks/`` holds at most 13 scripts,
   each named by BENCHMARKS.md's commands as it exists.
 
 A python command of the docs that none of these covers fails ``test_every_command_is_covered``.
@@ -397,9 +397,9 @@ def test_relative_links_resolve():
     assert not broken, broken
 
 
-def test_benchmarks_are_at_most_twelve_scripts_and_the_docs_name_them_as_they_are():
+def test_benchmarks_are_at_most_thirteen_scripts_and_the_docs_name_them_as_they_are():
     scripts = sorted(p.name for p in (ROOT / "benchmarks").iterdir() if p.suffix in (".py", ".sh"))
-    assert len(scripts) <= 12, scripts
+    assert len(scripts) <= 13, scripts
     current = [ROOT / "README.md", ROOT / "BENCHMARKS.md", *(ROOT / "docs").glob("*.md")]
     current = [p for p in current if p.name != "benchmarks_archive.md"]
     wrong = []

@@ -12,3 +12,6 @@ echo "the same, then python -m compileall (as pip install does without --no-comp
 python -m compileall -q /tmp/pyc
 for i in 1 2 3; do PYTHONDONTWRITEBYTECODE=1 PYTHONPATH=/tmp/pyc python import_mjx.py; done
 # Ran as above (import_mjx.log): without bytecode 2.98-3.19 s, with it 1.93-2.36 s; about 0.8 s of each import.
+
+# The one-off Python this ran (import_mjx.py ) left the tree when results/ became records and commands only;
+# it is at commit 20ac6f2: git show 20ac6f2:benchmarks/results/2026-12-05-cpu-bytecode/NAME.py

@@ -17,3 +17,6 @@ done
 # (saves and drawings): 1.300, 1.045, 1.240 s against 1.026, 0.958, 0.926 s. The run's own "host work
 # between blocks" line: 1.4, 1.1, 1.3 s against 1.1, 1.0 and under 1.0 s (not printed). Every other
 # callback: under 0.05 s a run in all.
+
+# The one-off Python this ran (hostwork.py ) left the tree when results/ became records and commands only;
+# it is at commit 20ac6f2: git show 20ac6f2:benchmarks/results/2026-12-05-cpu-host-work/NAME.py

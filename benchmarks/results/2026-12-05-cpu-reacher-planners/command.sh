@@ -19,3 +19,6 @@ python reacher_gradopt.py 0 2 1 0.01 run-base 3 > gradopt_two_steps_episode0.log
 # Ran as above. TRPO seed 3 on episodes 1000-1009 scores -3.139 -2.410 -5.067 -2.100 -2.823 -6.051 -2.264
 # -2.752 -3.584 -1.675 (mean -3.187; seed 0: -3.276); CEM -3.357; gradient descent from zero -7.379, from
 # the policy -3.151.
+
+# The one-off Python this ran (decompose.py reacher_gradopt.py reacher_mpc.py ) left the tree when results/ became records and commands only;
+# it is at commit 20ac6f2: git show 20ac6f2:benchmarks/results/2026-12-05-cpu-reacher-planners/NAME.py

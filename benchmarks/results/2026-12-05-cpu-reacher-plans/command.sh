@@ -54,3 +54,6 @@ python eval40.py runs/big512 0,1 1000 40 > eval40_big512.log
 # Gymnasium; policy_episode: a policy played closed loop). Rerun after that move, each script's first line
 # (episode 1000; eval40.py runs/trpo seed 0) matched its log to the last digit.
 # Step 9 (a later session, same day): -3.41 and -3.47 on the 40 episodes, 1848 s for both seeds in one program.
+
+# The one-off Python this ran (adj.py compare_policies.py eval40.py lbfgs.py lbfgs_many.py lbfgs_policies.py lbfgs_random.py summarise.py ) left the tree when results/ became records and commands only;
+# it is at commit 20ac6f2: git show 20ac6f2:benchmarks/results/2026-12-05-cpu-reacher-plans/NAME.py

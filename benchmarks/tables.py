@@ -1,0 +1,432 @@
+"""The results tables of README.md and BENCHMARKS.md, generated from the records under ``benchmarks/results/``.
+
+A record is one row of one table: a JSON object in a ``records.json`` list beside the raw outputs it was
+read from. It names its ``table``, the ``hardware``, the exact ``command``, the ``commit`` of the code
+that ran, the ``date``, its ``source`` (the raw files it was read from, or the earlier text it was
+transcribed from) and its figures: ``values`` (one figure each) and ``seeds`` (groups of per-run
+figures, from which medians and ranges are computed here, never typed).
+
+Each table lives between ``<!-- table:NAME -->`` and ``<!-- /table -->`` in README.md or BENCHMARKS.md:
+
+    python benchmarks/tables.py           # rewrite every table region from the records
+    python benchmarks/tables.py --check   # exit 1 if a region differs, or a record names no table
+
+``tests/test_results_tables.py`` runs the check, so a hand-edited figure, or a record whose table is
+missing, fails the tests.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import re
+import statistics
+import sys
+from pathlib import Path
+from typing import NamedTuple
+
+ROOT = Path(__file__).resolve().parents[1]
+RESULTS = ROOT / "benchmarks" / "results"
+REGION = re.compile(r"(<!-- table:(?P<name>[\w-]+) -->\n)(?P<body>.*?)(<!-- /table -->)", flags=re.S)
+REQUIRED = ("id", "table", "hardware", "command", "commit", "date", "source")
+
+
+class Seq(tuple):
+    """Per-run figures that format element by element, joined with ", " (``{warm_wall_s:.1f}``)."""
+
+    def __format__(self, spec: str) -> str:
+        return ", ".join(format(value, spec) for value in self)
+
+
+class Table(NamedTuple):
+    """A generated table: the Markdown file it lives in and its columns, each a header and a
+    ``str.format`` template over a record's fields (``fields``)."""
+
+    page: str
+    columns: tuple[tuple[str, str], ...]
+
+
+class ReadmeRow(NamedTuple):
+    """One row of the README's table: what was measured, the record that holds it, the result
+    cell's template over that record's fields, and the BENCHMARKS.md section with the rest."""
+
+    what: str
+    record: str
+    result: str
+    section: str
+
+
+def load_records(results: Path = RESULTS) -> list[dict]:
+    """Every record of every ``records.json`` under ``results``, each with ``path`` (its file,
+    relative to the repository root) added; a record missing a required key raises."""
+    records = []
+    for path in sorted(results.rglob("records.json")):
+        for record in json.loads(path.read_text()):
+            missing = [key for key in REQUIRED if key not in record]
+            if missing:
+                raise ValueError(f"{path}: record {record.get('id')!r} lacks {missing}")
+            records.append({**record, "path": path.relative_to(ROOT).as_posix()})
+    ids = [record["id"] for record in records]
+    repeated = sorted({i for i in ids if ids.count(i) > 1})
+    if repeated:
+        raise ValueError(f"record ids used twice: {repeated}")
+    return records
+
+
+class Num(float):
+    """A figure that also formats with the spec ``r`` (whole numbers from 100 up, two decimals below),
+    and without a spec as it was recorded (``256``, not ``256.0``, for a whole number)."""
+
+    whole: bool = False
+
+    def __new__(cls, value: float) -> Num:
+        number = super().__new__(cls, value)
+        number.whole = isinstance(value, int)
+        return number
+
+    def __format__(self, spec: str) -> str:
+        if spec == "" and self.whole:
+            return str(int(self))
+        if spec == "r":
+            spec = ".0f" if abs(self) >= 100 else ".2f"
+        return format(float(self), spec)
+
+
+def as_num(value: object) -> object:
+    return Num(value) if isinstance(value, int | float) and not isinstance(value, bool) else value
+
+
+def group_fields(group: str, runs: list[dict]) -> dict:
+    """``G_n`` and, for each figure ``K`` of the runs, ``G_K`` (a ``Seq`` of every run's that has
+    it) and, where numeric, ``G_median_K``, ``G_min_K`` and ``G_max_K``."""
+    out: dict = {f"{group}_n": len(runs)}
+    for key in sorted({k for run in runs for k in run}):
+        present = [as_num(run[key]) for run in runs if run.get(key) is not None]
+        out[f"{group}_{key}"] = Seq(present)
+        if present and all(isinstance(v, Num) for v in present):
+            out[f"{group}_median_{key}"] = Num(statistics.median(present))
+            out[f"{group}_min_{key}"] = min(present)
+            out[f"{group}_max_{key}"] = max(present)
+    return out
+
+
+def fields(record: dict) -> dict:
+    """What a template may name: the record's ``values``, ``hardware`` and ``date``, and for each
+    group ``G`` of its ``seeds`` the fields of ``group_fields``. Runs that name their ``caches``
+    (``warm``, ``bare``) also form a group of that name, unless the record has one already."""
+    out = {"hardware": record["hardware"], "date": record["date"]}
+    out.update({key: as_num(value) for key, value in record.get("values", {}).items()})
+    groups = dict(record.get("seeds", {}))
+    for runs in list(groups.values()):
+        for caches in sorted({run["caches"] for run in runs if "caches" in run}):
+            groups.setdefault(caches, [run for run in runs if run.get("caches") == caches])
+    for group, runs in groups.items():
+        out.update(group_fields(group, runs))
+    return out
+
+
+def anchor(heading: str) -> str:
+    """GitHub's anchor of a Markdown heading (``The card command`` -> ``the-card-command``)."""
+    return re.sub(r"[^\w\- ]", "", heading.strip().lower()).replace(" ", "-")
+
+
+def row(cells: list[str]) -> str:
+    return "| " + " | ".join(cells) + " |"
+
+
+def render_table(table: Table, records: list[dict]) -> str:
+    """The Markdown of one table: its columns, then the hardware, the date and a link to the
+    record file, one row per record in ``order``."""
+    headers = [header for header, _ in table.columns] + ["hardware", "date", "record"]
+    lines = [row(headers), row(["---"] * len(headers))]
+    for record in sorted(records, key=lambda r: r.get("order", 0)):
+        values = fields(record)
+        cells = [template.format(**values) for _, template in table.columns]
+        link = f"[{Path(record['path']).parent.name}]({record['path']})"
+        lines.append(row([*cells, record["hardware"], record["date"], link]))
+    return "\n".join(lines) + "\n"
+
+
+def render_readme(records: list[dict]) -> str:
+    """The README's one results table; a row's result cell may name any record's fields by its id
+    (``{card_warm[runs_median_wall_s]:.1f}``)."""
+    by_id = {record["id"]: record for record in records}
+    every = {record_id: fields(record) for record_id, record in by_id.items()}
+    lines = [row(["what", "hardware", "result", "more"]), row(["---"] * 4)]
+    for item in README_ROWS:
+        link = f"[{item.section}](BENCHMARKS.md#{anchor(item.section)})"
+        lines.append(row([item.what, by_id[item.record]["hardware"], item.result.format(**every), link]))
+    return "\n".join(lines) + "\n"
+
+
+def rendered(records: list[dict]) -> dict[str, str]:
+    """``{table name: Markdown}`` for every table, the README's ``readme`` among them."""
+    out = {"readme": render_readme(records)}
+    for name, table in TABLES.items():
+        out[name] = render_table(table, [r for r in records if r["table"] == name])
+    return out
+
+
+def problems(records: list[dict], pages: dict[str, str]) -> list[str]:
+    """What is wrong between the records and the pages' text (``{page: text}``): a record whose
+    table does not exist, a table without records, a table missing from its page, a region that is
+    not what its records give."""
+    found = []
+    for record in records:
+        if record["table"] not in TABLES:
+            found.append(f"{record['path']}: record {record['id']} names no table ({record['table']})")
+    for name in TABLES:
+        if not any(r["table"] == name for r in records):
+            found.append(f"table {name} has no record")
+    expected = rendered(records)
+    page_of = {"readme": "README.md", **{name: table.page for name, table in TABLES.items()}}
+    for name, body in expected.items():
+        regions = [m for m in REGION.finditer(pages[page_of[name]]) if m.group("name") == name]
+        if len(regions) != 1:
+            found.append(f"{page_of[name]}: {len(regions)} regions of table {name}, not 1")
+        elif regions[0].group("body") != body:
+            found.append(f"{page_of[name]}: table {name} differs from its records (python benchmarks/tables.py)")
+    for page, text in pages.items():
+        for match in REGION.finditer(text):
+            if match.group("name") not in page_of:
+                found.append(f"{page}: region of unknown table {match.group('name')}")
+    return found
+
+
+def rewrite(text: str, tables: dict[str, str]) -> str:
+    """``text`` with every known table region's body replaced by its Markdown."""
+
+    def replace(match: re.Match) -> str:
+        body = tables.get(match.group("name"), match.group("body"))
+        return match.group(1) + body + match.group(4)
+
+    return REGION.sub(replace, text)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--check", action="store_true", help="only check; exit 1 if anything differs")
+    args = parser.parse_args(argv)
+    records = load_records()
+    pages = {name: (ROOT / name).read_text() for name in ("README.md", "BENCHMARKS.md")}
+    if not args.check:
+        tables = rendered(records)
+        for name, text in pages.items():
+            (ROOT / name).write_text(rewrite(text, tables))
+        pages = {name: (ROOT / name).read_text() for name in pages}
+    found = problems(records, pages)
+    for line in found:
+        print(f"error: {line}", file=sys.stderr)
+    return 1 if found else 0
+
+
+# The tables, by name. A template names fields of ``fields``; the spec ``r`` prints whole numbers
+# from 100 up and two decimals below.
+B = "BENCHMARKS.md"
+TABLES: dict[str, Table] = {
+    "card": Table(
+        B,
+        (
+            ("caches", "{caches}"),
+            ("seeds", "{runs_seed}"),
+            ("whole process, each seed", "{runs_wall_s:.1f} s"),
+            ("median", "**{runs_median_wall_s:.1f} s**"),
+            ("Gymnasium Hopper-v5, each seed", "{runs_gymnasium:.0f}"),
+        ),
+    ),
+    "suite_fast": Table(
+        B,
+        (
+            ("task", "{task}"),
+            ("preset", "`{preset}` ({algo})"),
+            ("Gymnasium v5, each seed", "{runs_gymnasium:r}"),
+            ("median", "**{runs_median_gymnasium:r}**"),
+            ("whole process, warm", "{warm_min_wall_s:.0f}-{warm_max_wall_s:.0f} s"),
+            ("bare machine", "{bare_gymnasium:r} in {bare_wall_s:.0f} s"),
+            ("target", "{target}"),
+        ),
+    ),
+    "suite_1m": Table(
+        B,
+        (
+            ("task", "{task}"),
+            ("preset", "`{preset}` ({algo})"),
+            ("Gymnasium v5, each seed", "{runs_gymnasium:r}"),
+            ("median", "**{runs_median_gymnasium:r}** ({runs_n} seeds)"),
+            ("best published within 1 M (Tianshou)", "{published} {published_algo}"),
+        ),
+    ),
+    "time_to_score": Table(
+        B,
+        (
+            ("algorithm", "{algorithm}"),
+            ("seconds to 3000, each seed", "{runs_seconds:.1f} s"),
+            ("median", "**{runs_median_seconds:.1f} s**"),
+            ("env steps to 3000", "{runs_min_env_steps_m:.0f}-{runs_max_env_steps_m:.0f} M"),
+        ),
+    ),
+    "train_vs_raw": Table(
+        B,
+        (
+            ("envs", "{envs}"),
+            ("raw env steps/s", "{raw_m:.3f} M"),
+            ("training env steps/s", "{train_m:.3f} M"),
+            ("train/raw, raw timed first", "{ratio_first:.2f}"),
+            ("train/raw, raw timed beside training", "{ratio_beside}"),
+        ),
+    ),
+    "env_throughput": Table(
+        B,
+        (
+            ("task", "{task}"),
+            ("impl", "{impl}"),
+            ("4096 envs", "{e4096}"),
+            ("16384 envs", "{e16384}"),
+            ("65536 envs", "{e65536}"),
+        ),
+    ),
+    "suite_env": Table(
+        B,
+        (
+            ("task", "{task}"),
+            ("raw, 4096 envs", "{raw4}"),
+            ("env, 4096 envs", "{env4}"),
+            ("env / raw", "{q4:.2f}"),
+            ("raw, 16384 envs", "{raw16}"),
+            ("env, 16384 envs", "{env16}"),
+            ("env / raw", "{q16:.2f}"),
+        ),
+    ),
+    "deviations": Table(
+        B,
+        (
+            ("task", "{task}"),
+            ("training", "{training}"),
+            ("jaxpg (mean ± std)", "{jaxpg}"),
+            ("Gymnasium", "{gymnasium}"),
+            ("difference ± standard error", "{difference}"),
+            ("episode length jaxpg / Gymnasium", "{lengths}"),
+        ),
+    ),
+    "scaling": Table(
+        B,
+        (
+            ("GPUs", "{gpus}"),
+            ("envs", "{envs}"),
+            ("raw env steps/s", "{raw}"),
+            ("NPG training env steps/s", "{train}"),
+            ("training efficiency", "{efficiency}"),
+        ),
+    ),
+    "gymnasium_api": Table(B, (("vector env", "{vector_env}"), ("envs", "{envs}"), ("env steps/s", "{rate}"))),
+    "pong": Table(
+        B,
+        (
+            ("runs", "{runs}"),
+            ("median time to beat the opponent", "**{median_s} s**"),
+            ("range", "{range}"),
+            ("running reward above 10", "{above_10}"),
+        ),
+    ),
+    "atari_pong": Table(
+        B, (("algorithm", "{algorithm}"), ("agent steps", "{steps}"), ("training", "{seconds} s"), ("score", "{score}"))
+    ),
+    "cpu_pendulum": Table(
+        B,
+        (("run", "{run}"), ("seeds 0 / 1 / 2", "{runs_seconds:.1f} s"), ("median", "**{runs_median_seconds:.1f} s**")),
+    ),
+    "startup": Table(
+        B,
+        (("process", "{process}"), ("`import mujoco.mjx`", "{mjx}"), ("whole snippet, median", "{whole}")),
+    ),
+}
+
+# The README's one table, row by row: at most about a dozen words a cell, the rest in BENCHMARKS.md.
+FAST = (
+    "**{{fast_{t}[runs_median_gymnasium]:r}}** in {{fast_{t}[warm_min_wall_s]:.0f}}-{{fast_{t}[warm_max_wall_s]:.0f}}"
+)
+FAST += " s"
+WITHIN = "; 1 M steps: **{{m1_{t}[runs_median_gymnasium]:r}}**"
+SUITE = {
+    "hopper": "Hopper",
+    "walker2d": "Walker2d",
+    "half_cheetah": "HalfCheetah",
+    "ant": "Ant",
+    "humanoid": "Humanoid",
+    "swimmer": "Swimmer",
+    "reacher": "Reacher",
+    "pusher": "Pusher",
+}
+WITH_PUBLISHED = ("hopper", "walker2d", "half_cheetah", "ant", "humanoid")
+PUBLISHED = " (Tianshou {{m1_{t}[published]}})"
+README_ROWS: tuple[ReadmeRow, ...] = (
+    ReadmeRow(
+        "Hopper, `experiments/hopper.py` as typed, whole process",
+        "card_warm",
+        "**{card_warm[runs_median_wall_s]:.1f} s** warm, {card_bare[runs_median_wall_s]:.1f} s bare; "
+        "Gymnasium {card_warm[runs_min_gymnasium]:.0f}-{card_warm[runs_max_gymnasium]:.0f}",
+        "The card command",
+    ),
+    *(
+        ReadmeRow(
+            f"{name}: fast preset, warm; within 1 M env steps",
+            f"fast_{task}",
+            (FAST + WITHIN + (PUBLISHED if task in WITH_PUBLISHED else "")).format(t=task),
+            "The suite on one GPU, fast",
+        )
+        for task, name in SUITE.items()
+    ),
+    ReadmeRow(
+        "Hopper, mean policy to 3000, median of 3 seeds",
+        "ttr_ppo",
+        "PPO **{ttr_ppo[runs_median_seconds]:.1f} s**, NPG {ttr_npg[runs_median_seconds]:.1f} s",
+        "Time to a score",
+    ),
+    ReadmeRow(
+        "NPG training against raw simulation, 1024 / 4096 envs",
+        "train_raw_1024",
+        "**{train_raw_1024[ratio_beside]} / {train_raw_4096[ratio_beside]}** of raw simulation",
+        "Training against raw simulation",
+    ),
+    ReadmeRow(
+        "Raw Hopper env steps/s, 16384 envs, Warp / MJX-JAX",
+        "env_hopper_warp",
+        "{env_hopper_warp[e16384]} / {env_hopper_jax[e16384]}",
+        "Raw simulation and the env",
+    ),
+    ReadmeRow(
+        "NPG on 2 GPUs against 1",
+        "scaling_2",
+        "{scaling_2[train]} against {scaling_1[train]} env steps/s: {scaling_2[efficiency]} of linear",
+        "Several GPUs",
+    ),
+    ReadmeRow(
+        "Hopper through the Gymnasium vector-env API",
+        "gym_api_jaxpg",
+        "{gym_api_jaxpg[rate]} env steps/s; Gymnasium's own: {gym_api_gymnasium[rate]}",
+        "Through the Gymnasium API",
+    ),
+    ReadmeRow(
+        "A2C beats jaxpg's Pong opponent, from pixels",
+        "pong_a2c",
+        "median **{pong_a2c[median_s]} s** over {pong_a2c[runs]} runs",
+        "jaxpg's Pong",
+    ),
+    ReadmeRow(
+        "PPO on Atari Pong's ROM, 10 games",
+        "atari_0",
+        "{atari_0[score]} after {atari_0[seconds]} s of training",
+        "Atari Pong on the ROM",
+    ),
+    ReadmeRow(
+        "NPG solves `inverted_pendulum`, median of 3 seeds",
+        "cpu_jaxpg_cold",
+        "**{cpu_jaxpg_cold[runs_median_seconds]:.1f} s** cold, {cpu_jaxpg_warm[runs_median_seconds]:.1f} s warm; "
+        "SB3 PPO {cpu_sb3_ppo[runs_median_seconds]:.1f} s",
+        "CPU",
+    ),
+)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -8,14 +8,14 @@ batched ``io_callback``; observations are Karpathy's 80x80 difference frames, ac
 * ``--algo ppo`` (default): PPO's Atari settings (``ppo.PRESETS["atari"]``: 16 games x 128
   steps, 4 epochs of 4 minibatches, Adam 2.5e-4 annealed over 2500 iterations, clip 0.1) with the
   Nature network (``--conv-torso nature``: three convolutions, then 512 ReLU units) in front of
-  the policy and of the value function. On one GPU and its host's 16 cores it wins ALE/Pong-v5
-  within 8 minutes (BENCHMARKS.md).
+  the policy and of the value function. On one GPU and its host's cores it wins ALE/Pong-v5
+  (BENCHMARKS.md, "Atari Pong on the ROM").
 * ``--algo a2c``: MinPy's setting, the seed's network (6400 -> 200 ReLU -> action
   probabilities, a value network of the same shape), GAE(0.99, 0.95), t_max 8, Adam 1e-3, entropy
   bonus 0.01 (``a2c.PRESETS["pong"]``, also used on jaxpg's own Pong). ``--preset atari`` gives the
   A2C of the Atari literature instead: the Nature network, 16 games, t_max 5, RMSprop 7e-4; on
-  one GPU and 16 cores it won ALE/Pong-v5 (+11.9 with sticky actions) after 10.4 M agent steps,
-  30 minutes (BENCHMARKS.md).
+  one GPU and its host's cores it won ALE/Pong-v5 with sticky actions (BENCHMARKS.md, "Atari Pong
+  on the ROM").
 * ``--algo reinforce_points``: MinPy's first experiment, Karpathy's REINFORCE: returns that
   restart at every point, normalised over the batch, one Adam step per 256 steps of every game.
 
@@ -59,12 +59,12 @@ EXPERIMENT = Experiment(
     prog="python experiments/atari_pong.py",
     description=__doc__.split("\n\n")[0],
     epilog="""\
-one GPU and its host's 16 cores (PPO: +13.7 over 10 games of ALE/Pong-v5 after 7.5 minutes):
+one GPU and its host's cores (PPO; BENCHMARKS.md, "Atari Pong on the ROM", has its score):
   python experiments/atari_pong.py --run-dir runs/atari-ppo
   python -m jaxpg.evaluate runs/atari-ppo --ale --episodes 10 && \\
       python -m jaxpg.evaluate runs/atari-ppo --ale --episodes 10 --no-sticky
 
-A2C of the Atari literature (+11.9 after 130,500 iterations, 10.4 M agent steps, 30 minutes):
+A2C of the Atari literature (130,500 iterations, 10.4 M agent steps):
   python experiments/atari_pong.py --algo a2c --preset atari --iterations 130500 --checkpoint-every 2000 \\
       --log-every 500 --run-dir runs/atari-a2c
 

@@ -3,9 +3,9 @@
 The defaults (NPG's ``hopper_1m`` preset: 256 envs x 32 steps, 120 iterations = 0.98 M env steps,
 normalised step 0.07, observation normalisation, the policy's noise held at log-std 1, a 128x128
 value function fitted for 10 epochs per iteration to standardised targets, the mean policy
-evaluated as its clipped mean) train a hopping Hopper on one GPU in 15-24 s with warm caches (by host):
-see BENCHMARKS.md for what each seed reached, in MJX and in Gymnasium's CPU Hopper-v5. On a CPU
-the same command runs to its end too, about 30 times slower. ``--preset hopper`` is the earlier
+evaluated as its clipped mean) train a hopping Hopper on one GPU in well under a minute: see
+BENCHMARKS.md, "The card command", for the time and what each seed reached in Gymnasium's CPU
+Hopper-v5. On a CPU the same command runs to its end too, far slower. ``--preset hopper`` is the earlier
 default (initial log-std 0, learned; 64 steps per env, 1.97 M env steps); ``--preset lyceum``
 reproduces LyceumAI's NPG (policy 32x32, 10240 samples per iteration from episodes of up to 1000
 steps).
@@ -31,7 +31,7 @@ EXPERIMENT = Experiment(
     description=__doc__.split("\n\n")[0],
     epilog="""\
 examples:
-  python experiments/hopper.py --num-envs 256               # NPG, 0.98 M env steps: one GPU, 15-24 s warm
+  python experiments/hopper.py --num-envs 256               # NPG, 0.98 M env steps (BENCHMARKS.md)
   python experiments/hopper.py --num-envs 256 --profile     # phase timings of one iteration first
   python experiments/hopper.py --preset lyceum --iterations 5 --profile   # LyceumAI's NPG
 

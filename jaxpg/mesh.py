@@ -41,8 +41,8 @@ def use_gspmd_partitioner() -> None:
     """Partition sharded programs with GSPMD instead of Shardy (JAX's default since 0.7).
 
     With JAX 0.11.2 on GPUs, XLA's compiler crashed (segmentation fault in the ``shardy-xla`` pass)
-    on jaxpg's rollout under ``shard_map`` over 2 H200s, with both MJX implementations; with GSPMD
-    the same program compiles and scales (BENCHMARKS.md, 2026-11-22). A multi-device ``env_mesh``
+    on jaxpg's rollout under ``shard_map`` over two GPUs, with both MJX implementations; with GSPMD
+    the same program compiles and scales (BENCHMARKS.md, "Several GPUs"). A multi-device ``env_mesh``
     calls this, on every backend, so that the CPU tests run the partitioner the GPUs use.
     """
     if getattr(jax.config, "jax_use_shardy_partitioner", False):

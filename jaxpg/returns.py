@@ -7,9 +7,9 @@ the next row of that env column starts a new episode. Where both flags are set, 
 All functions are pure and jittable. The reverse recursions (returns, GAE) are linear,
 ``y_t = x_t + c_t y_{t+1}``: by default a reverse ``lax.scan``; with ``parallel=True`` a
 ``lax.associative_scan`` (a tree of ``O(log T)`` whole-batch steps, the same numbers up to float
-rounding). On an H100, GAE alone over 64 steps took 0.08-0.17 ms in the associative form against
-1.3-1.6 ms as a scan, but it compiles about a second longer, and in the card's whole training
-iteration the difference was within noise (BENCHMARKS.md section AE), so the scan stays the default.
+rounding). On a GPU GAE alone runs faster in the associative form but compiles longer, and in the
+card's whole training iteration the difference was within noise (docs/benchmarks_archive.md,
+section AE), so the scan stays the default.
 """
 
 from __future__ import annotations

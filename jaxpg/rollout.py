@@ -121,7 +121,7 @@ def rollout(
     ``record_fn`` of each step's resulting state, after any automatic reset). ``unroll`` (static)
     runs that many env steps per iteration of the compiled loop (``lax.scan``'s ``unroll``): the
     same numbers, fewer loop iterations for the host to drive, a longer compilation. (For MuJoCo
-    Warp's Hopper on an H100, 4 was slower than 1: BENCHMARKS.md, section AI.)
+    Warp's Hopper on a GPU, 4 was slower than 1: docs/benchmarks_archive.md, section AI.)
     """
 
     def body(state: State, step_key: jax.Array) -> tuple[State, dict]:

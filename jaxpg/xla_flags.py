@@ -10,13 +10,13 @@ thread until the chunks are done. When as many such calls run side by side as th
 thread waits for chunks that no thread is free to run: the program never returns, the CPU idle.
 ``python experiments/hopper.py --num-envs 4096`` hung this way on two cores. A kernel splits its
 batch only over more than one thread, so with a pool of one thread nothing waits on the pool.
-``tests/test_xla_flags.py`` runs the reproduction: two cores, jaxlib 0.10.2, 4 of 4 hung under
-XLA's default flags, 0 of 10 with ``NPROC=1``; jaxlib 0.11.0 3 of 3 and 0 of 2; 0.11.1 and 0.11.2
-returned 3 of 3 and 4 of 4 without it, so later releases are left alone.
+``tests/test_xla_flags.py`` runs the reproduction: on two cores it hung under XLA's default flags
+with jaxlib 0.10.2 and 0.11.0 and never with ``NPROC=1``; 0.11.1 and 0.11.2 returned without it,
+so later releases are left alone (docs/benchmarks_archive.md has the counts).
 
 Before, jaxpg set XLA's memory-minimising schedule instead
 (``--xla_cpu_enable_concurrency_optimized_scheduler=false``). That made the hang rarer, not
-impossible: the reproduction hung 1 run in 6 with it on two idle cores, and in a CI run.
+impossible: the reproduction still hung with it on two idle cores, and in a CI run.
 
 How. XLA's CPU client sizes its thread pool from the environment variable ``NPROC`` when it is set
 (else from the cores the process may use), once, when JAX starts its CPU backend; so jaxpg sets it
@@ -28,9 +28,8 @@ again. Whether other XLA clients read ``NPROC`` (a GPU client's host threads) wa
 GPU figures in BENCHMARKS.md ran on jaxlib 0.11.2, which this leaves alone.
 
 Cost. None measured on two cores, where it was faster: ``python -m jaxpg.cli --env hopper
---num-envs 256 --iterations 24 --log-every 8`` trained at 5.3k and 4.8k env steps/s against 4.9k and
-4.7k with two threads, 201 s against 214 s in all (jaxlib 0.10.2, one run each), and the
-reproduction ran in 3-4 s against 5. Results may differ in their last bits from those of a pool of
+--num-envs 256 --iterations 24 --log-every 8`` trained faster with one thread than with two
+(docs/benchmarks_archive.md), and so did the reproduction. Results may differ in their last bits from those of a pool of
 several threads (a dot product's sum may be split between threads), so CPU metrics recorded before
 this setting are not reproduced bit for bit; with the setting, the same seed gives the same numbers.
 """
@@ -67,7 +66,7 @@ def accepted_options(options: Iterable[tuple[str, str]], python: str = sys.execu
     XLA ends a process whose ``XLA_FLAGS`` names a flag it does not know (XLA in jaxlib 0.11.2 no
     longer has ``xla_cpu_use_fusion_emitters``), so each option is tried in its own fresh
     interpreter (``python``), which compiles a tiny program on the CPU with it; the interpreters
-    run side by side (about 1-2 s in all)."""
+    run side by side."""
     options = tuple(options)
     script = "import jax; jax.jit(lambda x: x + 1)(1.0)"
     environ = {**os.environ, "JAX_PLATFORMS": "cpu"}

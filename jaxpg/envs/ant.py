@@ -32,9 +32,8 @@ one (the same state as above) leaving its forces in the data. That path has run 
 (warp-lang 1.19, "fast" fidelity): its contact forces are nonzero at the same steps as the jax
 implementation's and agree with them to 2.3e-3 over 30 random steps, where the two float32
 trajectories have drifted ~1e-3 apart (tests/test_envs.py, test_warp_ant_computes_contact_forces,
-over 12 steps). On one H100 (fast fidelity, 4096 envs x 50 random steps,
-``docs/benchmarks_archive.md``) their mean norm in the observation was 0.442 with MuJoCo
-Warp against 0.440 with the jax implementation.
+over 12 steps). On a GPU the two implementations' contact forces agree in their mean norm over
+random steps (BENCHMARKS.md, "What the suite's deviations from Gymnasium cost").
 
 Metrics: Gymnasium's ``info`` terms ``reward_forward``, ``reward_ctrl`` (negative),
 ``reward_contact`` (negative), ``reward_survive``, ``x_position``, ``y_position``,
@@ -53,9 +52,8 @@ rounding effect). Everything that jaxpg computes from the physics (observation, 
 reward, termination) is Gymnasium's: with MuJoCo's frame convention swapped into MJX's collider,
 as tests/test_envs.py does, whole episodes agree to rounding. The planar tasks (Hopper, Walker2d,
 HalfCheetah) are not affected: there both conventions give the same pyramid. What it costs a
-policy, measured on one H100 (BENCHMARKS.md, "what the suite's deviations from Gymnasium cost"): a
-PPO policy trained in the "gymnasium" fidelity returned 1525.6 in 50 episodes in jaxpg and 1525.6 in
-Gymnasium's Ant-v5 (standard error of the difference 197).
+policy: BENCHMARKS.md, "What the suite's deviations from Gymnasium cost" (a PPO policy trained in the
+"gymnasium" fidelity, replayed in jaxpg and in Gymnasium's Ant-v5).
 
 Other deviations from Gymnasium: ``main_body`` is fixed to body 1 (the torso) and the options
 ``exclude_current_positions_from_observation`` and ``include_cfrc_ext_in_observation`` are taken

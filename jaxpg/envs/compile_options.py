@@ -5,9 +5,9 @@ subgraph, called again for every element a consumer reads, without reusing resul
 kinematic pass fuses each level of the body tree with the levels above it (every level's frame is a
 product of its parent's), so along a chain of hinged bodies these calls multiply level by level: the
 run time grows exponentially with the chain's depth while the code stays small. Pusher's arm (seven
-hinges in a chain ten bodies deep) takes 30 ms per ``mjx.kinematics`` of one env and 390 ms for 4
-vmapped envs (Hopper: 0.3 ms). The legacy emitters (``xla_cpu_use_fusion_emitters=False``) compute
-each element once: 0.4 ms. A task whose chain is that deep sets ``cpu_fusion_emitters = False``
+hinges in a chain ten bodies deep) runs ``mjx.kinematics`` orders of magnitude slower than Hopper,
+and more so vmapped. The legacy emitters (``xla_cpu_use_fusion_emitters=False``) compute each
+element once, at about Hopper's cost. A task whose chain is that deep sets ``cpu_fusion_emitters = False``
 (``MjxEnv``), and every program that steps it is compiled with the legacy emitters when it runs on
 the CPU with MJX's JAX implementation. Other tasks keep XLA's defaults, which run their steps ~20%
 faster (Hopper, Reacher: 4 envs, JAX 0.10 on two CPU cores). The option is an ordinary compile

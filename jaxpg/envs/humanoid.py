@@ -20,9 +20,9 @@ pass before integrating (RK4: at its last stage), so they belong to the state at
 last physics step. ``cfrc_ext`` is filled after the steps by ``mjx.rne_postconstraint`` (MJX's jax
 impl), as Gymnasium fills it with ``mj_rnePostConstraint``; with MuJoCo Warp the model's
 ``run_rne_postconstraint`` option makes every step compute it (``mjx.rne_postconstraint`` itself
-raises for warp, so a missing ``cfrc_ext`` cannot pass silently). On one H100 (fast fidelity,
-4096 envs x 50 random steps; ``docs/benchmarks_archive.md``) the contact forces' mean norm in
-the observation was 434.4 with MuJoCo Warp against 433.5 with the jax implementation.
+raises for warp, so a missing ``cfrc_ext`` cannot pass silently). On a GPU the two
+implementations' contact forces agree in their mean norm over random steps (BENCHMARKS.md, "What
+the suite's deviations from Gymnasium cost").
 At reset the observation is that of Gymnasium's reset (a forward pass at the reset state, no
 control, ``cfrc_ext`` zero), from the kinematic and velocity passes alone (``physics_state``).
 
@@ -54,9 +54,8 @@ Gymnasium's model):
   rounding up to termination, 4 part by up to 6e-5 (the episodes still end at the same step).
   ``tests/test_envs.py::test_gymnasium_parity_humanoid`` has the numbers.
 
-What both cost a policy, measured on one H100 (BENCHMARKS.md, "what the suite's deviations from
-Gymnasium cost"): a PPO policy trained in the "gymnasium" fidelity returned 4567 in 50 episodes in
-jaxpg and 5068 in Gymnasium's Humanoid-v5, a difference within its standard error (544).
+What both cost a policy: BENCHMARKS.md, "What the suite's deviations from Gymnasium cost" (a PPO
+policy trained in the "gymnasium" fidelity, replayed in jaxpg and in Gymnasium's Humanoid-v5).
 """
 
 from __future__ import annotations

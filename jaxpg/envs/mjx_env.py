@@ -21,8 +21,8 @@ Fidelity = Literal["fast", "gymnasium"]
 Impl = Literal["jax", "warp"]
 
 # Solver settings of the "fast" fidelity: the semi-implicit Euler integrator and a short Newton solve.
-# On one H100 these are worth 14x over Gymnasium's RK4 with the default solver (raw MJX stepping of
-# Hopper at 16384 envs: 1.66 M against 117 k env steps/s).
+# On a GPU these step many times faster than Gymnasium's RK4 with the default solver (BENCHMARKS.md,
+# "Raw simulation and the env").
 FAST_SOLVER_ITERATIONS = 4
 FAST_LS_ITERATIONS = 8
 
@@ -234,7 +234,7 @@ class MjxEnv(Env):
         until the next physics step recomputes them, so after an automatic reset ``data.xpos`` and
         the like describe the ended episode's last state for one step; observations, rewards and
         ``info`` are unaffected. Selecting every field (MJX's ``Data.where``) made Reacher, the
-        suite's cheapest physics step, 4-8 % slower (BENCHMARKS.md). MJX keeps MuJoCo Warp's
+        suite's cheapest physics step, slower (BENCHMARKS.md, "The MuJoCo suite"). MJX keeps MuJoCo Warp's
         contact buffer, shared by the batch, in ``_impl``; it is never selected.
         """
 

@@ -1,8 +1,8 @@
 """How ``mujoco.mjx`` is imported: with MuJoCo Warp (MJX's GPU physics, ``impl="warp"``) or without.
 
 Importing MJX imports MuJoCo Warp whenever the ``warp-lang`` package is installed, whether or not
-the process will use it: on two CPU cores that is about 3 of the 4 s that ``import mujoco.mjx``
-takes (3.4-4.1 s with it, 0.8-1.1 s without: ``benchmarks/card_command.py startup``). A process
+the process will use it: on two CPU cores that is most of what ``import mujoco.mjx`` takes
+(BENCHMARKS.md, "CPU": start-up without MuJoCo Warp; ``benchmarks/card_command.py startup``). A process
 that will only step MJX's JAX implementation (a command on a machine without a GPU, or
 ``--impl jax``) can leave it out by setting the environment variable ``JAXPG_MJX_WARP=off`` before
 MJX is first imported; jaxpg's command lines do so themselves (``jaxpg.run.startup``). MJX then
@@ -10,11 +10,10 @@ runs as it does without ``warp-lang``, and asking that process for ``impl="warp"
 ``ValueError`` that says why.
 
 MJX also imports ``trimesh`` and ``scipy.spatial``, which it uses only to take the convex hull of a
-model's meshes; no task of jaxpg's has one. Importing trimesh took about 0.35 s of a command's
-start on two CPU cores and about 1 s on a GPU host (``benchmarks/card_command.py startup``), and
-``scipy.spatial`` about 0.2 s on two CPU cores. ``import_mjx`` imports MJX with a stand-in for each
-(``DeferredModule``) that imports the real module the first time MJX uses it, so a process that
-converts no mesh imports neither.
+model's meshes; no task of jaxpg's has one. Importing them is a visible part of a command's
+start (BENCHMARKS.md, "CPU": start-up without MuJoCo Warp; ``benchmarks/card_command.py startup``).
+``import_mjx`` imports MJX with a stand-in for each (``DeferredModule``) that imports the real
+module the first time MJX uses it, so a process that converts no mesh imports neither.
 
 Kept free of MuJoCo imports, so that a command can decide before MJX is imported.
 """

@@ -36,8 +36,8 @@ class Pusher(MjxEnv):
     """MJX Pusher; see the module docstring for the task definition."""
 
     task_score_name = "object_goal_distance"
-    # Its arm's chain of seven hinges makes XLA:CPU's fusion emitters ~1000x slower on its step
-    # (2.2 s against 1.7 ms for 4 envs): see jaxpg.envs.compile_options.
+    # Its arm's chain of seven hinges makes XLA:CPU's fusion emitters orders of magnitude slower on
+    # its step: see jaxpg.envs.compile_options.
     cpu_fusion_emitters = False
     action_low = -2.0
     action_high = 2.0

@@ -2,11 +2,11 @@
 
 MuJoCo Warp compiles each kernel module the first time a kernel of it is launched, and MJX launches
 them from the first *execution* of a program that steps the physics, one after another. For
-Hopper that is 34 modules and about 46 s on a fresh machine (one H100, 16 CPU cores), the largest
-part of a first run's start. ``KernelBuild.start(env)`` finds the modules a physics step launches by
+Hopper that is a few dozen modules, the largest part of a first run's start on a fresh machine
+(docs/benchmarks_archive.md, section AW). ``KernelBuild.start(env)`` finds the modules a physics step launches by
 a dry run of MuJoCo Warp's ``step`` on one world with its launches recorded instead of run (under a
 second), then loads them on a pool of threads, where NVRTC and the CUDA driver compile them in
-parallel (about 18 s for Hopper), while the caller compiles its XLA programs. ``wait()`` before the
+parallel, while the caller compiles its XLA programs. ``wait()`` before the
 first program that steps the physics runs. Modules that the dry run missed are built at that first
 execution, as without it; with Warp's kernel cache already filled the same loads read the cache.
 

@@ -235,7 +235,7 @@ PLOT_EVERY_S = 30.0
 training: drawing thousands of iterations of many seeds takes a large part of a second, which a
 run whose blocks take a fraction of a second would otherwise pay at every checkpoint; and a run
 shorter than this draws its curves once, at the end (the first drawing, with matplotlib's import,
-cost 0.6-0.9 s on a 2-core CPU, a later one 0.2 s)."""
+costs most, a later one less)."""
 
 
 @dataclasses.dataclass

@@ -57,7 +57,7 @@ class CheckpointReader:
     """
 
     def __init__(self, directory: str | os.PathLike, keep: int | None = 3, create: bool = False):
-        # Here, not at the top: Orbax (with TensorStore) takes 0.15-0.2 s to import, which --help
+        # Here, not at the top: Orbax (with TensorStore) is slow to import, which --help
         # and a command refused before it touches a checkpoint need not pay.
         import orbax.checkpoint as ocp
 

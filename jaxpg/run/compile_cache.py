@@ -1,6 +1,6 @@
 """JAX's persistent compilation cache, turned on for jaxpg's command lines and benchmarks.
 
-A training program (MJX physics, rollout, GAE, conjugate gradient, value fit) takes 10-30 s to
+A training program (MJX physics, rollout, GAE, conjugate gradient, value fit) takes many seconds to
 compile; with the cache a second run of the same program on the same machine loads the compiled
 executable from disk instead. The cache is keyed by JAX on the lowered program, the JAX and XLA
 versions and the device, so a changed config or shape simply compiles again. Programs with

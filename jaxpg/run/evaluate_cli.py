@@ -122,7 +122,7 @@ def main(argv: Sequence[str] | None = None, owns_process: bool = False) -> int:
     if args.video:  # MuJoCo is not imported yet: choose a GL backend that loads, only for a video
         video_lib.configure_gl()
     # Here, once the arguments parse: the policy's modules bring JAX's training stack (flax, optax),
-    # a third of the 0.9 s that --help would take with them.
+    # a large part of what --help would take with them.
     from jaxpg.envs import atari
     from jaxpg.run import policy_episodes, policy_io, replay
 

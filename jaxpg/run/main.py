@@ -42,7 +42,7 @@ def main(argv: Sequence[str] | None = None, experiment: Experiment | None = None
 
 def exit_process(status: int) -> NoReturn:
     """End the process with ``status`` after ``main`` has returned, as the interpreter would but
-    without tearing down its thousands of modules and objects one by one (1.2-1.4 s of a
+    without tearing down its thousands of modules and objects one by one (a visible part of a
     CPU run's exit; the scripts' last line).
 
     What the interpreter's own exit does first is done here too, in its order: wait for the

@@ -1,6 +1,6 @@
 """``curves.png`` drawn by a helper process, so that matplotlib never runs in the training process.
 
-Neither matplotlib's import (0.4-0.8 s) nor a drawing (0.2 s, more for long runs of many seeds)
+Neither matplotlib's import nor a drawing (longer for long runs of many seeds)
 then holds the training process's Python between its blocks, and the run's last drawing overlaps
 its last checkpoint instead of following it. The training process starts the helper with its
 callbacks, before the first block compiles; the helper imports matplotlib and draws a throwaway

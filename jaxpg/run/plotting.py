@@ -145,7 +145,7 @@ def plot_runs(
     task_score_name: str | None = None,
 ) -> Path:
     """Draw ``[(label, records or CurveHistory)]`` into ``path`` (png, pdf, svg ...) and return the path."""
-    # Here, not at the top: matplotlib takes 0.4 s to import, which a run pays at its first plot,
+    # Here, not at the top: matplotlib is slow to import, which a run pays at its first plot,
     # after its first block, not before its first line.
     import matplotlib
 

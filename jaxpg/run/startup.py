@@ -39,7 +39,7 @@ def start(argv: Sequence[str], experiment: Experiment, owns_process: bool = Fals
     check_backend()
     recover_run_dir(pre)  # before a resumed run's impl is read from its directory
     if owns_process and steps_mjx_on_jax_only(pre, experiment, jax.default_backend()):
-        mjx_import.leave_out_warp()  # about 3 s less of `import mujoco.mjx` on two CPU cores
+        mjx_import.leave_out_warp()  # most of `import mujoco.mjx` on two CPU cores (BENCHMARKS.md, "CPU")
     return pre
 
 
@@ -50,9 +50,9 @@ def allocate_gpu_memory_on_demand(environ: MutableMapping[str, str] = os.environ
     """Set ``XLA_PYTHON_CLIENT_PREALLOCATE=false`` in ``environ`` unless it is set; returns its value.
 
     By default JAX's GPU client reserves 75 % of the GPU's memory when it makes its first buffer.
-    On an H200 (140 GiB) that first buffer took 2.2-2.4 s, and 0.14-0.17 s with the variable
-    false (``python benchmarks/card_command.py memory``, 3 fresh processes each); the
-    card's warm run went from a median 26.1 s to 23.8 s, and Humanoid's PPO trained at the same
+    On a large GPU that first buffer took seconds, and a fraction of one with the variable
+    false (``python benchmarks/card_command.py memory``, docs/benchmarks_archive.md AW); the
+    card's warm run got faster, and Humanoid's PPO trained at the same
     env steps/s either way (BENCHMARKS.md, "Where a warm run's time goes"). JAX reads the variable
     when it starts its GPU backend, so this must come before anything touches a device; processes
     started from this one inherit it. A value you set yourself is kept."""

@@ -6,7 +6,10 @@ preset off its tasks."""
 
 from __future__ import annotations
 
+import dataclasses
 import functools
+import json
+from pathlib import Path
 
 import pytest
 
@@ -792,3 +795,37 @@ def test_fast_presets_evaluate_about_ten_times_in_blocks_of_ten(key):
     assert 8 <= row.iterations // every + (row.iterations % every > 0) <= 12
     run = RunConfig(task=row.tasks[0], algo=key[0], config=dict(row.overrides), seeds=[0], iterations=row.iterations)
     assert run.block_size == 10
+
+
+SNAPSHOT = Path(__file__).with_name("preset_snapshot.json")
+
+
+def resolved_presets() -> dict[str, dict]:
+    """Every preset of every algorithm as a run resolves it: the algorithm's whole ``Config`` built
+    from the preset's overrides, its tasks, default iterations and task options, as JSON values."""
+    out = {}
+    for algo in sorted(algos.ALGORITHMS):
+        module = algos.get(algo)
+        for name in algos.preset_names(algo):
+            config = module.Config(**algos.preset(algo, name))
+            out[f"{algo}/{name}"] = json.loads(
+                json.dumps(
+                    {
+                        "config": dataclasses.asdict(config),
+                        "tasks": presets.TABLE[(algo, name)].tasks,
+                        "iterations": algos.preset_iterations(algo, name),
+                        "env_kwargs": algos.preset_env_kwargs(algo, name),
+                    }
+                )
+            )
+    return out
+
+
+def test_every_preset_resolves_to_its_recorded_config():
+    """All algorithms x all presets resolve to the configs recorded in ``preset_snapshot.json``
+    (written from the table as it stood before it was split by task), value for value."""
+    recorded = json.loads(SNAPSHOT.read_text())
+    now = resolved_presets()
+    assert sorted(now) == sorted(recorded)
+    for key, value in recorded.items():
+        assert now[key] == value, key

@@ -17,6 +17,7 @@ import ast
 import dataclasses
 import importlib
 import inspect
+import pkgutil
 
 import jax
 import jax.numpy as jnp
@@ -40,9 +41,8 @@ ALLOWED_ALGOS_IMPORTS = {
     "jaxpg.algos.natural_gradient": {"core"},
     "jaxpg.algos.actor_critic": {"core"},
 }
-# Plain data any algorithm module may read: the presets table (its rows are their PRESETS) and the
-# settings its rows share.
-DATA_MODULES = {"presets", "preset_settings"}
+# Plain data any algorithm module may read: the presets package (its table's rows are their PRESETS).
+DATA_MODULES = {"presets"}
 
 
 def maybe_jit(fn, use_jit):
@@ -80,8 +80,12 @@ def test_reinforce_imports_only_the_core():
 
 
 def test_the_presets_import_no_algorithm():
-    assert algos_imports("jaxpg.algos.presets") == {"preset_settings"}
-    assert algos_imports("jaxpg.algos.preset_settings") == set()
+    package = importlib.import_module("jaxpg.algos.presets")
+    parts = [f"jaxpg.algos.presets.{m.name}" for m in pkgutil.iter_modules(package.__path__)]
+    modules = ["jaxpg.algos.presets", *parts]
+    assert len(modules) > 3
+    for name in modules:
+        assert algos_imports(name) <= {"presets"}, name
 
 
 def test_the_core_imports_no_algorithm():

@@ -9,8 +9,8 @@ hinges in a chain ten bodies deep) runs ``mjx.kinematics`` orders of magnitude s
 and more so vmapped. The legacy emitters (``xla_cpu_use_fusion_emitters=False``) compute each
 element once, at about Hopper's cost. A task whose chain is that deep sets ``cpu_fusion_emitters = False``
 (``MjxEnv``), and every program that steps it is compiled with the legacy emitters when it runs on
-the CPU with MJX's JAX implementation. Other tasks keep XLA's defaults, which run their steps ~20%
-faster (Hopper, Reacher: 4 envs, JAX 0.10 on two CPU cores). The option is an ordinary compile
+the CPU with MJX's JAX implementation. Other tasks keep XLA's defaults, which run their steps faster
+(measured on Hopper and Reacher on two CPU cores). The option is an ordinary compile
 option of that one program, not a process-wide flag; a jaxlib without it compiles with the defaults.
 """
 

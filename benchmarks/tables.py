@@ -39,11 +39,20 @@ class Seq(tuple):
 
 
 class Table(NamedTuple):
-    """A generated table: the Markdown file it lives in and its columns, each a header and a
-    ``str.format`` template over a record's fields (``fields``)."""
+    """A generated table: the Markdown file it lives in, its columns (each a header and a
+    ``str.format`` template over a record's fields, ``fields``) and the fields a record may lack,
+    shown as "-"."""
 
     page: str
     columns: tuple[tuple[str, str], ...]
+    optional: tuple[str, ...] = ()
+
+
+class Dash:
+    """An optional field a record lacks: "-" whatever the spec."""
+
+    def __format__(self, spec: str) -> str:
+        return "-"
 
 
 class ReadmeRow(NamedTuple):
@@ -74,8 +83,9 @@ def load_records(results: Path = RESULTS) -> list[dict]:
 
 
 class Num(float):
-    """A figure that also formats with the spec ``r`` (whole numbers from 100 up, two decimals below),
-    and without a spec as it was recorded (``256``, not ``256.0``, for a whole number)."""
+    """A figure that also formats with the spec ``r`` (whole numbers from 100 up, two decimals below)
+    and ``rate`` (steps/s in M or k), and without a spec as it was recorded (``256``, not ``256.0``,
+    for a whole number)."""
 
     whole: bool = False
 
@@ -87,6 +97,12 @@ class Num(float):
     def __format__(self, spec: str) -> str:
         if spec == "" and self.whole:
             return str(int(self))
+        if spec == "rate":  # steps/s: "2275 M", "4.78 M", "747 k", "4.5 k"
+            if self >= 1e8:
+                return f"{self / 1e6:.0f} M"
+            if self >= 1e6:
+                return f"{self / 1e6:.2f} M"
+            return f"{self / 1e3:.0f} k" if self >= 1e4 else f"{self / 1e3:.1f} k"
         if spec == "r":
             spec = ".0f" if abs(self) >= 100 else ".2f"
         return format(float(self), spec)
@@ -111,11 +127,14 @@ def group_fields(group: str, runs: list[dict]) -> dict:
 
 
 def fields(record: dict) -> dict:
-    """What a template may name: the record's ``values``, ``hardware`` and ``date``, and for each
+    """What a template may name: the record's ``values``, ``hardware`` and ``date``, its ``ratios``
+    (``{name: [numerator, denominator]}`` of two values, computed here), and for each
     group ``G`` of its ``seeds`` the fields of ``group_fields``. Runs that name their ``caches``
     (``warm``, ``bare``) also form a group of that name, unless the record has one already."""
     out = {"hardware": record["hardware"], "date": record["date"]}
     out.update({key: as_num(value) for key, value in record.get("values", {}).items()})
+    for key, (numerator, denominator) in record.get("ratios", {}).items():
+        out[key] = Num(out[numerator] / out[denominator])
     groups = dict(record.get("seeds", {}))
     for runs in list(groups.values()):
         for caches in sorted({run["caches"] for run in runs if "caches" in run}):
@@ -140,7 +159,7 @@ def render_table(table: Table, records: list[dict]) -> str:
     headers = [header for header, _ in table.columns] + ["hardware", "date", "record"]
     lines = [row(headers), row(["---"] * len(headers))]
     for record in sorted(records, key=lambda r: r.get("order", 0)):
-        values = fields(record)
+        values = {**dict.fromkeys(table.optional, Dash()), **fields(record)}
         cells = [template.format(**values) for _, template in table.columns]
         link = f"[{Path(record['path']).parent.name}]({record['path']})"
         lines.append(row([*cells, record["hardware"], record["date"], link]))
@@ -269,31 +288,33 @@ TABLES: dict[str, Table] = {
         B,
         (
             ("envs", "{envs}"),
-            ("raw env steps/s", "{raw_m:.3f} M"),
-            ("training env steps/s", "{train_m:.3f} M"),
+            ("raw env steps/s", "{raw:rate}"),
+            ("training env steps/s", "{train:rate}"),
             ("train/raw, raw timed first", "{ratio_first:.2f}"),
-            ("train/raw, raw timed beside training", "{ratio_beside}"),
+            ("train/raw, raw timed beside training", "{ratio_beside:.2f}"),
         ),
+        optional=("ratio_beside",),
     ),
     "env_throughput": Table(
         B,
         (
             ("task", "{task}"),
             ("impl", "{impl}"),
-            ("4096 envs", "{e4096}"),
-            ("16384 envs", "{e16384}"),
-            ("65536 envs", "{e65536}"),
+            ("4096 envs", "{e4096:rate}"),
+            ("16384 envs", "{e16384:rate}"),
+            ("65536 envs", "{e65536:rate}"),
         ),
+        optional=("e65536",),
     ),
     "suite_env": Table(
         B,
         (
             ("task", "{task}"),
-            ("raw, 4096 envs", "{raw4}"),
-            ("env, 4096 envs", "{env4}"),
+            ("raw, 4096 envs", "{raw4:rate}"),
+            ("env, 4096 envs", "{env4:rate}"),
             ("env / raw", "{q4:.2f}"),
-            ("raw, 16384 envs", "{raw16}"),
-            ("env, 16384 envs", "{env16}"),
+            ("raw, 16384 envs", "{raw16:rate}"),
+            ("env, 16384 envs", "{env16:rate}"),
             ("env / raw", "{q16:.2f}"),
         ),
     ),
@@ -313,12 +334,14 @@ TABLES: dict[str, Table] = {
         (
             ("GPUs", "{gpus}"),
             ("envs", "{envs}"),
-            ("raw env steps/s", "{raw}"),
-            ("NPG training env steps/s", "{train}"),
-            ("training efficiency", "{efficiency}"),
+            ("raw env steps/s", "{raw:rate}"),
+            ("NPG training env steps/s", "{train:rate}"),
+            ("training efficiency", "{efficiency:.2f}"),
         ),
     ),
-    "gymnasium_api": Table(B, (("vector env", "{vector_env}"), ("envs", "{envs}"), ("env steps/s", "{rate}"))),
+    "gymnasium_api": Table(
+        B, (("vector env", "{vector_env}"), ("envs", "{sizes_envs}"), ("env steps/s", "{sizes_rate:rate}"))
+    ),
     "pong": Table(
         B,
         (
@@ -329,7 +352,13 @@ TABLES: dict[str, Table] = {
         ),
     ),
     "atari_pong": Table(
-        B, (("algorithm", "{algorithm}"), ("agent steps", "{steps}"), ("training", "{seconds} s"), ("score", "{score}"))
+        B,
+        (
+            ("algorithm", "{algorithm}"),
+            ("agent steps", "{steps}"),
+            ("training", "{seconds} s"),
+            ("score", "{score:+.1f}"),
+        ),
     ),
     "cpu_pendulum": Table(
         B,
@@ -385,25 +414,25 @@ README_ROWS: tuple[ReadmeRow, ...] = (
     ReadmeRow(
         "NPG training against raw simulation, 1024 / 4096 envs",
         "train_raw_1024",
-        "**{train_raw_1024[ratio_beside]} / {train_raw_4096[ratio_beside]}** of raw simulation",
+        "**{train_raw_1024[ratio_beside]:.2f} / {train_raw_4096[ratio_beside]:.2f}** of raw simulation",
         "Training against raw simulation",
     ),
     ReadmeRow(
         "Raw Hopper env steps/s, 16384 envs, Warp / MJX-JAX",
         "env_hopper_warp",
-        "{env_hopper_warp[e16384]} / {env_hopper_jax[e16384]}",
+        "{env_hopper_warp[e16384]:rate} / {env_hopper_jax[e16384]:rate}",
         "Raw simulation and the env",
     ),
     ReadmeRow(
         "NPG on 2 GPUs against 1",
         "scaling_2",
-        "{scaling_2[train]} against {scaling_1[train]} env steps/s: {scaling_2[efficiency]} of linear",
+        "{scaling_2[train]:rate} against {scaling_1[train]:rate} env steps/s: {scaling_2[efficiency]:.2f} of linear",
         "Several GPUs",
     ),
     ReadmeRow(
         "Hopper through the Gymnasium vector-env API",
         "gym_api_jaxpg",
-        "{gym_api_jaxpg[rate]} env steps/s; Gymnasium's own: {gym_api_gymnasium[rate]}",
+        "{gym_api_jaxpg[sizes_max_rate]:rate} env steps/s; Gymnasium's own: {gym_api_gymnasium[sizes_max_rate]:rate}",
         "Through the Gymnasium API",
     ),
     ReadmeRow(
@@ -415,7 +444,7 @@ README_ROWS: tuple[ReadmeRow, ...] = (
     ReadmeRow(
         "PPO on Atari Pong's ROM, 10 games",
         "atari_0",
-        "{atari_0[score]} after {atari_0[seconds]} s of training",
+        "{atari_0[score]:+.1f} after {atari_0[seconds]} s of training",
         "Atari Pong on the ROM",
     ),
     ReadmeRow(

@@ -6,8 +6,9 @@ from the records under ``benchmarks/results/``, and the records hold what their 
   whose region was removed from its page each fail the check.
 * Every record names its hardware, command, commit, date and source; a source that is not the
   earlier text names a raw file beside the record that exists.
-* The per-seed figures of records read from JSON (the card command's runs, the 1 M presets'
-  replays in Gymnasium) equal those files' own numbers, read here independently of the script.
+* The figures of records read from JSON (the card command's runs, the 1 M presets' replays in
+  Gymnasium, the throughput runs) equal those files' own numbers, read here independently of the
+  script.
 """
 
 from __future__ import annotations
@@ -134,3 +135,23 @@ def test_medians_are_computed_from_the_runs():
     assert fields["warm_median_x"] == 2.5 and fields["bare_n"] == 1
     assert format(fields["runs_x"], ".1f") == "3.0, 1.0, 2.0"
     assert f"{fields['envs']}" == "256" and format(tables.Num(-28.744), "r") == "-28.74"
+
+
+def test_the_throughput_records_hold_their_raw_rates(records):
+    """Training against raw simulation, the suite's env throughput and several GPUs: each record's
+    rates are its JSON's own."""
+    records = by_id(records)
+    raw = json.loads((ROOT / "benchmarks/results/2026-11-24-h100e/machine3/ratio_a.json").read_text())
+    for row in raw:
+        values = records[f"train_raw_{row['num_envs']}"]["values"]
+        assert (values["raw"], values["train"]) == (row["raw_steps_per_s"], row["train_steps_per_s"])
+    suite = json.loads((ROOT / "benchmarks/results/2026-11-27-h200x4b/suite_env/env_second.json").read_text())
+    for row in suite["rows"]:
+        key = "4" if row["envs"] == 4096 else "16"
+        values = records[f"suite_env_{row['task']}"]["values"]
+        assert values[f"raw{key}"] == row["results"]["raw"]["steps_per_s"], row["task"]
+        assert values[f"env{key}"] == row["results"]["env"]["steps_per_s"], row["task"]
+    scaling = json.loads((ROOT / "benchmarks/results/2026-11-22-h200x2/scaling_warp_gspmd.json").read_text())
+    for row in scaling:
+        values = records[f"scaling_{row['devices']}"]["values"]
+        assert (values["train"], values["efficiency"]) == (row["train_steps_per_s"], row["train_efficiency"])

@@ -323,10 +323,10 @@ TABLES: dict[str, Table] = {
         (
             ("task", "{task}"),
             ("training", "{training}"),
-            ("jaxpg (mean ± std)", "{jaxpg}"),
-            ("Gymnasium", "{gymnasium}"),
-            ("difference ± standard error", "{difference}"),
-            ("episode length jaxpg / Gymnasium", "{lengths}"),
+            ("jaxpg (mean ± std)", "{jaxpg_mean:.1f} ± {jaxpg_std:.1f}"),
+            ("Gymnasium", "{gym_mean:.1f} ± {gym_std:.1f}"),
+            ("difference ± standard error", "{difference:.0f} ± {standard_error:.0f}"),
+            ("episode length jaxpg / Gymnasium", "{jaxpg_length:.0f} / {gym_length:.0f}"),
         ),
     ),
     "scaling": Table(

@@ -155,3 +155,21 @@ def test_the_throughput_records_hold_their_raw_rates(records):
     for row in scaling:
         values = records[f"scaling_{row['devices']}"]["values"]
         assert (values["train"], values["efficiency"]) == (row["train_steps_per_s"], row["train_efficiency"])
+
+
+@pytest.mark.parametrize("task", ["ant", "humanoid"])
+def test_the_deviation_records_hold_their_replays(records, task):
+    """The 50-episode replays in jaxpg and in Gymnasium: the records' means and stds are the logs',
+    the difference is jaxpg's minus Gymnasium's and its standard error that of two independent
+    means of 50 episodes."""
+    folder = ROOT / "benchmarks/results/2026-11-25-h100c"
+    logged = {}
+    for side in ("jaxpg", "gym"):
+        text = (folder / f"{task}_eval50_{side}.log").read_text()
+        mean, std = re.findall(r"return: ([-\d.]+) ± ([\d.]+)", text)[-1]
+        logged[side] = (float(mean), float(std))
+    values = by_id(records)[f"deviation_{task}"]["values"]
+    assert (values["jaxpg_mean"], values["jaxpg_std"]) == logged["jaxpg"]
+    assert (values["gym_mean"], values["gym_std"]) == logged["gym"]
+    assert values["difference"] == pytest.approx(logged["jaxpg"][0] - logged["gym"][0])
+    assert values["standard_error"] == pytest.approx(((logged["jaxpg"][1] ** 2 + logged["gym"][1] ** 2) / 50) ** 0.5)

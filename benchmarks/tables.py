@@ -82,6 +82,18 @@ def load_records(results: Path = RESULTS) -> list[dict]:
     return records
 
 
+class Range(NamedTuple):
+    """The least and greatest of some figures, formatting as "low-high", or once where the spec
+    prints both alike (``{warm_range_wall_s:.0f}``)."""
+
+    low: float
+    high: float
+
+    def __format__(self, spec: str) -> str:
+        low, high = format(self.low, spec), format(self.high, spec)
+        return low if low == high else f"{low}-{high}"
+
+
 class Num(float):
     """A figure that also formats with the spec ``r`` (whole numbers from 100 up, two decimals below)
     and ``rate`` (steps/s in M or k), and without a spec as it was recorded (``256``, not ``256.0``,
@@ -114,7 +126,7 @@ def as_num(value: object) -> object:
 
 def group_fields(group: str, runs: list[dict]) -> dict:
     """``G_n`` and, for each figure ``K`` of the runs, ``G_K`` (a ``Seq`` of every run's that has
-    it) and, where numeric, ``G_median_K``, ``G_min_K`` and ``G_max_K``."""
+    it) and, where numeric, ``G_median_K``, ``G_min_K``, ``G_max_K`` and ``G_range_K``."""
     out: dict = {f"{group}_n": len(runs)}
     for key in sorted({k for run in runs for k in run}):
         present = [as_num(run[key]) for run in runs if run.get(key) is not None]
@@ -123,6 +135,7 @@ def group_fields(group: str, runs: list[dict]) -> dict:
             out[f"{group}_median_{key}"] = Num(statistics.median(present))
             out[f"{group}_min_{key}"] = min(present)
             out[f"{group}_max_{key}"] = max(present)
+            out[f"{group}_range_{key}"] = Range(min(present), max(present))
     return out
 
 
@@ -260,7 +273,7 @@ TABLES: dict[str, Table] = {
             ("preset", "`{preset}` ({algo})"),
             ("Gymnasium v5, each seed", "{runs_gymnasium:r}"),
             ("median", "**{runs_median_gymnasium:r}**"),
-            ("whole process, warm", "{warm_min_wall_s:.0f}-{warm_max_wall_s:.0f} s"),
+            ("whole process, warm", "{warm_range_wall_s:.0f} s"),
             ("bare machine", "{bare_gymnasium:r} in {bare_wall_s:.0f} s"),
             ("target", "{target}"),
         ),
@@ -281,7 +294,7 @@ TABLES: dict[str, Table] = {
             ("algorithm", "{algorithm}"),
             ("seconds to 3000, each seed", "{runs_seconds:.1f} s"),
             ("median", "**{runs_median_seconds:.1f} s**"),
-            ("env steps to 3000", "{runs_min_env_steps_m:.0f}-{runs_max_env_steps_m:.0f} M"),
+            ("env steps to 3000", "{runs_range_env_steps_m:.0f} M"),
         ),
     ),
     "train_vs_raw": Table(
@@ -371,10 +384,7 @@ TABLES: dict[str, Table] = {
 }
 
 # The README's one table, row by row: at most about a dozen words a cell, the rest in BENCHMARKS.md.
-FAST = (
-    "**{{fast_{t}[runs_median_gymnasium]:r}}** in {{fast_{t}[warm_min_wall_s]:.0f}}-{{fast_{t}[warm_max_wall_s]:.0f}}"
-)
-FAST += " s"
+FAST = "**{{fast_{t}[runs_median_gymnasium]:r}}** in {{fast_{t}[warm_range_wall_s]:.0f}} s"
 WITHIN = "; 1 M steps: **{{m1_{t}[runs_median_gymnasium]:r}}**"
 SUITE = {
     "hopper": "Hopper",
@@ -393,7 +403,7 @@ README_ROWS: tuple[ReadmeRow, ...] = (
         "Hopper, `experiments/hopper.py` as typed, whole process",
         "card_warm",
         "**{card_warm[runs_median_wall_s]:.1f} s** warm, {card_bare[runs_median_wall_s]:.1f} s bare; "
-        "Gymnasium {card_warm[runs_min_gymnasium]:.0f}-{card_warm[runs_max_gymnasium]:.0f}",
+        "Gymnasium {card_warm[runs_range_gymnasium]:.0f}",
         "The card command",
     ),
     *(

@@ -134,6 +134,7 @@ def test_medians_are_computed_from_the_runs():
     assert fields["runs_median_x"] == 2.0 and fields["runs_min_x"] == 1.0 and fields["runs_max_x"] == 3.0
     assert fields["warm_median_x"] == 2.5 and fields["bare_n"] == 1
     assert format(fields["runs_x"], ".1f") == "3.0, 1.0, 2.0"
+    assert format(fields["runs_range_x"], ".0f") == "1-3" and format(fields["bare_range_x"], ".0f") == "1"
     assert f"{fields['envs']}" == "256" and format(tables.Num(-28.744), "r") == "-28.74"
 
 

@@ -6,6 +6,7 @@ that ran, the ``date``, its ``source`` (the raw files it was read from, or the e
 transcribed from) and its figures: ``values`` (one figure each) and ``seeds`` (groups of per-run
 figures, from which medians and ranges are computed here, never typed).
 
+What each table shows (its columns, as templates over a record's fields) is in ``benchmarks/tables.toml``.
 Each table lives between ``<!-- table:NAME -->`` and ``<!-- /table -->`` in README.md or BENCHMARKS.md:
 
     python benchmarks/tables.py           # rewrite every table region from the records
@@ -22,11 +23,13 @@ import json
 import re
 import statistics
 import sys
+import tomllib
 from pathlib import Path
 from typing import NamedTuple
 
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "benchmarks" / "results"
+LAYOUTS = Path(__file__).with_name("tables.toml")
 REGION = re.compile(r"(<!-- table:(?P<name>[\w-]+) -->\n)(?P<body>.*?)(<!-- /table -->)", flags=re.S)
 REQUIRED = ("id", "table", "hardware", "command", "commit", "date", "source")
 
@@ -252,219 +255,17 @@ def main(argv: list[str] | None = None) -> int:
     return 1 if found else 0
 
 
-# The tables, by name. A template names fields of ``fields``; the spec ``r`` prints whole numbers
-# from 100 up and two decimals below.
-B = "BENCHMARKS.md"
-TABLES: dict[str, Table] = {
-    "card": Table(
-        B,
-        (
-            ("caches", "{caches}"),
-            ("seeds", "{runs_seed}"),
-            ("whole process, each seed", "{runs_wall_s:.1f} s"),
-            ("median", "**{runs_median_wall_s:.1f} s**"),
-            ("Gymnasium Hopper-v5, each seed", "{runs_gymnasium:.0f}"),
-        ),
-    ),
-    "suite_fast": Table(
-        B,
-        (
-            ("task", "{task}"),
-            ("preset", "`{preset}` ({algo})"),
-            ("Gymnasium v5, each seed", "{runs_gymnasium:r}"),
-            ("median", "**{runs_median_gymnasium:r}**"),
-            ("whole process, warm", "{warm_range_wall_s:.0f} s"),
-            ("bare machine", "{bare_gymnasium:r} in {bare_wall_s:.0f} s"),
-            ("target", "{target}"),
-        ),
-    ),
-    "suite_1m": Table(
-        B,
-        (
-            ("task", "{task}"),
-            ("preset", "`{preset}` ({algo})"),
-            ("Gymnasium v5, each seed", "{runs_gymnasium:r}"),
-            ("median", "**{runs_median_gymnasium:r}** ({runs_n} seeds)"),
-            ("best published within 1 M (Tianshou)", "{published} {published_algo}"),
-        ),
-    ),
-    "time_to_score": Table(
-        B,
-        (
-            ("algorithm", "{algorithm}"),
-            ("seconds to 3000, each seed", "{runs_seconds:.1f} s"),
-            ("median", "**{runs_median_seconds:.1f} s**"),
-            ("env steps to 3000", "{runs_range_env_steps_m:.0f} M"),
-        ),
-    ),
-    "train_vs_raw": Table(
-        B,
-        (
-            ("envs", "{envs}"),
-            ("raw env steps/s", "{raw:rate}"),
-            ("training env steps/s", "{train:rate}"),
-            ("train/raw, raw timed first", "{ratio_first:.2f}"),
-            ("train/raw, raw timed beside training", "{ratio_beside:.2f}"),
-        ),
-        optional=("ratio_beside",),
-    ),
-    "env_throughput": Table(
-        B,
-        (
-            ("task", "{task}"),
-            ("impl", "{impl}"),
-            ("4096 envs", "{e4096:rate}"),
-            ("16384 envs", "{e16384:rate}"),
-            ("65536 envs", "{e65536:rate}"),
-        ),
-        optional=("e65536",),
-    ),
-    "suite_env": Table(
-        B,
-        (
-            ("task", "{task}"),
-            ("raw, 4096 envs", "{raw4:rate}"),
-            ("env, 4096 envs", "{env4:rate}"),
-            ("env / raw", "{q4:.2f}"),
-            ("raw, 16384 envs", "{raw16:rate}"),
-            ("env, 16384 envs", "{env16:rate}"),
-            ("env / raw", "{q16:.2f}"),
-        ),
-    ),
-    "deviations": Table(
-        B,
-        (
-            ("task", "{task}"),
-            ("training", "{training}"),
-            ("jaxpg (mean ± std)", "{jaxpg_mean:.1f} ± {jaxpg_std:.1f}"),
-            ("Gymnasium", "{gym_mean:.1f} ± {gym_std:.1f}"),
-            ("difference ± standard error", "{difference:.0f} ± {standard_error:.0f}"),
-            ("episode length jaxpg / Gymnasium", "{jaxpg_length:.0f} / {gym_length:.0f}"),
-        ),
-    ),
-    "scaling": Table(
-        B,
-        (
-            ("GPUs", "{gpus}"),
-            ("envs", "{envs}"),
-            ("raw env steps/s", "{raw:rate}"),
-            ("NPG training env steps/s", "{train:rate}"),
-            ("training efficiency", "{efficiency:.2f}"),
-        ),
-    ),
-    "gymnasium_api": Table(
-        B, (("vector env", "{vector_env}"), ("envs", "{sizes_envs}"), ("env steps/s", "{sizes_rate:rate}"))
-    ),
-    "pong": Table(
-        B,
-        (
-            ("runs", "{runs}"),
-            ("median time to beat the opponent", "**{median_s} s**"),
-            ("range", "{range}"),
-            ("running reward above 10", "{above_10}"),
-        ),
-    ),
-    "atari_pong": Table(
-        B,
-        (
-            ("algorithm", "{algorithm}"),
-            ("agent steps", "{steps}"),
-            ("training", "{seconds} s"),
-            ("score", "{score:+.1f}"),
-        ),
-    ),
-    "cpu_pendulum": Table(
-        B,
-        (("run", "{run}"), ("seeds 0 / 1 / 2", "{runs_seconds:.1f} s"), ("median", "**{runs_median_seconds:.1f} s**")),
-    ),
-    "startup": Table(
-        B,
-        (("process", "{process}"), ("`import mujoco.mjx`", "{mjx}"), ("whole snippet, median", "{whole}")),
-    ),
-}
+def load_layouts(path: Path = LAYOUTS) -> tuple[dict[str, Table], tuple[ReadmeRow, ...]]:
+    """The tables' layouts (``tables.toml``): ``{name: Table}`` and the README's rows."""
+    data = tomllib.loads(path.read_text())
+    layouts = {
+        name: Table(spec["page"], tuple(tuple(column) for column in spec["columns"]), tuple(spec.get("optional", ())))
+        for name, spec in data["tables"].items()
+    }
+    return layouts, tuple(ReadmeRow(**item) for item in data["readme"])
 
-# The README's one table, row by row: at most about a dozen words a cell, the rest in BENCHMARKS.md.
-FAST = "**{{fast_{t}[runs_median_gymnasium]:r}}** in {{fast_{t}[warm_range_wall_s]:.0f}} s"
-WITHIN = "; 1 M steps: **{{m1_{t}[runs_median_gymnasium]:r}}**"
-SUITE = {
-    "hopper": "Hopper",
-    "walker2d": "Walker2d",
-    "half_cheetah": "HalfCheetah",
-    "ant": "Ant",
-    "humanoid": "Humanoid",
-    "swimmer": "Swimmer",
-    "reacher": "Reacher",
-    "pusher": "Pusher",
-}
-WITH_PUBLISHED = ("hopper", "walker2d", "half_cheetah", "ant", "humanoid")
-PUBLISHED = " (Tianshou {{m1_{t}[published]}})"
-README_ROWS: tuple[ReadmeRow, ...] = (
-    ReadmeRow(
-        "Hopper, `experiments/hopper.py` as typed, whole process",
-        "card_warm",
-        "**{card_warm[runs_median_wall_s]:.1f} s** warm, {card_bare[runs_median_wall_s]:.1f} s bare; "
-        "Gymnasium {card_warm[runs_range_gymnasium]:.0f}",
-        "The card command",
-    ),
-    *(
-        ReadmeRow(
-            f"{name}: fast preset, warm; within 1 M env steps",
-            f"fast_{task}",
-            (FAST + WITHIN + (PUBLISHED if task in WITH_PUBLISHED else "")).format(t=task),
-            "The suite on one GPU, fast",
-        )
-        for task, name in SUITE.items()
-    ),
-    ReadmeRow(
-        "Hopper, mean policy to 3000, median of 3 seeds",
-        "ttr_ppo",
-        "PPO **{ttr_ppo[runs_median_seconds]:.1f} s**, NPG {ttr_npg[runs_median_seconds]:.1f} s",
-        "Time to a score",
-    ),
-    ReadmeRow(
-        "NPG training against raw simulation, 1024 / 4096 envs",
-        "train_raw_1024",
-        "**{train_raw_1024[ratio_beside]:.2f} / {train_raw_4096[ratio_beside]:.2f}** of raw simulation",
-        "Training against raw simulation",
-    ),
-    ReadmeRow(
-        "Raw Hopper env steps/s, 16384 envs, Warp / MJX-JAX",
-        "env_hopper_warp",
-        "{env_hopper_warp[e16384]:rate} / {env_hopper_jax[e16384]:rate}",
-        "Raw simulation and the env",
-    ),
-    ReadmeRow(
-        "NPG on 2 GPUs against 1",
-        "scaling_2",
-        "{scaling_2[train]:rate} against {scaling_1[train]:rate} env steps/s: {scaling_2[efficiency]:.2f} of linear",
-        "Several GPUs",
-    ),
-    ReadmeRow(
-        "Hopper through the Gymnasium vector-env API",
-        "gym_api_jaxpg",
-        "{gym_api_jaxpg[sizes_max_rate]:rate} env steps/s; Gymnasium's own: {gym_api_gymnasium[sizes_max_rate]:rate}",
-        "Through the Gymnasium API",
-    ),
-    ReadmeRow(
-        "A2C beats jaxpg's Pong opponent, from pixels",
-        "pong_a2c",
-        "median **{pong_a2c[median_s]} s** over {pong_a2c[runs]} runs",
-        "jaxpg's Pong",
-    ),
-    ReadmeRow(
-        "PPO on Atari Pong's ROM, 10 games",
-        "atari_0",
-        "{atari_0[score]:+.1f} after {atari_0[seconds]} s of training",
-        "Atari Pong on the ROM",
-    ),
-    ReadmeRow(
-        "NPG solves `inverted_pendulum`, median of 3 seeds",
-        "cpu_jaxpg_cold",
-        "**{cpu_jaxpg_cold[runs_median_seconds]:.1f} s** cold, {cpu_jaxpg_warm[runs_median_seconds]:.1f} s warm; "
-        "SB3 PPO {cpu_sb3_ppo[runs_median_seconds]:.1f} s",
-        "CPU",
-    ),
-)
+
+TABLES, README_ROWS = load_layouts()
 
 
 if __name__ == "__main__":

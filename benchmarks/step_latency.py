@@ -16,18 +16,20 @@ The two settings:
                    CUDA graph; ``WARP``: Warp captures a graph per set of buffer addresses (MJX's GPU
                    default); ``WARP_STAGED`` / ``WARP_STAGED_EX``: one graph on staging buffers,
                    copies inside / outside the graph. On the CPU only ``NONE`` and ``JAX`` run.
-  command buffers  XLA's ``--xla_gpu_enable_command_buffer``, process-wide, so every (mode,
-                   setting) runs in its own child process: ``off`` (the empty list), ``default``
-                   (XLA's own list, flag unset) or ``on`` (``ON_COMMANDS``, which adds loops and
+  command buffers  XLA's ``--xla_gpu_enable_command_buffer``, process-wide, so each setting runs in
+                   child processes of its own: ``off`` (the empty list), ``default`` (XLA's own
+                   list, flag unset) or ``on`` (``ON_COMMANDS``, which adds loops and
                    conditionals). A value already in ``XLA_FLAGS`` is kept.
 
-The parent starts no JAX backend: it runs the children one after the other (each limited to
-``--child-timeout`` seconds, none started after ``--budget`` seconds), prints each row as it
-arrives and rewrites ``--json`` after each child, so a run cut short keeps what finished. The
-defaults fit a few minutes on one GPU (the first child also compiles Warp's kernels, which later
-children load from Warp's cache). ``--profile DIR`` runs one setting (the first of each list) and
-writes a ``jax.profiler`` trace of one call, with a summary: kernels per physics step, the GPU's busy
-share and the gaps between kernels (open ``DIR/**/*.trace.json.gz`` in https://ui.perfetto.dev).
+The parent starts no JAX backend: it runs one child per setting for the first (task, envs) of the
+plan, then one per setting for the rest, and prints each row as it arrives. A child that dies or
+spends over ``--row-timeout`` seconds on a row is killed; its row records why and a fresh child
+takes the next. After ``--budget`` seconds nothing more runs. ``--json`` is rewritten after each
+child, so a run cut short keeps what finished. The default ``--budget`` bounds a run of the default
+plan (the first child also compiles Warp's kernels, which later children load from Warp's cache). ``--profile DIR``
+runs one setting (the first of each list) and writes a ``jax.profiler`` trace of one call, with a
+summary: kernels per physics step, the GPU's busy share and the gaps between kernels (open
+``DIR/**/*.trace.json.gz`` in https://ui.perfetto.dev).
 
     python benchmarks/step_latency.py --json latency.json
     python benchmarks/step_latency.py --tasks hopper --envs 256 --modes WARP JAX --command-buffers off on
@@ -59,8 +61,8 @@ ON_COMMANDS = "FUSION,CUBLAS,CUBLASLT,CUSTOM_CALL,CUDNN,WHILE,CONDITIONAL"
 """XLA command types recorded with command buffers ``on``: XLA's usual ones plus loops and branches."""
 COMMAND_BUFFERS = {"off": "", "default": None, "on": ON_COMMANDS}
 """Setting -> value of ``--xla_gpu_enable_command_buffer`` (``None``: left unset)."""
-DEFAULT_PLAN = (("hopper", 16), ("hopper", 256), ("hopper", 4096), ("ant", 256), ("humanoid", 256))
-"""(task, envs) run when neither ``--tasks`` nor ``--envs`` is given."""
+DEFAULT_PLAN = (("hopper", 256), ("hopper", 16), ("hopper", 4096), ("ant", 256), ("humanoid", 256))
+"""(task, envs) run when neither ``--tasks`` nor ``--envs`` is given, the most wanted first."""
 QUICK_PLAN = (("hopper", 2),)
 
 
@@ -73,23 +75,21 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--command-buffers", nargs="+", choices=tuple(COMMAND_BUFFERS), help="default: off on")
     parser.add_argument("--steps", type=int, help="env steps per timed call (K; default 100)")
     parser.add_argument("--repeats", type=int, help="timed calls per row, median taken (default 5)")
-    parser.add_argument("--child-timeout", type=float, default=240.0, help="seconds a child may run")
-    parser.add_argument("--budget", type=float, default=300.0, help="seconds after which no child starts")
+    parser.add_argument("--row-timeout", type=float, default=150.0, help="seconds a child may spend on one row")
+    parser.add_argument("--budget", type=float, default=300.0, help="seconds after which the parent stops")
     parser.add_argument("--profile", metavar="DIR", help="trace one call of the first setting into DIR")
     parser.add_argument("--json", metavar="PATH", help="write the rows here (rewritten after each child)")
     parser.add_argument("--quick", action="store_true", help="tiny plan for the CPU: hopper, 2 envs, NONE")
     parser.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
-    parser.add_argument("--pairs", nargs="+", default=[], help=argparse.SUPPRESS)
+    parser.add_argument("--items", nargs="+", default=[], help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     quick = args.quick
     args.modes = args.modes or (["NONE"] if quick else list(GRAPH_MODES))
     args.command_buffers = args.command_buffers or (["off"] if quick else ["off", "on"])
     args.steps = args.steps or (2 if quick else 100)
     args.repeats = args.repeats or (1 if quick else 5)
-    if not args.child:
-        args.pairs = plan(args.tasks, args.envs, QUICK_PLAN if quick else DEFAULT_PLAN)
-    else:
-        args.pairs = [(task, int(n)) for task, n in (p.split(":") for p in args.pairs)]
+    args.pairs = plan(args.tasks, args.envs, QUICK_PLAN if quick else DEFAULT_PLAN)
+    args.items = [(mode, task, int(n)) for mode, task, n in (item.split(":") for item in args.items)]
     bad = [n for _, n in args.pairs if n < 1] + [x for x in (args.steps, args.repeats) if x < 1]
     if bad:
         parser.error(f"env counts, --steps and --repeats must be positive, got {bad[0]}")
@@ -106,6 +106,13 @@ def plan(tasks: Sequence[str] | None, env_counts: Sequence[int] | None, default:
     tasks = tasks or list(dict.fromkeys(t for t, _ in default))
     env_counts = env_counts or list(dict.fromkeys(n for _, n in default))
     return [(task, n) for task in tasks for n in env_counts]
+
+
+def work(pairs: Sequence[tuple[str, int]], modes: Sequence[str], settings: Sequence[str]) -> list:
+    """``[(setting, mode, task, envs), ...]`` in the order run: the first pair under every setting
+    and mode, then the other pairs; consecutive items of one setting share a child process."""
+    order = [pairs[:1], pairs[1:]]
+    return [(cb, mode, task, n) for part in order for cb in settings for mode in modes for task, n in part]
 
 
 def xla_flags(setting: str, current: str, profiling: bool = False) -> str:
@@ -177,7 +184,8 @@ def measure(name: str, envs: int, mode: str, args: argparse.Namespace) -> tuple[
 
 
 def child_main(args: argparse.Namespace) -> None:
-    """Measure every (task, envs) pair for one graph mode in this process; one ``ROW {json}`` line each."""
+    """Measure each ``--items`` (mode, task, envs) in this process, under this process's command-buffer
+    setting; one ``ROW {json}`` line each, in order (a failing item gives a row with its error)."""
     import jax
 
     try:
@@ -186,10 +194,9 @@ def child_main(args: argparse.Namespace) -> None:
         warp.config.quiet = True  # no line per kernel module
     except ImportError:
         pass  # make_task says what is missing, in each row
-    mode, setting = args.modes[0], args.command_buffers[0]
     print("ENV " + json.dumps(harness.environment()), flush=True)
-    for name, envs in args.pairs:
-        row: dict[str, Any] = {"task": name, "envs": envs, "mode": mode, "command_buffers": setting}
+    for mode, name, envs in args.items:
+        row = {"task": name, "envs": envs, "mode": mode, "command_buffers": args.command_buffers[0]}
         row["steps"] = args.steps
         if jax.default_backend() != "gpu" and mode not in CPU_GRAPH_MODES:
             print("ROW " + json.dumps({**row, "error": f"graph mode {mode} needs a CUDA GPU"}), flush=True)
@@ -257,26 +264,37 @@ def trace_summary(trace: dict, physics_steps: int) -> dict[str, Any]:
 # ---------------------------------------------------------------------------- in the parent
 
 
-def child_command(args: argparse.Namespace, mode: str, setting: str) -> list[str]:
-    """The command line of the child that measures ``mode`` under command-buffer ``setting``."""
-    command = [sys.executable, str(Path(__file__).resolve()), "--child", "--modes", mode]
-    command += ["--command-buffers", setting, "--steps", str(args.steps), "--repeats", str(args.repeats)]
-    command += ["--pairs", *(f"{task}:{n}" for task, n in args.pairs)]
+def child_command(args: argparse.Namespace, setting: str, items: Sequence[tuple[str, str, str, int]]) -> list[str]:
+    """The command line of a child that measures ``items`` ``(setting, mode, task, envs)``."""
+    command = [sys.executable, str(Path(__file__).resolve()), "--child", "--command-buffers", setting]
+    command += ["--steps", str(args.steps), "--repeats", str(args.repeats)]
+    command += ["--items", *(f"{mode}:{task}:{n}" for _, mode, task, n in items)]
     return command + (["--profile", args.profile] if args.profile else [])
 
 
-def run_child(command: list[str], env: dict[str, str], timeout: float) -> tuple[list[dict], dict | None, str]:
+def run_child(command: list[str], env: dict[str, str], row_timeout: float, deadline: float) -> tuple:
     """Run one child, echoing its rows as they arrive; ``(rows, environment, how it ended)``. The
-    child is killed after ``timeout`` seconds; the rows it printed until then are kept."""
+    child is killed when a row takes over ``row_timeout`` seconds or at ``time.perf_counter()`` =
+    ``deadline``; the rows it printed until then are kept."""
     process = subprocess.Popen(command, env=env, stdout=subprocess.PIPE, text=True, cwd=harness.ROOT)
-    killed = threading.Event()
-    timer = threading.Timer(timeout, lambda: (killed.set(), process.kill()))
-    timer.start()
+    last_row, why = [time.perf_counter()], []
+
+    def watch() -> None:
+        while process.poll() is None:
+            now = time.perf_counter()
+            if now - last_row[0] > row_timeout or now > deadline:
+                why.append(f"no row within {row_timeout:.0f} s" if now <= deadline else "the budget ran out")
+                process.kill()
+                return
+            time.sleep(0.5)
+
+    threading.Thread(target=watch, daemon=True).start()
     rows, environment = [], None
     for line in process.stdout:
         tag, _, payload = line.partition(" ")
         if tag == "ROW":
             rows.append(json.loads(payload))
+            last_row[0] = time.perf_counter()
             print(progress_line(rows[-1]), flush=True)
         elif tag == "ENV":
             environment = json.loads(payload)
@@ -285,10 +303,7 @@ def run_child(command: list[str], env: dict[str, str], timeout: float) -> tuple[
         else:
             print("  | " + line.rstrip(), flush=True)
     status = process.wait()
-    timer.cancel()
-    if killed.is_set():
-        return rows, environment, f"killed after {timeout:.0f} s"
-    return rows, environment, "ok" if status == 0 else f"exit status {status}"
+    return rows, environment, why[0] if why else "ok" if status == 0 else f"exit status {status}"
 
 
 def progress_line(row: dict[str, Any]) -> str:
@@ -334,28 +349,34 @@ def main(argv: Sequence[str] | None = None) -> None:
     if unknown:
         print(f"error: unknown task {unknown[0]!r}; known: {', '.join(envs_lib.names())}", file=sys.stderr)
         raise SystemExit(2)
-    if args.profile:
-        args.modes, args.command_buffers, args.pairs = args.modes[:1], args.command_buffers[:1], args.pairs[:1]
+    pending = work(args.pairs, args.modes, args.command_buffers)[: 1 if args.profile else None]
     meta = {"steps": args.steps, "repeats": args.repeats, "plan": args.pairs, "on_commands": ON_COMMANDS}
     path = os.pathsep.join(filter(None, [str(harness.ROOT), os.environ.get("PYTHONPATH")]))
     rows: list[dict] = []
     environment = None
-    started = time.perf_counter()
-    for mode in args.modes:
-        for setting in args.command_buffers:
-            left = args.budget - (time.perf_counter() - started)
-            if left <= 0:
-                print(f"budget of {args.budget:.0f} s spent: {mode} / command buffers {setting} not run", flush=True)
-                continue
-            flags = xla_flags(setting, os.environ.get("XLA_FLAGS", ""), profiling=bool(args.profile))
-            env = {**os.environ, "PYTHONPATH": path, "PYTHONUNBUFFERED": "1", "XLA_FLAGS": flags}
-            print(f"# graph mode {mode}, command buffers {setting}: XLA_FLAGS={flags!r}", flush=True)
-            found, child_env, ended = run_child(child_command(args, mode, setting), env, args.child_timeout)
-            rows += found
-            environment = environment or child_env
-            if ended != "ok":
-                print(f"# graph mode {mode}, command buffers {setting}: child ended: {ended}", flush=True)
-            write_rows(args.json, rows, environment, meta)
+    deadline = time.perf_counter() + args.budget
+    while pending:
+        if time.perf_counter() >= deadline:
+            print(f"budget of {args.budget:.0f} s spent: {len(pending)} rows not run", flush=True)
+            rows += [not_run(item, "not run: budget spent") for item in pending]
+            break
+        setting = pending[0][0]
+        items = pending[: next((i for i, item in enumerate(pending) if item[0] != setting), len(pending))]
+        flags = xla_flags(setting, os.environ.get("XLA_FLAGS", ""), profiling=bool(args.profile))
+        env = {**os.environ, "PYTHONPATH": path, "PYTHONUNBUFFERED": "1", "XLA_FLAGS": flags}
+        print(f"# child: command buffers {setting}, {len(items)} rows, XLA_FLAGS={flags!r}", flush=True)
+        found, child_env, ended = run_child(child_command(args, setting, items), env, args.row_timeout, deadline)
+        rows += found
+        environment = environment or child_env
+        done = len(found)
+        if ended != "ok" and done < len(items):  # the row it was on when it died; the next child goes on
+            print(f"# child ended: {ended}", flush=True)
+            rows.append(not_run(items[done], f"child ended: {ended}"))
+            print(progress_line(rows[-1]), flush=True)
+            done += 1
+        pending = pending[done:]
+        write_rows(args.json, rows, environment, meta)
+    write_rows(args.json, rows, environment, meta)
     print()
     if environment:
         print(
@@ -366,6 +387,12 @@ def main(argv: Sequence[str] | None = None) -> None:
     print(harness.table(rows, COLUMNS))
     if args.json:
         print(f"wrote {args.json}")
+
+
+def not_run(item: tuple[str, str, str, int], why: str) -> dict[str, Any]:
+    """The row of an item ``(setting, mode, task, envs)`` that gave no measurement."""
+    setting, mode, task, envs = item
+    return {"task": task, "envs": envs, "mode": mode, "command_buffers": setting, "error": why}
 
 
 if __name__ == "__main__":

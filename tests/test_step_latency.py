@@ -20,7 +20,7 @@ def latency():
 
 def test_defaults_are_the_plan_every_mode_and_command_buffers_off_and_on(latency):
     args = latency.parse_args([])
-    assert args.pairs == [("hopper", 16), ("hopper", 256), ("hopper", 4096), ("ant", 256), ("humanoid", 256)]
+    assert args.pairs == [("hopper", 256), ("hopper", 16), ("hopper", 4096), ("ant", 256), ("humanoid", 256)]
     assert args.modes == ["WARP", "NONE", "JAX", "WARP_STAGED", "WARP_STAGED_EX"]
     assert args.command_buffers == ["off", "on"]
     assert (args.steps, args.repeats, args.profile, args.json) == (100, 5, None, None)
@@ -32,7 +32,7 @@ def test_subsets_cross_tasks_with_env_counts_and_modes_are_case_blind(latency):
     assert args.modes == ["JAX", "WARP_STAGED"]
     # one list given: the other takes the plan's values
     assert latency.parse_args(["--envs", "8"]).pairs == [("hopper", 8), ("ant", 8), ("humanoid", 8)]
-    assert latency.parse_args(["--tasks", "ant"]).pairs == [("ant", 16), ("ant", 256), ("ant", 4096)]
+    assert latency.parse_args(["--tasks", "ant"]).pairs == [("ant", 256), ("ant", 16), ("ant", 4096)]
     quick = latency.parse_args(["--quick", "--steps", "3"])
     assert (quick.pairs, quick.modes, quick.command_buffers, quick.steps, quick.repeats) == (
         [("hopper", 2)],
@@ -54,13 +54,59 @@ def test_bad_options_exit_with_status_2(latency, argv, capsys):
     assert "error:" in capsys.readouterr().err
 
 
-def test_a_child_reads_back_the_setting_its_parent_asks_for(latency):
-    args = latency.parse_args(["--tasks", "hopper", "ant", "--envs", "16", "--steps", "7", "--repeats", "3"])
-    command = latency.child_command(args, "WARP_STAGED_EX", "on")
+def test_work_runs_the_first_pair_under_every_setting_first(latency):
+    pairs = [("hopper", 256), ("ant", 16)]
+    assert latency.work(pairs, ["WARP", "JAX"], ["off", "on"]) == [
+        ("off", "WARP", "hopper", 256),
+        ("off", "JAX", "hopper", 256),
+        ("on", "WARP", "hopper", 256),
+        ("on", "JAX", "hopper", 256),
+        ("off", "WARP", "ant", 16),
+        ("off", "JAX", "ant", 16),
+        ("on", "WARP", "ant", 16),
+        ("on", "JAX", "ant", 16),
+    ]
+
+
+def test_a_child_reads_back_the_items_its_parent_asks_for(latency):
+    args = latency.parse_args(["--steps", "7", "--repeats", "3"])
+    items = [("on", "WARP_STAGED_EX", "hopper", 16), ("on", "JAX", "ant", 256)]
+    command = latency.child_command(args, "on", items)
     assert command[:2] == [sys.executable, str(ROOT / "benchmarks" / "step_latency.py")]
     child = latency.parse_args(command[2:])
-    assert child.child and child.pairs == [("hopper", 16), ("ant", 16)]
-    assert (child.modes, child.command_buffers, child.steps, child.repeats) == (["WARP_STAGED_EX"], ["on"], 7, 3)
+    assert child.child and child.items == [("WARP_STAGED_EX", "hopper", 16), ("JAX", "ant", 256)]
+    assert (child.command_buffers, child.steps, child.repeats) == (["on"], 7, 3)
+
+
+def test_a_dead_child_costs_its_row_and_a_fresh_child_takes_the_rest(latency, monkeypatch, tmp_path, capsys):
+    """The parent's bookkeeping, with children that print given rows and end as told."""
+    calls = []
+
+    def fake_child(command, env, row_timeout, deadline):
+        child = latency.parse_args(command[2:])
+        calls.append((child.command_buffers[0], child.items, env["XLA_FLAGS"]))
+        setting = child.command_buffers[0]
+        rows = [{"task": t, "envs": n, "mode": m, "command_buffers": setting, "error": "x"} for m, t, n in child.items]
+        if len(calls) == 1:  # the first child dies on its second item
+            return rows[:1], {"device": "d", "backend": "b", "jax": "j", "mujoco": "m", "warp-lang": "w"}, "exit 1"
+        return rows, None, "ok"
+
+    monkeypatch.setattr(latency, "run_child", fake_child)
+    monkeypatch.setenv("XLA_FLAGS", "")
+    out = tmp_path / "rows.json"
+    latency.main(["--tasks", "hopper", "--envs", "8", "--modes", "NONE", "WARP", "JAX", "--json", str(out)])
+    assert [(setting, len(items)) for setting, items, _ in calls] == [("off", 3), ("off", 1), ("on", 3)]
+    assert calls[1][1] == [("JAX", "hopper", 8)] and calls[2][2].endswith("=" + latency.ON_COMMANDS)
+    rows = json.loads(out.read_text())["rows"]
+    assert [(r["command_buffers"], r["mode"]) for r in rows] == [
+        ("off", "NONE"),
+        ("off", "WARP"),
+        ("off", "JAX"),
+        ("on", "NONE"),
+        ("on", "WARP"),
+        ("on", "JAX"),
+    ]
+    assert rows[1]["error"] == "child ended: exit 1"
 
 
 def test_a_rows_figures_from_its_timing(latency):

@@ -40,8 +40,10 @@ summary: kernels per physics step, the GPU's busy share and the gaps between ker
 from __future__ import annotations
 
 import argparse
+import gzip
 import json
 import os
+import statistics
 import subprocess
 import sys
 import threading
@@ -196,8 +198,13 @@ def child_main(args: argparse.Namespace) -> None:
         pass  # make_task says what is missing, in each row
     print("ENV " + json.dumps(harness.environment()), flush=True)
     for mode, name, envs in args.items:
-        row = {"task": name, "envs": envs, "mode": mode, "command_buffers": args.command_buffers[0]}
-        row["steps"] = args.steps
+        row = {
+            "task": name,
+            "envs": envs,
+            "mode": mode,
+            "command_buffers": args.command_buffers[0],
+            "steps": args.steps,
+        }
         if jax.default_backend() != "gpu" and mode not in CPU_GRAPH_MODES:
             print("ROW " + json.dumps({**row, "error": f"graph mode {mode} needs a CUDA GPU"}), flush=True)
             continue
@@ -206,14 +213,14 @@ def child_main(args: argparse.Namespace) -> None:
         except Exception as error:  # one failing setting (e.g. a mode Warp rejects) ends its row only
             print("ROW " + json.dumps({**row, "error": f"{type(error).__name__}: {error}"[:400]}), flush=True)
             continue
-        print("ROW " + json.dumps({**row, **result}), flush=True)
         if args.profile:
-            profile(compiled, carry, Path(args.profile), args.steps * result["frame_skip"])
-            return
+            result["profile"] = profile(compiled, carry, Path(args.profile), args.steps * result["frame_skip"])
+        print("ROW " + json.dumps({**row, **result}), flush=True)
 
 
-def profile(compiled: Any, carry: Any, out: Path, physics_steps: int) -> None:
-    """Trace one call of ``compiled`` into ``out`` and print ``trace_summary`` of it."""
+def profile(compiled: Any, carry: Any, out: Path, physics_steps: int) -> dict[str, Any]:
+    """Trace one call of ``compiled`` into ``out``; the trace's file, the call's wall time and
+    ``trace_summary`` of it."""
     import jax
 
     with jax.profiler.trace(str(out), create_perfetto_trace=True):
@@ -222,19 +229,15 @@ def profile(compiled: Any, carry: Any, out: Path, physics_steps: int) -> None:
         wall_s = time.perf_counter() - start
     traces = sorted(out.rglob("*.trace.json.gz"), key=lambda p: p.stat().st_mtime)
     if not traces:
-        print(f"no Perfetto trace under {out}: open the TensorBoard profile (xplane.pb) there instead")
-        return
-    import gzip
-
+        return {"wall_ms": 1e3 * wall_s, "note": f"no Perfetto trace under {out}: open its xplane.pb in TensorBoard"}
     with gzip.open(traces[-1], "rt") as f:
-        summary = trace_summary(json.load(f), physics_steps)
-    summary = {"trace": str(traces[-1]), "wall_ms": 1e3 * wall_s, **summary}
-    print("PROFILE " + json.dumps(summary), flush=True)
+        return {"trace": str(traces[-1]), "wall_ms": 1e3 * wall_s, **trace_summary(json.load(f), physics_steps)}
 
 
 def trace_summary(trace: dict, physics_steps: int) -> dict[str, Any]:
-    """Kernels per physics step, the GPU span, busy share and the gaps between one kernel's end and
-    the next one's start on each stream (median and total, in us) of a Perfetto trace."""
+    """Of a Perfetto trace: GPU events (kernels and copies) and copies per physics step, the GPU span,
+    its busy share and the gaps between one event's end and the next one's start on each stream
+    (median and total, in us). Host callbacks and launches are on the host threads of the trace."""
     from profile_trace import busy_union, device_kernels
 
     kernels = device_kernels(trace)
@@ -249,13 +252,13 @@ def trace_summary(trace: dict, physics_steps: int) -> dict[str, Any]:
         gaps += [max(0.0, nxt[0] - prev[1]) for prev, nxt in zip(intervals, intervals[1:], strict=False)]
     span = max(e["ts"] + e["dur"] for e in kernels) - min(e["ts"] for e in kernels)
     busy = busy_union([(e["ts"], e["ts"] + e["dur"]) for e in kernels])
-    gaps.sort()
     return {
         "kernels": len(kernels),
         "kernels_per_physics_step": len(kernels) / physics_steps,
+        "copies_per_physics_step": sum("memcpy" in e["name"].lower() for e in kernels) / physics_steps,
         "span_us_per_physics_step": span / physics_steps,
         "busy_share": busy / span if span else 0.0,
-        "median_gap_us": gaps[len(gaps) // 2] if gaps else 0.0,
+        "median_gap_us": statistics.median(gaps) if gaps else 0.0,
         "gap_us_per_physics_step": sum(gaps) / physics_steps,
         "streams": len(by_stream),
     }
@@ -298,8 +301,6 @@ def run_child(command: list[str], env: dict[str, str], row_timeout: float, deadl
             print(progress_line(rows[-1]), flush=True)
         elif tag == "ENV":
             environment = json.loads(payload)
-        elif tag == "PROFILE":
-            print("profile: " + json.dumps(json.loads(payload), indent=1), flush=True)
         else:
             print("  | " + line.rstrip(), flush=True)
     status = process.wait()
@@ -369,7 +370,7 @@ def main(argv: Sequence[str] | None = None) -> None:
         rows += found
         environment = environment or child_env
         done = len(found)
-        if ended != "ok" and done < len(items):  # the row it was on when it died; the next child goes on
+        if done < len(items):  # the row it was on when it ended; a fresh child takes the rest
             print(f"# child ended: {ended}", flush=True)
             rows.append(not_run(items[done], f"child ended: {ended}"))
             print(progress_line(rows[-1]), flush=True)
@@ -379,14 +380,12 @@ def main(argv: Sequence[str] | None = None) -> None:
     write_rows(args.json, rows, environment, meta)
     print()
     if environment:
-        print(
-            f"{environment['device']} ({environment['backend']}), jax {environment['jax']}, "
-            f"mujoco {environment['mujoco']}, warp-lang {environment['warp-lang']}"
-        )
+        print(", ".join(f"{key} {environment[key]}" for key in ("device", "backend", "jax", "mujoco", "warp-lang")))
     print(f"{args.steps} env steps per call, median of {args.repeats} calls\n")
     print(harness.table(rows, COLUMNS))
-    if args.json:
-        print(f"wrote {args.json}")
+    for row in rows:
+        if "profile" in row:
+            print("\nprofile of the first row: " + json.dumps(row["profile"], indent=1))
 
 
 def not_run(item: tuple[str, str, str, int], why: str) -> dict[str, Any]:

@@ -8,6 +8,7 @@ import json
 import os
 import subprocess
 import sys
+import time
 
 import pytest
 from script_loader import ROOT, load_script, python_path
@@ -109,6 +110,17 @@ def test_a_dead_child_costs_its_row_and_a_fresh_child_takes_the_rest(latency, mo
     assert rows[1]["error"] == "child ended: exit 1"
 
 
+def test_a_child_silent_too_long_is_killed_and_its_rows_kept(latency):
+    row = {"task": "hopper", "envs": 2, "mode": "NONE", "command_buffers": "off", "error": "e"}
+    code = f"import json, time; print('ROW ' + json.dumps({row!r}), flush=True); time.sleep(60)"
+    start = time.perf_counter()
+    rows, environment, ended = latency.run_child([sys.executable, "-c", code], dict(os.environ), 1.0, start + 60)
+    assert (rows, environment, ended) == ([row], None, "no row within 1 s")
+    rows, _, ended = latency.run_child([sys.executable, "-c", code], dict(os.environ), 60.0, time.perf_counter() + 3)
+    assert (rows, ended) == ([row], "the budget ran out")
+    assert time.perf_counter() - start < 30
+
+
 def test_a_rows_figures_from_its_timing(latency):
     # 100 env steps of 256 envs, 4 physics steps each, in 0.2 s: 0.2 s / 400 = 0.5 ms per physics
     # step, 2 ms per env step, 25,600 env steps / 0.2 s = 128,000 env steps/s.
@@ -136,7 +148,7 @@ def test_trace_summary_counts_kernels_and_gaps_per_stream(latency):
         {"ph": "M", "name": "process_name", "pid": cpu, "args": {"name": "/host:CPU"}},
         # stream 1: kernels at [0, 10], [15, 20], [30, 34] us: gaps 5 and 10
         {"ph": "X", "pid": gpu, "tid": 1, "ts": 0.0, "dur": 10.0, "name": "a"},
-        {"ph": "X", "pid": gpu, "tid": 1, "ts": 30.0, "dur": 4.0, "name": "c"},
+        {"ph": "X", "pid": gpu, "tid": 1, "ts": 30.0, "dur": 4.0, "name": "MemcpyDtoH"},
         {"ph": "X", "pid": gpu, "tid": 1, "ts": 15.0, "dur": 5.0, "name": "b"},
         # stream 2: one kernel [12, 16], overlapping nothing of stream 1 but [15, 16]
         {"ph": "X", "pid": gpu, "tid": 2, "ts": 12.0, "dur": 4.0, "name": "d"},
@@ -148,9 +160,10 @@ def test_trace_summary_counts_kernels_and_gaps_per_stream(latency):
         {
             "kernels": 4,
             "kernels_per_physics_step": 2.0,
+            "copies_per_physics_step": 0.5,
             "span_us_per_physics_step": 17.0,
             "busy_share": 22 / 34,
-            "median_gap_us": 10.0,
+            "median_gap_us": 7.5,
             "gap_us_per_physics_step": 7.5,
             "streams": 2,
         }

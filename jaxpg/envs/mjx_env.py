@@ -121,8 +121,10 @@ class MjxEnv(Env):
         one contact buffer for the whole batch, which MJX does not batch under ``vmap``; it gets
         ``naconmax * max_batch`` slots. A larger batch drops contacts (Warp prints an overflow
         warning); a smaller one only wastes a little memory and idle GPU threads.
-      warp_graph_mode: CUDA-graph capture of the warp kernels: ``"WARP"`` (MJX's GPU default),
-        ``"JAX"`` or ``"NONE"``; ``None`` keeps MJX's default.
+      warp_graph_mode: CUDA-graph capture of the warp kernels, a ``warp.JaxCallableGraphMode``
+        name (any case): ``"WARP"`` (MJX's GPU default), ``"WARP_STAGED"``, ``"WARP_STAGED_EX"``,
+        ``"JAX"`` (MJX's CPU default) or ``"NONE"``; ``None`` keeps MJX's default
+        (``benchmarks/step_latency.py`` times each).
 
     ``cpu_fusion_emitters``: false for a task whose kinematic chain is so deep that XLA:CPU's
     fusion emitters make its step exponentially slow; its programs are then compiled with the

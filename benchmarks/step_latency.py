@@ -17,9 +17,9 @@ The two settings:
                    default); ``WARP_STAGED`` / ``WARP_STAGED_EX``: one graph on staging buffers,
                    copies inside / outside the graph. On the CPU only ``NONE`` and ``JAX`` run.
   command buffers  XLA's ``--xla_gpu_enable_command_buffer``, process-wide, so each setting runs in
-                   child processes of its own: ``off`` (the empty list), ``default`` (XLA's own
-                   list, flag unset) or ``on`` (``ON_COMMANDS``, which adds loops and
-                   conditionals). A value already in ``XLA_FLAGS`` is kept.
+                   child processes of its own: ``default`` (flag unset: XLA's own list, which
+                   jaxpg runs with), ``off`` (the empty list) or ``on`` (``ON_COMMANDS``: the
+                   default plus loops and conditionals). A value already in ``XLA_FLAGS`` is kept.
 
 The parent starts no JAX backend: it runs one child per setting for the first (task, envs) of the
 plan, then one per setting for the rest, and prints each row as it arrives. A child that dies or
@@ -59,8 +59,9 @@ GRAPH_MODES = ("WARP", "NONE", "JAX", "WARP_STAGED", "WARP_STAGED_EX")
 CPU_GRAPH_MODES = ("NONE", "JAX")
 """The modes Warp runs on the CPU (the others need CUDA)."""
 COMMAND_BUFFER_FLAG = "xla_gpu_enable_command_buffer"
-ON_COMMANDS = "FUSION,CUBLAS,CUBLASLT,CUSTOM_CALL,CUDNN,WHILE,CONDITIONAL"
-"""XLA command types recorded with command buffers ``on``: XLA's usual ones plus loops and branches."""
+ON_COMMANDS = "+WHILE,+CONDITIONAL"
+"""Command buffers ``on``: XLA's default command types (fusions, cuBLAS, cuDNN, custom calls such as
+Warp's, dynamic-slice fusions) plus loops and conditionals, so that a whole ``lax.scan`` may be one."""
 COMMAND_BUFFERS = {"off": "", "default": None, "on": ON_COMMANDS}
 """Setting -> value of ``--xla_gpu_enable_command_buffer`` (``None``: left unset)."""
 DEFAULT_PLAN = (("hopper", 256), ("hopper", 16), ("hopper", 4096), ("ant", 256), ("humanoid", 256))
@@ -74,7 +75,7 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--tasks", nargs="+", help="tasks (default: the plan, DEFAULT_PLAN)")
     parser.add_argument("--envs", nargs="+", type=int, help="env counts (default: the plan)")
     parser.add_argument("--modes", nargs="+", type=str.upper, choices=GRAPH_MODES, help="Warp graph modes")
-    parser.add_argument("--command-buffers", nargs="+", choices=tuple(COMMAND_BUFFERS), help="default: off on")
+    parser.add_argument("--command-buffers", nargs="+", choices=tuple(COMMAND_BUFFERS), help="default: default off on")
     parser.add_argument("--steps", type=int, help="env steps per timed call (K; default 100)")
     parser.add_argument("--repeats", type=int, help="timed calls per row, median taken (default 5)")
     parser.add_argument("--row-timeout", type=float, default=150.0, help="seconds a child may spend on one row")
@@ -87,7 +88,7 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
     args = parser.parse_args(argv)
     quick = args.quick
     args.modes = args.modes or (["NONE"] if quick else list(GRAPH_MODES))
-    args.command_buffers = args.command_buffers or (["off"] if quick else ["off", "on"])
+    args.command_buffers = args.command_buffers or (["off"] if quick else ["default", "off", "on"])
     args.steps = args.steps or (2 if quick else 100)
     args.repeats = args.repeats or (1 if quick else 5)
     args.pairs = plan(args.tasks, args.envs, QUICK_PLAN if quick else DEFAULT_PLAN)

@@ -19,11 +19,11 @@ def latency():
     return load_script("benchmarks/step_latency.py")
 
 
-def test_defaults_are_the_plan_every_mode_and_command_buffers_off_and_on(latency):
+def test_defaults_are_the_plan_every_mode_and_every_command_buffer_setting(latency):
     args = latency.parse_args([])
     assert args.pairs == [("hopper", 256), ("hopper", 16), ("hopper", 4096), ("ant", 256), ("humanoid", 256)]
     assert args.modes == ["WARP", "NONE", "JAX", "WARP_STAGED", "WARP_STAGED_EX"]
-    assert args.command_buffers == ["off", "on"]
+    assert args.command_buffers == ["default", "off", "on"]
     assert (args.steps, args.repeats, args.profile, args.json) == (100, 5, None, None)
 
 
@@ -95,14 +95,15 @@ def test_a_dead_child_costs_its_row_and_a_fresh_child_takes_the_rest(latency, mo
     monkeypatch.setattr(latency, "run_child", fake_child)
     monkeypatch.setenv("XLA_FLAGS", "")
     out = tmp_path / "rows.json"
-    latency.main(["--tasks", "hopper", "--envs", "8", "--modes", "NONE", "WARP", "JAX", "--json", str(out)])
-    assert [(setting, len(items)) for setting, items, _ in calls] == [("off", 3), ("off", 1), ("on", 3)]
-    assert calls[1][1] == [("JAX", "hopper", 8)] and calls[2][2].endswith("=" + latency.ON_COMMANDS)
+    argv = ["--tasks", "hopper", "--envs", "8", "--modes", "NONE", "WARP", "JAX", "--command-buffers", "default", "on"]
+    latency.main([*argv, "--json", str(out)])
+    assert [(setting, len(items)) for setting, items, _ in calls] == [("default", 3), ("default", 1), ("on", 3)]
+    assert calls[1][1] == [("JAX", "hopper", 8)] and (calls[0][2], calls[2][2]) == ("", latency.xla_flags("on", ""))
     rows = json.loads(out.read_text())["rows"]
     assert [(r["command_buffers"], r["mode"]) for r in rows] == [
-        ("off", "NONE"),
-        ("off", "WARP"),
-        ("off", "JAX"),
+        ("default", "NONE"),
+        ("default", "WARP"),
+        ("default", "JAX"),
         ("on", "NONE"),
         ("on", "WARP"),
         ("on", "JAX"),
@@ -132,9 +133,7 @@ def test_command_buffer_settings_become_xla_flags_and_a_users_flag_is_kept(laten
     assert latency.xla_flags("off", "") == "--xla_gpu_enable_command_buffer="
     assert latency.xla_flags("default", "--xla_foo=1") == "--xla_foo=1"
     on = latency.xla_flags("on", "--xla_foo=1")
-    assert (
-        on == "--xla_foo=1 --xla_gpu_enable_command_buffer=FUSION,CUBLAS,CUBLASLT,CUSTOM_CALL,CUDNN,WHILE,CONDITIONAL"
-    )
+    assert on == "--xla_foo=1 --xla_gpu_enable_command_buffer=+WHILE,+CONDITIONAL"
     mine = "--xla_gpu_enable_command_buffer=FUSION"
     assert latency.xla_flags("off", mine) == mine
     assert latency.xla_flags("on", "", profiling=True).endswith(" --xla_enable_command_buffers_during_profiling=true")

@@ -41,6 +41,7 @@ from __future__ import annotations
 
 import argparse
 import gzip
+import importlib.util
 import json
 import os
 import statistics
@@ -179,7 +180,8 @@ def measure(name: str, envs: int, mode: str, args: argparse.Namespace) -> tuple[
     start = time.perf_counter()
     compiled = run.lower(carry).compile()
     compile_s = time.perf_counter() - start
-    carry = jax.block_until_ready(compiled(carry))  # warm-up: Warp loads its modules, captures graphs
+    for _ in range(2):  # warm-up: Warp loads its modules and captures graphs for both carries' buffers
+        carry = jax.block_until_ready(compiled(carry))
     call_s, (carry, _) = harness.time_chained(lambda c: (compiled(c), None), carry, args.repeats)
     finite = all(bool(jnp.all(jnp.isfinite(x))) for x in jax.tree.leaves(carry[0]) if x.dtype.kind == "f")
     row = {"compile_s": compile_s, "call_s": call_s, "frame_skip": task.frame_skip, "finite": finite}
@@ -191,12 +193,8 @@ def child_main(args: argparse.Namespace) -> None:
     setting; one ``ROW {json}`` line each, in order (a failing item gives a row with its error)."""
     import jax
 
-    try:
-        import warp
-
-        warp.config.quiet = True  # no line per kernel module
-    except ImportError:
-        pass  # make_task says what is missing, in each row
+    if importlib.util.find_spec("warp"):  # else make_task says what is missing, in each row
+        importlib.import_module("warp").config.quiet = True  # no line per kernel module
     print("ENV " + json.dumps(harness.environment()), flush=True)
     for mode, name, envs in args.items:
         row = {
@@ -220,8 +218,7 @@ def child_main(args: argparse.Namespace) -> None:
 
 
 def profile(compiled: Any, carry: Any, out: Path, physics_steps: int) -> dict[str, Any]:
-    """Trace one call of ``compiled`` into ``out``; the trace's file, the call's wall time and
-    ``trace_summary`` of it."""
+    """Trace one call of ``compiled`` into ``out``: the trace's file, its wall time, ``trace_summary``."""
     import jax
 
     with jax.profiler.trace(str(out), create_perfetto_trace=True):

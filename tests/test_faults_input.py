@@ -156,6 +156,18 @@ BAD_CONFIGS = {
     "iterations many": (lambda d: d.update(iterations="many"), "iterations must be an integer, got 'many'"),
     "env_kwargs list": (lambda d: d.update(env_kwargs=[]), "env_kwargs must be an object, got []"),
     "num_envs huge": (lambda d: d["config"].update(num_envs=10**12), "lower --num-envs, --horizon or the network"),
+    # The schedule by the rules of its flags (--keep-checkpoints >= 1, --checkpoint-every >= 0, ...).
+    "keep_checkpoints 0": (lambda d: d.update(keep_checkpoints=0), "keep_checkpoints must be >= 1, got 0"),
+    "checkpoint_every -1": (lambda d: d.update(checkpoint_every=-1), "checkpoint_every must be >= 0, got -1"),
+    "video_every -3": (lambda d: d.update(video_every=-3), "video_every must be >= 0, got -3"),
+    "format true": (lambda d: d.update(format=True), "format must be an integer >= 1, got true"),
+    "unknown key": (lambda d: d.update(keep_best=True), "unknown key keep_best"),
+    # Task options by the rules of --env-kwargs: before, a string here failed at trace time.
+    "env_kwargs type": (
+        lambda d: d.update(env_kwargs={"reset_bound": "wide"}),
+        "env_kwargs: task option reset_bound must be a number, got 'wide'",
+    ),
+    "env_kwargs unknown": (lambda d: d.update(env_kwargs={"bogus": 1}), "task 'cartpole' has no option 'bogus'"),
 }
 
 
@@ -171,6 +183,21 @@ def test_bad_config_json_is_one_line_in_resume_evaluate_and_load_policy(case, ru
         one_error(capsys, message)
         with pytest.raises(ValueError, match="^[^\n]*$"):
             jaxpg.load_policy(run_dir)
+    assert digest(run_dir) == before
+
+
+def test_each_bad_value_of_config_json_is_one_error_line(run_dir, capsys):
+    """Several hand-edited values: ``--resume`` names each on its own ``error:`` line (exit 2), and
+    ``load_policy`` raises one one-line error naming them all; nothing changes."""
+    edit_config(run_dir, lambda d: d.update(keep_checkpoints=0, video_every=-3, iterations="many"))
+    before = digest(run_dir)
+    assert main.main(["--resume", str(run_dir)]) == 2
+    lines = capsys.readouterr().err.splitlines()
+    assert len(lines) == 3 and all(line.startswith("error: ") for line in lines), lines
+    for part in ("iterations must be an integer", "keep_checkpoints must be >= 1", "video_every must be >= 0"):
+        assert sum(part in line for line in lines) == 1, lines
+    with pytest.raises(ValueError, match="^[^\n]*keep_checkpoints must be >= 1[^\n]*$"):
+        jaxpg.load_policy(run_dir)
     assert digest(run_dir) == before
 
 

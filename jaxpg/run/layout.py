@@ -66,6 +66,15 @@ RUN_ENTRIES = frozenset(
 )
 
 
+# What a run writes inside its directories, as regular expressions of whole paths relative to the
+# run directory. Checkpoint steps are checked against their own list of files
+# (``jaxpg.run.directory``): Orbax's layout inside a step is Orbax's.
+RUN_SUBENTRIES = {
+    TENSORBOARD_DIR: (rf"{TENSORBOARD_DIR}/seed_\d+", rf"{TENSORBOARD_DIR}/seed_\d+/events\.out\.tfevents\.[^/]+"),
+    VIDEO_DIR: (rf"{VIDEO_DIR}/[^/]+\.(mp4|gif)",),
+}
+
+
 class RunDirError(ValueError):
     """A run directory is missing, foreign or unreadable (the message is one line)."""
 

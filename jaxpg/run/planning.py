@@ -231,8 +231,16 @@ def plan_fresh(args: argparse.Namespace, experiment: Experiment, module: Any, al
         preset=args.preset,
     )
     run.shard = shard
-    run_dir = Path(args.run_dir) if args.run_dir else _default_run_dir(task, algo)
+    if args.run_dir is not None and not args.run_dir.strip():
+        raise UsageError("--run-dir is empty; name a directory (or leave the flag out for runs/<task>-<algo>-<time>)")
+    run_dir = Path(args.run_dir) if args.run_dir is not None else _default_run_dir(task, algo)
     layout.check_path(run_dir, "--run-dir")
+    inside = directory.enclosing_run(run_dir)
+    if inside is not None:
+        raise UsageError(
+            f"--run-dir {str(run_dir)!r} is inside the jaxpg run {str(inside)!r}; a run directory goes beside "
+            "other runs, never inside one"
+        )
     _check_fresh_run_dir(run_dir, bool(args.overwrite))
     return Plan(run=run, run_dir=run_dir, module=module, env=env, config=config, overwrite=bool(args.overwrite))
 
@@ -266,6 +274,7 @@ def plan_resume(args: argparse.Namespace, run: RunConfig, run_dir: Path) -> Plan
     module = algo_module(run.algo)
     config = run.algo_config()
     run.config = config_io.config_to_dict(config)  # saved again under the current field names
+    run.check_env_kwargs()  # the rules of --env-kwargs and the simulation flags, before the env is built
     env = _make_env(run.task, run.env_kwargs)
     config.validate(env)
     for key in ("iterations", "checkpoint_every", "keep_checkpoints", "log_every", "video_every"):
@@ -273,6 +282,10 @@ def plan_resume(args: argparse.Namespace, run: RunConfig, run_dir: Path) -> Plan
             setattr(run, key, getattr(args, key))
     if run.log_every < 1:
         raise UsageError(f"--log-every must be >= 1, got {run.log_every}")
+    # --iterations at or below the iterations done is "nothing to do", not an error.
+    problems = config_io.schedule_problems({k: v for k, v in dataclasses.asdict(run).items() if k != "iterations"})
+    if problems:
+        raise UsageError(problems[0])
     run.shard = _check_sharding(config, args.shard if args.shard is not None else (run.shard or None))
     check_memory(config, env, len(run.seeds), _device_count() if run.shard else 1)
     run_lock.check_unlocked(run_dir)

@@ -299,6 +299,17 @@ def plan_resume(args: argparse.Namespace, run: RunConfig, run_dir: Path) -> Plan
     step = checkpoints.latest_step()
     if step is None:
         raise no_checkpoint
+    later: list[int] = []
+    if args.resume_step is not None:
+        steps = checkpoints.steps()
+        if args.resume_step not in steps:
+            checkpoints.close()
+            raise UsageError(
+                f"--resume-step {args.resume_step}: {str(run_dir)!r} has no checkpoint of that iteration; its "
+                f"checkpoints: {', '.join(map(str, steps))}"
+            )
+        step = args.resume_step
+        later = [s for s in steps if s > step]
     metrics_path = run_dir / layout.METRICS_FILE
     damaged = metrics_log.damaged_metrics_line(metrics_path) if metrics_path.is_file() else None
     if damaged is not None:
@@ -316,7 +327,16 @@ def plan_resume(args: argparse.Namespace, run: RunConfig, run_dir: Path) -> Plan
     target = policy_io.abstract_train_state(run, env)
     state = checkpoints.restore(target, step, expect=policy_io.checkpoint_expectations(run))
     checkpoints.close()
-    return Plan(run=run, run_dir=run_dir, module=module, env=env, config=config, start=step, state=state)
+    return Plan(
+        run=run,
+        run_dir=run_dir,
+        module=module,
+        env=env,
+        config=config,
+        start=step,
+        state=state,
+        later_checkpoints=later,
+    )
 
 
 def _field_default(field: dataclasses.Field) -> Any:
@@ -350,6 +370,8 @@ def plan(argv: Sequence[str], experiment: Experiment, pre: PreFlags | None = Non
         defaults.update(config_io.current_field_names(config_cls, resume_run.config))
     parser = build_parser(experiment, algo, config_cls, defaults)
     args = parser.parse_args(argv)
+    if args.resume_step is not None and args.resume is None:
+        raise UsageError("--resume-step N goes with --resume RUN_DIR (it picks the checkpoint to continue from)")
     if args.resume is not None:
         result = plan_resume(args, resume_run, Path(args.resume))
     else:

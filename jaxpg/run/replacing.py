@@ -81,6 +81,7 @@ def prepare_run_dir(plan_: Plan, lock: run_lock.RunLock) -> float:
     run_dir, run = plan_.run_dir, plan_.run
     if plan_.start > 0:
         _note_stale_lock(lock.acquire(), run_dir)
+        _drop_later_checkpoints(run_dir, plan_.start, plan_.later_checkpoints)
         wall_offset = metrics_log.truncate_metrics(run_dir, plan_.start)
         history = run.info.setdefault("resumes", [])
         history.append(
@@ -105,6 +106,23 @@ def prepare_run_dir(plan_: Plan, lock: run_lock.RunLock) -> float:
     run.info = provenance.provenance([sys.argv[0], *plan_.command])
     run.save(real)
     return 0.0
+
+
+def _drop_later_checkpoints(run_dir: Path, start: int, later: list[int]) -> None:
+    """``--resume-step``: delete the checkpoints after ``start`` (``later``), which belong to the
+    continuation the resume replaces (the new one writes its own at those iterations), saying so
+    in one ``note:`` line."""
+    if not later:
+        return
+    ckpt_dir = run_dir / layout.CHECKPOINT_DIR
+    for step in later:
+        for path in [ckpt_dir / str(step), *ckpt_dir.glob(f"{step}.orbax-checkpoint-tmp*")]:
+            shutil.rmtree(path)
+    print(
+        f"note: --resume-step {start}: deleted the later checkpoint{'s' if len(later) > 1 else ''} "
+        f"{', '.join(map(str, later))} and the metrics after iteration {start}",
+        file=sys.stderr,
+    )
 
 
 def _note_stale_lock(stale: dict[str, Any] | None, run_dir: Path) -> None:

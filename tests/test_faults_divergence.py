@@ -70,7 +70,9 @@ DIVERGED = [
 ]
 
 
-@pytest.mark.parametrize(("metrics", "iteration", "seed", "text"), [d[1:] for d in DIVERGED], ids=[d[0] for d in DIVERGED])
+@pytest.mark.parametrize(
+    ("metrics", "iteration", "seed", "text"), [d[1:] for d in DIVERGED], ids=[d[0] for d in DIVERGED]
+)
 def test_diverged_metrics_name_the_iteration_seed_and_cause(metrics, iteration, seed, text):
     found = divergence.metrics_problem(metrics, 10, SAMPLES, action_size=1)
     assert found is not None and found[:2] == (iteration, seed) and text in found[2], found
@@ -174,3 +176,29 @@ def test_bad_resume_steps_are_one_line(argv, message, run_copy, capsys):
     if "--env" not in argv:
         assert "its checkpoints: 2, 4" in lines[0]
     assert sorted(str(p) for p in Path(run_copy).rglob("*")) == before
+
+
+# --------------------------------------------------------------------------- non-finite metrics in metrics.jsonl
+
+
+def test_a_measured_nan_is_not_written_as_not_measured():
+    """``null`` means "not measured" (no evaluation, no episode ended); a measured value that is not
+    finite is written as "nan" / "inf" / "-inf", which ``float`` reads back."""
+    metrics = {
+        "kl": np.array([math.nan, math.inf]),
+        "entropy": np.array([-math.inf, 1.0]),
+        "evaluated": np.array([0.0, 1.0]),
+        "return_mean_policy": np.array([math.nan, math.nan]),
+        "episodes": np.array([0.0, 2.0]),
+        "return_stochastic": np.array([math.nan, 5.0]),
+    }
+    first, second = metrics_log.block_records(metrics, 0, [0], [1.0, 2.0])
+    assert (first["kl"], second["kl"], first["entropy"]) == ("nan", "inf", "-inf")
+    assert first["return_mean_policy"] is None and second["return_mean_policy"] == "nan"
+    assert first["return_stochastic"] is None and second["return_stochastic"] == 5.0
+    line = json.loads(json.dumps(first))  # a JSON line as metrics.jsonl holds it
+    assert math.isnan(float(line["kl"])) and float(line["entropy"]) == -math.inf
+    from jaxpg.run import plotting
+
+    _, values = plotting.seed_curves([first, second], "return_mean_policy")
+    assert np.isnan(values).all()

@@ -313,3 +313,31 @@ def test_a_run_stuck_in_a_compiled_call_still_stops_on_sigint(tmp_path):
     assert proc.returncode == 130, err[-3000:]
     assert err.splitlines()[-1].startswith("SIGINT: stopped at once: a compiled call or compilation did not return")
     assert not run_dir.exists()  # the state is built before the run directory is touched
+
+
+# --------------------------------------------------------------------------- one line, not a traceback
+
+
+def test_a_task_whose_simulator_is_not_installed_is_one_line(tmp_path, monkeypatch, capsys):
+    """``--env atari_pong`` without ale-py (``import ale_py`` fails): one ``error:`` line naming
+    the install, as ``evaluate --ale`` says it, and nothing written."""
+    monkeypatch.setitem(sys.modules, "ale_py", None)  # `import ale_py` raises ImportError
+    assert main.main(["--env", "atari_pong", "--iterations", "1", "--run-dir", str(tmp_path / "run")]) == 2
+    one_error(capsys, "atari_pong needs the Arcade Learning Environment (ale-py): pip install")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_an_invalid_mujoco_gl_is_one_line(tmp_path, monkeypatch, capsys):
+    """MuJoCo refuses an unknown ``MUJOCO_GL`` with a traceback at its first import, video or not:
+    checked first, one ``error:`` line; the values MuJoCo takes pass, in any case."""
+    from jaxpg.run import startup
+
+    for good in ("egl", " OSMesa ", "off", ""):
+        startup.check_mujoco_gl({"MUJOCO_GL": good}, system="Linux")
+    startup.check_mujoco_gl({}, system="Linux")
+    with pytest.raises(UsageError, match="^MUJOCO_GL=wgl is not a value MuJoCo accepts"):
+        startup.check_mujoco_gl({"MUJOCO_GL": "wgl"}, system="Linux")
+    monkeypatch.setenv("MUJOCO_GL", "bogus")
+    assert main.main(["--env", "inverted_pendulum", "--iterations", "1", "--run-dir", str(tmp_path / "run")]) == 2
+    one_error(capsys, "MUJOCO_GL=bogus is not a value MuJoCo accepts")
+    assert list(tmp_path.iterdir()) == []

@@ -66,7 +66,9 @@ def metrics_problem(
         kl = np.asarray(metrics["kl"], np.float64).reshape(n, -1)
         checks.append((accepted & ~np.isfinite(kl), kl, "the mean KL of an accepted update is {:g}"))
         with np.errstate(invalid="ignore"):
-            checks.append((accepted & (kl > MAX_KL), kl, "the mean KL of an accepted update is {:g} nats, above " + f"{MAX_KL:g}"))
+            checks.append(
+                (accepted & (kl > MAX_KL), kl, "the mean KL of an accepted update is {:g} nats, above " + f"{MAX_KL:g}")
+            )
     if "entropy" in metrics:
         entropy = np.asarray(metrics["entropy"], np.float64).reshape(n, -1)
         per_dim = entropy / max(action_size, 1) - GAUSSIAN_ENTROPY_OFFSET
@@ -102,7 +104,11 @@ def state_problem(ts: Any, seeds: bool) -> tuple[int, str] | None:
     """The first sign of divergence in a ``TrainState`` (a leading seed axis when ``seeds``), as
     ``(seed index, what)``, or ``None``: non-finite parameters or statistics, a policy parameter
     or log-std beyond its bound."""
-    parts = {"policy parameters": ts.params, "value parameters": ts.value_params, "observation statistics": ts.obs_stats}
+    parts = {
+        "policy parameters": ts.params,
+        "value parameters": ts.value_params,
+        "observation statistics": ts.obs_stats,
+    }
     for name, tree in parts.items():
         for leaf in jax.tree.leaves(jax.device_get(tree)):
             array = np.asarray(leaf)

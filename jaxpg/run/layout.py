@@ -5,7 +5,8 @@ Layout of a run directory (``jaxpg.cli`` writes it, ``jaxpg.load_policy`` and
 ``python -m jaxpg.evaluate`` read it)::
 
     config.json      everything to rerun: task, env kwargs, algorithm, full Config, seeds, versions
-    metrics.jsonl    one JSON object per iteration (and seed); NaN ("not measured") is written as null
+    metrics.jsonl    one JSON object per iteration (and seed); null: not measured (no evaluation or no
+                     episode ended); a measured value that is not finite: "nan", "inf" or "-inf"
     tensorboard/     TensorBoard event files of the same scalars, one sub-directory per seed
     curves.png       returns over iterations (jaxpg.run.plotting)
     checkpoints/     Orbax checkpoints of the whole TrainState (jaxpg.run.checkpointer)

@@ -72,6 +72,10 @@ def _make_env(task: str, env_kwargs: dict[str, Any]) -> Any:
         raise UsageError(f"task {task!r} does not accept {given or 'these settings'} ({e})") from None
     except ValueError as e:  # e.g. --action-scaling on a discrete task
         raise UsageError(str(e)) from None
+    except ImportError as e:  # a task whose simulator is an optional package (atari_pong: ale-py)
+        raise UsageError(
+            str(e).strip().splitlines()[0] if str(e).strip() else f"task {task!r} cannot be imported"
+        ) from None
 
 
 def _explicit_config(args: argparse.Namespace) -> dict[str, Any]:

@@ -341,3 +341,56 @@ def test_an_invalid_mujoco_gl_is_one_line(tmp_path, monkeypatch, capsys):
     assert main.main(["--env", "inverted_pendulum", "--iterations", "1", "--run-dir", str(tmp_path / "run")]) == 2
     one_error(capsys, "MUJOCO_GL=bogus is not a value MuJoCo accepts")
     assert list(tmp_path.iterdir()) == []
+
+
+# --------------------------------------------------------------------------- benchmarks/suite.py
+
+
+def test_suite_help_and_unknown_runs(tmp_path):
+    """``suite.py --help`` prints the modes with exit status 0; ``run`` with an unknown task or a
+    preset the algorithm lacks is refused before any run starts: one ``error:`` line each, exit 2."""
+    env = {**os.environ, "PYTHONPATH": script_loader.python_path()}
+    script = str(script_loader.ROOT / "benchmarks" / "suite.py")
+    shown = subprocess.run([sys.executable, script, "--help"], capture_output=True, text=True, env=env, timeout=600)
+    assert shown.returncode == 0 and "Four modes" in shown.stdout, shown.stderr[-2000:]
+    runs = ["--runs", "nope:npg:x", "hopper:npg:no_such_preset", "--episodes", "0", "--out", str(tmp_path / "out")]
+    refused = subprocess.run(
+        [sys.executable, script, "run", *runs], capture_output=True, text=True, env=env, timeout=600
+    )
+    lines = refused.stderr.splitlines()
+    assert refused.returncode == 2, refused.stderr[-2000:]
+    assert len(lines) == 2 and lines[0].startswith("error: nope:npg:x: unknown task 'nope'"), lines
+    assert lines[1].startswith("error: hopper:npg:no_such_preset: npg has no preset 'no_such_preset' for hopper"), lines
+    assert not (tmp_path / "out").exists()
+
+
+def test_suite_json_has_no_nan_and_failed_runs_are_named():
+    """A run that never scored: its NaN figures are written as null (JSON has no NaN), and the
+    failures (exit status, no Gymnasium score) are listed for the ``error:`` lines and exit 1."""
+    suite = script_loader.load_script("benchmarks/suite.py")
+    rows = [
+        {"task": "hopper", "algo": "npg", "preset": "p", "seed": 0, "status": 2, "run_dir": "r0", "env_steps": np.nan},
+        {
+            "task": "hopper",
+            "algo": "npg",
+            "preset": "p",
+            "seed": 1,
+            "status": 0,
+            "run_dir": "r1",
+            "gymnasium_return": None,
+        },
+        {
+            "task": "hopper",
+            "algo": "npg",
+            "preset": "p",
+            "seed": 2,
+            "status": 0,
+            "run_dir": "r2",
+            "gymnasium_return": 0.0,
+        },
+    ]
+    text = json.dumps(suite.finite_or_none({"rows": rows, "summary": [{"median": float("nan"), "scores": []}]}))
+    assert "NaN" not in text and json.loads(text)["rows"][0]["env_steps"] is None
+    failed = suite.failures(rows, episodes=10)
+    assert len(failed) == 2 and "seed 0: exit status 2" in failed[0] and "seed 1: no Gymnasium score" in failed[1]
+    assert suite.failures(rows[1:], episodes=0) == []

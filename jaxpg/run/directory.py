@@ -16,7 +16,7 @@ import re
 from pathlib import Path
 
 from jaxpg.run.config_io import RunConfig
-from jaxpg.run.layout import CHECKPOINT_DIR, CONFIG_FILE, RUN_ENTRIES, RUN_SUBENTRIES, RunDirError
+from jaxpg.run.layout import CHECKPOINT_DIR, CONFIG_FILE, RUN_DIRS, RUN_ENTRIES, RUN_SUBENTRIES, RunDirError
 
 MANIFEST = "jaxpg_sha256.json"  # jaxpg.run.checkpoint_format.MANIFEST (that module loads JAX)
 STEP_TOP = frozenset({"state", "policy", "meta", "_CHECKPOINT_METADATA", "commit_success.txt"})
@@ -93,13 +93,30 @@ def foreign_entries(run_dir: str | os.PathLike) -> list[str]:
             found.append(name)
         elif entry.is_symlink():
             found.append(name)
-        elif name == CHECKPOINT_DIR and entry.is_dir():
+        elif entry.is_dir() != (name in RUN_DIRS):
+            found.append(name)  # a file where a run writes a directory, or the other way round
+        elif name == CHECKPOINT_DIR:
             found.extend(_checkpoints_foreign(top / name))
-        elif name in RUN_SUBENTRIES and entry.is_dir():
+        elif name in RUN_SUBENTRIES:
             found.extend(_tree_foreign(top, name))
-        elif name in RUN_SUBENTRIES or (name == CHECKPOINT_DIR):
-            found.append(name)  # a file where a run writes a directory
     return sorted(found)
+
+
+def check_entry_types(run_dir: str | os.PathLike) -> None:
+    """``RunDirError`` (one line) when an entry of ``run_dir`` that a run writes is of the wrong
+    type: a directory where a run writes a file (``metrics.jsonl``, ``.jaxpg.lock``) or the other
+    way round (``checkpoints``), which jaxpg will not read, write or delete."""
+    for name in sorted(RUN_ENTRIES):
+        path = Path(run_dir) / name
+        if not (path.exists() or path.is_symlink()):
+            continue
+        is_dir = path.is_dir()
+        if is_dir != (name in RUN_DIRS):
+            what, wanted = ("a directory", "a file") if is_dir else ("not a directory", "a directory")
+            raise RunDirError(
+                f"{str(path)!r} is {what}, where a run writes {wanted}; move it out of the run directory "
+                "(jaxpg neither reads nor deletes it)"
+            )
 
 
 def check_not_working_directory(run_dir: str | os.PathLike, name: str, what: str = "--overwrite") -> None:

@@ -67,6 +67,10 @@ RUN_ENTRIES = frozenset(
 )
 
 
+# The entries of RUN_ENTRIES that are directories; every other one is a file.
+RUN_DIRS = frozenset({TENSORBOARD_DIR, CHECKPOINT_DIR, VIDEO_DIR})
+
+
 # What a run writes inside its directories, as regular expressions of whole paths relative to the
 # run directory. Checkpoint steps are checked against their own list of files
 # (``jaxpg.run.directory``): Orbax's layout inside a step is Orbax's.

@@ -292,6 +292,7 @@ def plan_resume(args: argparse.Namespace, run: RunConfig, run_dir: Path) -> Plan
         raise UsageError(problems[0])
     run.shard = _check_sharding(config, args.shard if args.shard is not None else (run.shard or None))
     check_memory(config, env, len(run.seeds), _device_count() if run.shard else 1)
+    directory.check_entry_types(run_dir)
     run_lock.check_unlocked(run_dir)
     no_checkpoint = UsageError(
         f"cannot resume {str(run_dir)!r}: it has no checkpoints (it stopped before its first one, so there is "
@@ -324,9 +325,17 @@ def plan_resume(args: argparse.Namespace, run: RunConfig, run_dir: Path) -> Plan
     logged = max((int(r.get("iteration", 0)) for r in metrics_log.read_metrics(metrics_path)), default=0)
     if logged < step:
         state = "is missing" if not metrics_path.exists() else f"ends at iteration {logged}"
+        earlier = [s for s in checkpoints.steps() if s <= logged]
+        instead = (
+            f"restore metrics.jsonl, or continue from the earlier checkpoint {earlier[-1]} with --resume-step "
+            f"{earlier[-1]} (the later checkpoints go)"
+            if earlier
+            else "restore metrics.jsonl or start a new run"
+        )
+        checkpoints.close()
         raise UsageError(
             f"cannot resume {str(run_dir)!r}: its metrics.jsonl {state} but its checkpoint is at iteration "
-            f"{step}; restore metrics.jsonl or start a new run"
+            f"{step}; {instead}"
         )
     target = policy_io.abstract_train_state(run, env)
     state = checkpoints.restore(target, step, expect=policy_io.checkpoint_expectations(run))

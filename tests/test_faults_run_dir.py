@@ -249,3 +249,47 @@ def test_the_lock_record_names_this_process(tmp_path):
     assert json.loads((tmp_path / layout.LOCK_FILE).read_text())["pid"] == os.getpid()
     lock.release()
     assert not (tmp_path / layout.LOCK_FILE).exists()
+
+
+# --------------------------------------------------------------------------- entries of the wrong type
+
+
+def checkpoints_a_file(run: Path) -> None:
+    shutil.rmtree(run / layout.CHECKPOINT_DIR)
+    (run / layout.CHECKPOINT_DIR).write_text("mine\n")
+
+
+WRONG_TYPES = {
+    "checkpoints a file": (checkpoints_a_file, "checkpoints' is not a directory, where a run writes a directory"),
+    ".jaxpg.lock a directory": (lambda run: (run / layout.LOCK_FILE).mkdir(), ".jaxpg.lock' is a directory"),
+    "metrics.jsonl a directory": (
+        lambda run: ((run / layout.METRICS_FILE).unlink(), (run / layout.METRICS_FILE).mkdir()),
+        "metrics.jsonl' is a directory, where a run writes a file",
+    ),
+}
+
+
+@pytest.mark.parametrize("case", list(WRONG_TYPES))
+def test_a_run_entry_of_the_wrong_type_is_named(case, run_copy, capsys):
+    """``--resume`` names the entry and its type in one ``error:`` line (before: "no checkpoints,
+    start again with --overwrite", "metrics end at iteration 0", or an ``OSError`` from the lock);
+    ``--overwrite`` counts it as foreign; nothing changes."""
+    damage, message = WRONG_TYPES[case]
+    damage(run_copy)
+    before = digest(run_copy)
+    assert main.main(["--resume", str(run_copy), "--iterations", "6"]) == 2
+    one_error_line(capsys.readouterr().err, message)
+    with pytest.raises(RunDirError, match="besides a jaxpg run it holds"):
+        directory.check_replaceable(run_copy)
+    assert digest(run_copy) == before
+
+
+def test_metrics_torn_at_the_checkpoint_point_to_the_earlier_checkpoint(run_copy, capsys):
+    """A torn last line at the latest checkpoint's iteration (4): refused, naming the earlier intact
+    checkpoint (2) and ``--resume-step 2``, which resumes from it."""
+    text = (run_copy / layout.METRICS_FILE).read_text()
+    (run_copy / layout.METRICS_FILE).write_text(text[: text.rindex("{") + 5])
+    before = digest(run_copy)
+    assert main.main(["--resume", str(run_copy), "--iterations", "6"]) == 2
+    one_error_line(capsys.readouterr().err, "ends at iteration 3", "earlier checkpoint 2 with --resume-step 2")
+    assert digest(run_copy) == before

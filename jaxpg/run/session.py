@@ -79,8 +79,10 @@ def execute(plan_: Plan) -> int:
 
     The initial state is built (and its program compiled) before the run directory is touched.
     SIGINT / SIGTERM finish the current compiled call, write a checkpoint, print one line and exit
-    with 130 / 143; a second SIGINT exits at once. Write errors (disk full, permissions) and
-    checkpoint errors are one ``error:`` line with status 2.
+    with 130 / 143; a second SIGINT exits at once, and never removes a run directory that holds a
+    checkpoint (``replacing.finish_run_dir`` looks at the disk). Write errors (disk full,
+    permissions) and checkpoint errors are one ``error:`` line with status 2; a run that diverges
+    (``jaxpg.run.divergence``) is one ``error:`` line with status 1, its last good checkpoint kept.
     """
     run, run_dir = plan_.run, plan_.run_dir
     primary = is_primary()

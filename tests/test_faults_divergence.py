@@ -1,5 +1,5 @@
 """Divergence: a block whose state or metrics no healthy run has stops the run before it is
-checkpointed (``jaxpg.run.divergence``), and ``--resume-step N`` resumes from an earlier
+checkpointed (``jaxpg.run.divergence``), and ``--from-step N`` resumes from an earlier
 checkpoint. The checks are fed hand-made metrics and states (nothing compiled)."""
 
 from __future__ import annotations
@@ -125,7 +125,7 @@ def test_the_guard_stops_before_the_checkpoint_and_names_the_last_good_one():
     message = str(caught.value)
     assert "\n" not in message
     assert message.startswith("training diverged at iteration 10 (seed 7): its policy's log-std reached 5110")
-    assert "the last good checkpoint, 8, is kept" in message and "--resume-step N" in message
+    assert "the last good checkpoint, 8, is kept" in message and "--from-step N" in message
 
 
 def test_the_guard_comes_before_the_checkpoint_in_the_host_callbacks():
@@ -138,13 +138,13 @@ def test_the_guard_comes_before_the_checkpoint_in_the_host_callbacks():
     assert source.index("guard_divergence(plan_, saving)") < source.index("        saving,")
 
 
-# --------------------------------------------------------------------------- --resume-step
+# --------------------------------------------------------------------------- --from-step
 
 
-def test_resume_step_continues_from_an_earlier_checkpoint(run_copy, capsys):
-    """``--resume RUN --resume-step 2`` plans from checkpoint 2; once the directory is locked the
+def test_from_step_continues_from_an_earlier_checkpoint(run_copy, capsys):
+    """``--resume RUN --from-step 2`` plans from checkpoint 2; once the directory is locked the
     later checkpoint 4 and the metrics after iteration 2 are deleted, with one ``note:`` line."""
-    plan = planning.plan(["--resume", str(run_copy), "--resume-step", "2"], command_line.Experiment())
+    plan = planning.plan(["--resume", str(run_copy), "--from-step", "2"], command_line.Experiment())
     assert plan.start == 2 and plan.later_checkpoints == [4]
     assert (run_copy / layout.CHECKPOINT_DIR / "4").is_dir()  # planning writes nothing
     lock = run_lock.RunLock(run_copy)
@@ -153,7 +153,7 @@ def test_resume_step_continues_from_an_earlier_checkpoint(run_copy, capsys):
     finally:
         lock.release()
     err = capsys.readouterr().err
-    assert "note: --resume-step 2: deleted the later checkpoint 4 and the metrics after iteration 2" in err
+    assert "note: --from-step 2: deleted the later checkpoint 4 and the metrics after iteration 2" in err
     assert sorted(p.name for p in (run_copy / layout.CHECKPOINT_DIR).iterdir()) == ["2"]
     assert [r["iteration"] for r in metrics_log.read_metrics(run_copy)] == [1, 2]
     assert json.loads((run_copy / layout.CONFIG_FILE).read_text())["info"]["resumes"][-1]["from_iteration"] == 2
@@ -162,11 +162,11 @@ def test_resume_step_continues_from_an_earlier_checkpoint(run_copy, capsys):
 @pytest.mark.parametrize(
     ("argv", "message"),
     [
-        (["--resume-step", "3"], "--resume-step 3: "),
-        (["--resume-step", "2", "--env", "cartpole"], "--resume-step N goes with --resume"),
+        (["--from-step", "3"], "--from-step 3: "),
+        (["--from-step", "2", "--env", "cartpole"], "--from-step N goes with --resume"),
     ],
 )
-def test_bad_resume_steps_are_one_line(argv, message, run_copy, capsys):
+def test_bad_from_steps_are_one_line(argv, message, run_copy, capsys):
     before = sorted(str(p) for p in Path(run_copy).rglob("*"))
     if "--env" not in argv:
         argv = ["--resume", str(run_copy), *argv]
@@ -202,3 +202,34 @@ def test_a_measured_nan_is_not_written_as_not_measured():
 
     _, values = plotting.seed_curves([first, second], "return_mean_policy")
     assert np.isnan(values).all()
+
+
+# --------------------------------------------------------------------------- end to end
+
+
+def test_a_resume_that_diverges_keeps_every_good_checkpoint(tmp_path, capsys):
+    """The reported case: a run whose settings make one huge update (``kl_delta`` 1e9 with the KL
+    guard off, edited into ``config.json``: valid values) resumed from its checkpoint 2. It stops
+    at iteration 3 with one ``error:`` line naming checkpoint 2, exit 1; checkpoint 2 is still the
+    latest (before: the broken state was checkpointed and good ones rotated out), and a retry
+    does the same."""
+    import test_cli
+
+    from jaxpg.run.checkpointer import Checkpointer
+
+    run_dir = tmp_path / "run"
+    assert main.main([*test_cli.TINY, "--iterations", "2", "--keep-checkpoints", "1", "--run-dir", str(run_dir)]) == 0
+    config = json.loads((run_dir / layout.CONFIG_FILE).read_text())
+    config["config"].update(kl_delta=1e9, max_update_kl=0.0)
+    (run_dir / layout.CONFIG_FILE).write_text(json.dumps(config))
+    capsys.readouterr()
+    for _ in range(2):
+        assert main.main(["--resume", str(run_dir), "--iterations", "6"]) == 1
+        errors = [line for line in capsys.readouterr().err.splitlines() if line.startswith("error:")]
+        assert len(errors) == 1, errors
+        assert (
+            errors[0].startswith("error: training diverged at iteration 3 (seed 0): ") and "checkpoint, 2," in errors[0]
+        )
+        checkpoints = Checkpointer(run_dir / layout.CHECKPOINT_DIR, keep=None)
+        assert checkpoints.steps() == [2]
+        checkpoints.close()

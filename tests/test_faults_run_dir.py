@@ -286,10 +286,10 @@ def test_a_run_entry_of_the_wrong_type_is_named(case, run_copy, capsys):
 
 def test_metrics_torn_at_the_checkpoint_point_to_the_earlier_checkpoint(run_copy, capsys):
     """A torn last line at the latest checkpoint's iteration (4): refused, naming the earlier intact
-    checkpoint (2) and ``--resume-step 2``, which resumes from it."""
+    checkpoint (2) and ``--from-step 2``, which resumes from it."""
     text = (run_copy / layout.METRICS_FILE).read_text()
     (run_copy / layout.METRICS_FILE).write_text(text[: text.rindex("{") + 5])
     before = digest(run_copy)
     assert main.main(["--resume", str(run_copy), "--iterations", "6"]) == 2
-    one_error_line(capsys.readouterr().err, "ends at iteration 3", "earlier checkpoint 2 with --resume-step 2")
+    one_error_line(capsys.readouterr().err, "ends at iteration 3", "earlier checkpoint 2 with --from-step 2")
     assert digest(run_copy) == before

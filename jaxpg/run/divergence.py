@@ -157,7 +157,7 @@ def guard_divergence(plan_: Any, checkpoints: Any) -> Any:
         saved = checkpoints.last_saved
         kept = (
             f"; the last good checkpoint, {saved}, is kept and nothing after it was saved (resume from it with "
-            "--resume, or from an earlier one with --resume-step N)"
+            "--resume, or from an earlier one with --from-step N)"
             if saved
             else ""
         )

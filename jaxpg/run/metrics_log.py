@@ -199,7 +199,8 @@ class MetricsWriter:
             self._file.write(json.dumps(record) + "\n")
             if record["seed"] not in self._writers:
                 continue
-            scalars = {k: v for k, v in record.items() if k not in ("iteration", "seed") and v is not None}
+            # A non-finite value ("nan", "inf" in the record) is a float for TensorBoard.
+            scalars = {k: float(v) for k, v in record.items() if k not in ("iteration", "seed") and v is not None}
             seeds.append(record["seed"])
             events.append(tensorboard.event(now, record["iteration"], summary=tensorboard.scalars_summary(scalars)))
         for seed, framed in zip(seeds, tensorboard.records(events), strict=True):

@@ -305,15 +305,15 @@ def plan_resume(args: argparse.Namespace, run: RunConfig, run_dir: Path) -> Plan
     if step is None:
         raise no_checkpoint
     later: list[int] = []
-    if args.resume_step is not None:
+    if args.from_step is not None:
         steps = checkpoints.steps()
-        if args.resume_step not in steps:
+        if args.from_step not in steps:
             checkpoints.close()
             raise UsageError(
-                f"--resume-step {args.resume_step}: {str(run_dir)!r} has no checkpoint of that iteration; its "
+                f"--from-step {args.from_step}: {str(run_dir)!r} has no checkpoint of that iteration; its "
                 f"checkpoints: {', '.join(map(str, steps))}"
             )
-        step = args.resume_step
+        step = args.from_step
         later = [s for s in steps if s > step]
     metrics_path = run_dir / layout.METRICS_FILE
     damaged = metrics_log.damaged_metrics_line(metrics_path) if metrics_path.is_file() else None
@@ -327,7 +327,7 @@ def plan_resume(args: argparse.Namespace, run: RunConfig, run_dir: Path) -> Plan
         state = "is missing" if not metrics_path.exists() else f"ends at iteration {logged}"
         earlier = [s for s in checkpoints.steps() if s <= logged]
         instead = (
-            f"restore metrics.jsonl, or continue from the earlier checkpoint {earlier[-1]} with --resume-step "
+            f"restore metrics.jsonl, or continue from the earlier checkpoint {earlier[-1]} with --from-step "
             f"{earlier[-1]} (the later checkpoints go)"
             if earlier
             else "restore metrics.jsonl or start a new run"
@@ -383,8 +383,8 @@ def plan(argv: Sequence[str], experiment: Experiment, pre: PreFlags | None = Non
         defaults.update(config_io.current_field_names(config_cls, resume_run.config))
     parser = build_parser(experiment, algo, config_cls, defaults)
     args = parser.parse_args(argv)
-    if args.resume_step is not None and args.resume is None:
-        raise UsageError("--resume-step N goes with --resume RUN_DIR (it picks the checkpoint to continue from)")
+    if args.from_step is not None and args.resume is None:
+        raise UsageError("--from-step N goes with --resume RUN_DIR (it picks the checkpoint to continue from)")
     if args.resume is not None:
         result = plan_resume(args, resume_run, Path(args.resume))
     else:

@@ -109,7 +109,7 @@ def prepare_run_dir(plan_: Plan, lock: run_lock.RunLock) -> float:
 
 
 def _drop_later_checkpoints(run_dir: Path, start: int, later: list[int]) -> None:
-    """``--resume-step``: delete the checkpoints after ``start`` (``later``), which belong to the
+    """``--from-step``: delete the checkpoints after ``start`` (``later``), which belong to the
     continuation the resume replaces (the new one writes its own at those iterations), saying so
     in one ``note:`` line."""
     if not later:
@@ -119,7 +119,7 @@ def _drop_later_checkpoints(run_dir: Path, start: int, later: list[int]) -> None
         for path in [ckpt_dir / str(step), *ckpt_dir.glob(f"{step}.orbax-checkpoint-tmp*")]:
             shutil.rmtree(path)
     print(
-        f"note: --resume-step {start}: deleted the later checkpoint{'s' if len(later) > 1 else ''} "
+        f"note: --from-step {start}: deleted the later checkpoint{'s' if len(later) > 1 else ''} "
         f"{', '.join(map(str, later))} and the metrics after iteration {start}",
         file=sys.stderr,
     )

@@ -14,8 +14,10 @@ Layout of a run directory (``jaxpg.cli`` writes it, ``jaxpg.load_policy`` and
     profile.json     phase timings, only with --profile
     .jaxpg.lock      the process writing the directory, while it runs
 
-A directory holding only these (and their temporary ``*.tmp`` files) whose ``config.json`` reads
-as a ``RunConfig`` is a jaxpg run (``jaxpg.run.directory.check_replaceable``): ``--overwrite`` replaces nothing else.
+A directory holding only these (``RUN_ENTRIES``, with their temporary ``*.tmp`` files; inside
+them only ``RUN_SUBENTRIES`` and Orbax's checkpoint steps) whose ``config.json`` reads as a
+``RunConfig`` is a jaxpg run (``jaxpg.run.directory.check_replaceable``): ``--overwrite`` replaces
+nothing else.
 
 Iterations are counted from 1: the record with ``iteration == n`` describes the n-th update, and
 the checkpoint of step ``n`` holds the state after it.

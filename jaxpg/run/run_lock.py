@@ -84,7 +84,10 @@ class RunLock:
         done; the lock file, not the ``flock``, is what marks the directory as taken)."""
         guard = os.open(self.path.parent, os.O_RDONLY)
         try:
-            fcntl.flock(guard, fcntl.LOCK_EX)
+            try:
+                fcntl.flock(guard, fcntl.LOCK_EX)
+            except OSError:  # a file system without flock (some network ones): the steps unguarded, as before
+                pass
             return self._acquire_guarded()
         finally:
             os.close(guard)  # releases the flock

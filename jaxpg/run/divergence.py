@@ -119,7 +119,7 @@ def state_problem(ts: Any, seeds: bool) -> tuple[int, str] | None:
             if bad.any():
                 return int(np.argmax(bad)), f"its {name} are not finite"
     params = jax.device_get(ts.params)
-    log_std = params.get("log_std") if isinstance(params, dict) else None
+    log_std = params.get("log_std") if hasattr(params, "get") else None  # the Gaussian policy's global log-std
     if log_std is not None:
         rows = np.asarray(log_std).reshape(np.shape(log_std)[0], -1) if seeds else np.asarray(log_std).reshape(1, -1)
         worst = np.abs(rows).max(axis=1)

@@ -148,6 +148,54 @@ def judge(task: str, preset: str, scores: list[float], walls: list[float], steps
     return "no target"
 
 
+def finite_or_none(value: Any) -> Any:
+    """``value`` with every float that is not finite (a run that never scored: NaN) as ``None``,
+    nested in lists and dicts: JSON has no NaN, and a bare ``NaN`` breaks strict readers."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    if isinstance(value, dict):
+        return {k: finite_or_none(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [finite_or_none(v) for v in value]
+    return value
+
+
+def unknown_runs(runs: Sequence[tuple[str, str, str]]) -> list[str]:
+    """One line for each ``TASK:ALGO:PRESET`` that ``jaxpg.cli`` would refuse (unknown task,
+    algorithm, or a preset the algorithm lacks for that task): checked before any run starts."""
+    from jaxpg import algos, envs
+
+    problems = []
+    for task, algo, preset in runs:
+        run = f"{task}:{algo}:{preset}"
+        if task not in envs.names():
+            problems.append(f"{run}: unknown task {task!r}; known tasks: {', '.join(envs.names())}")
+        elif algo not in algos.ALGORITHMS:
+            problems.append(f"{run}: unknown algorithm {algo!r}; known: {', '.join(algos.ALGORITHMS)}")
+        elif preset not in algos.preset_names(algo, task):
+            known = ", ".join(algos.preset_names(algo, task)) or "none"
+            problems.append(f"{run}: {algo} has no preset {preset!r} for {task}; its presets there: {known}")
+    return problems
+
+
+def _finite(value: Any) -> bool:
+    """A number that is finite (``metrics.jsonl`` writes a non-finite one as the text "nan")."""
+    return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def failures(rows: Sequence[dict], episodes: int) -> list[str]:
+    """One line for each run that failed: its process's exit status was not 0, or (with a
+    Gymnasium replay) it has no score."""
+    lines = []
+    for row in rows:
+        run = f"{row['task']}:{row['algo']}:{row['preset']} seed {row['seed']}"
+        if row["status"] != 0:
+            lines.append(f"{run}: exit status {row['status']} (its log is beside {row['run_dir']})")
+        elif episodes > 0 and not _finite(row.get("gymnasium_return")):
+            lines.append(f"{run}: no Gymnasium score (its replay failed; the log is beside {row['run_dir']})")
+    return lines
+
+
 def train_and_time(
     task: str,
     algo: str,
@@ -177,7 +225,7 @@ def train_and_time(
     out_rows = []
     for seed in seeds:
         rows = [r for r in metrics if r.get("seed", seed) == seed]
-        evaluated = [r for r in rows if r.get("return_mean_policy") is not None]
+        evaluated = [r for r in rows if _finite(r.get("return_mean_policy"))]
         curve = [(r["wall_time_s"], r["env_steps"], r["return_mean_policy"]) for r in evaluated]
         out_rows.append(
             {
@@ -302,6 +350,11 @@ def run_main(argv: Sequence[str]) -> None:
         parser.error("--cold, --warmup and --bare-first each set the runs' caches: choose one")
     if args.bare_first and args.vmap_seeds:
         parser.error("--bare-first times single seeds: it does not combine with --vmap-seeds")
+    unknown = unknown_runs(args.runs)
+    if unknown:
+        for line in unknown:
+            print(f"error: {line}", file=sys.stderr)
+        raise SystemExit(2)
 
     out = Path(args.out or tempfile.mkdtemp(prefix="suite-"))
     out.mkdir(parents=True, exist_ok=True)
@@ -337,7 +390,9 @@ def run_main(argv: Sequence[str]) -> None:
     def save() -> None:
         """The JSON so far, after every run: a session cut short keeps the runs that ended."""
         scored(wait=False)
-        harness.write_json(args.json, rows, summary=summary(rows), argv=list(argv), partial=True)
+        harness.write_json(
+            args.json, finite_or_none(rows), summary=finite_or_none(summary(rows)), argv=list(argv), partial=True
+        )
 
     def train_job(job: tuple, gpu: int | None) -> None:
         try:
@@ -380,7 +435,7 @@ def run_main(argv: Sequence[str]) -> None:
     on_gpus(jobs, gpus, train_job, ready=lambda job: job[2] != "warm" or job[0] in bare_ended)
     scored(wait=True)
     groups = summary(rows)
-    harness.write_json(args.json, rows, summary=groups, argv=list(argv))
+    harness.write_json(args.json, finite_or_none(rows), summary=finite_or_none(groups), argv=list(argv))
     print(f"\n{harness.describe()}")
     print(
         harness.table(
@@ -397,6 +452,11 @@ def run_main(argv: Sequence[str]) -> None:
             ],
         )
     )
+    failed = failures(rows, args.episodes)
+    for line in failed:
+        print(f"error: {line}", file=sys.stderr)
+    if failed:
+        raise SystemExit(1)
 
 
 def band(curves: list[list[tuple[float, float]]], grid: list[float]) -> tuple[list[float], list[float], list[float]]:
@@ -625,4 +685,7 @@ def physics_main(argv: Sequence[str]) -> None:
 MODES = {"run": run_main, "plot": plot_main, "count": count_main, "physics": physics_main}
 
 if __name__ == "__main__":
+    if sys.argv[1:] in (["-h"], ["--help"]):  # asked for: the modes, exit status 0
+        print(__doc__)
+        raise SystemExit(0)
     harness.run_modes(__file__, MODES, __doc__)

@@ -865,7 +865,11 @@ def test_startup_counts_the_process_age_only_for_a_process_started_for_the_comma
     entry.__spec__ = types.SimpleNamespace(name=spec_name) if spec_name else None
     monkeypatch.setitem(sys.modules, "__main__", entry)
     monkeypatch.setattr(startup_times, "seconds_since_process_start", lambda: 12.5)
+    monkeypatch.setattr(startup_times, "CHILDREN_CPU_AT_IMPORT", 0.0)  # Python started as the process's first program
     assert (startup_times.StartupTimes.start().before_planning == 12.5) is for_this
+    # A shell that ran `pip install` and then exec-ed Python in its own process: its age counts pip.
+    monkeypatch.setattr(startup_times, "CHILDREN_CPU_AT_IMPORT", 3.0)
+    assert startup_times.StartupTimes.start().before_planning is None
 
 
 def test_startup_report_splits_the_seconds_to_the_first_block():

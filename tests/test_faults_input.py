@@ -156,6 +156,18 @@ BAD_CONFIGS = {
     "iterations many": (lambda d: d.update(iterations="many"), "iterations must be an integer, got 'many'"),
     "env_kwargs list": (lambda d: d.update(env_kwargs=[]), "env_kwargs must be an object, got []"),
     "num_envs huge": (lambda d: d["config"].update(num_envs=10**12), "lower --num-envs, --horizon or the network"),
+    # The schedule by the rules of its flags (--keep-checkpoints >= 1, --checkpoint-every >= 0, ...).
+    "keep_checkpoints 0": (lambda d: d.update(keep_checkpoints=0), "keep_checkpoints must be >= 1, got 0"),
+    "checkpoint_every -1": (lambda d: d.update(checkpoint_every=-1), "checkpoint_every must be >= 0, got -1"),
+    "video_every -3": (lambda d: d.update(video_every=-3), "video_every must be >= 0, got -3"),
+    "format true": (lambda d: d.update(format=True), "format must be an integer >= 1, got true"),
+    "unknown key": (lambda d: d.update(keep_best=True), "unknown key keep_best"),
+    # Task options by the rules of --env-kwargs: before, a string here failed at trace time.
+    "env_kwargs type": (
+        lambda d: d.update(env_kwargs={"reset_bound": "wide"}),
+        "env_kwargs: task option reset_bound must be a number, got 'wide'",
+    ),
+    "env_kwargs unknown": (lambda d: d.update(env_kwargs={"bogus": 1}), "task 'cartpole' has no option 'bogus'"),
 }
 
 
@@ -171,6 +183,21 @@ def test_bad_config_json_is_one_line_in_resume_evaluate_and_load_policy(case, ru
         one_error(capsys, message)
         with pytest.raises(ValueError, match="^[^\n]*$"):
             jaxpg.load_policy(run_dir)
+    assert digest(run_dir) == before
+
+
+def test_each_bad_value_of_config_json_is_one_error_line(run_dir, capsys):
+    """Several hand-edited values: ``--resume`` names each on its own ``error:`` line (exit 2), and
+    ``load_policy`` raises one one-line error naming them all; nothing changes."""
+    edit_config(run_dir, lambda d: d.update(keep_checkpoints=0, video_every=-3, iterations="many"))
+    before = digest(run_dir)
+    assert main.main(["--resume", str(run_dir)]) == 2
+    lines = capsys.readouterr().err.splitlines()
+    assert len(lines) == 3 and all(line.startswith("error: ") for line in lines), lines
+    for part in ("iterations must be an integer", "keep_checkpoints must be >= 1", "video_every must be >= 0"):
+        assert sum(part in line for line in lines) == 1, lines
+    with pytest.raises(ValueError, match="^[^\n]*keep_checkpoints must be >= 1[^\n]*$"):
+        jaxpg.load_policy(run_dir)
     assert digest(run_dir) == before
 
 
@@ -286,3 +313,84 @@ def test_a_run_stuck_in_a_compiled_call_still_stops_on_sigint(tmp_path):
     assert proc.returncode == 130, err[-3000:]
     assert err.splitlines()[-1].startswith("SIGINT: stopped at once: a compiled call or compilation did not return")
     assert not run_dir.exists()  # the state is built before the run directory is touched
+
+
+# --------------------------------------------------------------------------- one line, not a traceback
+
+
+def test_a_task_whose_simulator_is_not_installed_is_one_line(tmp_path, monkeypatch, capsys):
+    """``--env atari_pong`` without ale-py (``import ale_py`` fails): one ``error:`` line naming
+    the install, as ``evaluate --ale`` says it, and nothing written."""
+    monkeypatch.setitem(sys.modules, "ale_py", None)  # `import ale_py` raises ImportError
+    assert main.main(["--env", "atari_pong", "--iterations", "1", "--run-dir", str(tmp_path / "run")]) == 2
+    one_error(capsys, "atari_pong needs the Arcade Learning Environment (ale-py): pip install")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_an_invalid_mujoco_gl_is_one_line(tmp_path, monkeypatch, capsys):
+    """MuJoCo refuses an unknown ``MUJOCO_GL`` with a traceback at its first import, video or not:
+    checked first, one ``error:`` line; the values MuJoCo takes pass, in any case."""
+    from jaxpg.run import startup
+
+    for good in ("egl", " OSMesa ", "off", ""):
+        startup.check_mujoco_gl({"MUJOCO_GL": good}, system="Linux")
+    startup.check_mujoco_gl({}, system="Linux")
+    with pytest.raises(UsageError, match="^MUJOCO_GL=wgl is not a value MuJoCo accepts"):
+        startup.check_mujoco_gl({"MUJOCO_GL": "wgl"}, system="Linux")
+    monkeypatch.setenv("MUJOCO_GL", "bogus")
+    assert main.main(["--env", "inverted_pendulum", "--iterations", "1", "--run-dir", str(tmp_path / "run")]) == 2
+    one_error(capsys, "MUJOCO_GL=bogus is not a value MuJoCo accepts")
+    assert list(tmp_path.iterdir()) == []
+
+
+# --------------------------------------------------------------------------- benchmarks/suite.py
+
+
+def test_suite_help_and_unknown_runs(tmp_path):
+    """``suite.py --help`` prints the modes with exit status 0; ``run`` with an unknown task or a
+    preset the algorithm lacks is refused before any run starts: one ``error:`` line each, exit 2."""
+    env = {**os.environ, "PYTHONPATH": script_loader.python_path()}
+    script = str(script_loader.ROOT / "benchmarks" / "suite.py")
+    shown = subprocess.run([sys.executable, script, "--help"], capture_output=True, text=True, env=env, timeout=600)
+    assert shown.returncode == 0 and "Four modes" in shown.stdout, shown.stderr[-2000:]
+    runs = ["--runs", "nope:npg:x", "hopper:npg:no_such_preset", "--episodes", "0", "--out", str(tmp_path / "out")]
+    refused = subprocess.run(
+        [sys.executable, script, "run", *runs], capture_output=True, text=True, env=env, timeout=600
+    )
+    lines = refused.stderr.splitlines()
+    assert refused.returncode == 2, refused.stderr[-2000:]
+    assert len(lines) == 2 and lines[0].startswith("error: nope:npg:x: unknown task 'nope'"), lines
+    assert lines[1].startswith("error: hopper:npg:no_such_preset: npg has no preset 'no_such_preset' for hopper"), lines
+    assert not (tmp_path / "out").exists()
+
+
+def test_suite_json_has_no_nan_and_failed_runs_are_named():
+    """A run that never scored: its NaN figures are written as null (JSON has no NaN), and the
+    failures (exit status, no Gymnasium score) are listed for the ``error:`` lines and exit 1."""
+    suite = script_loader.load_script("benchmarks/suite.py")
+    rows = [
+        {"task": "hopper", "algo": "npg", "preset": "p", "seed": 0, "status": 2, "run_dir": "r0", "env_steps": np.nan},
+        {
+            "task": "hopper",
+            "algo": "npg",
+            "preset": "p",
+            "seed": 1,
+            "status": 0,
+            "run_dir": "r1",
+            "gymnasium_return": None,
+        },
+        {
+            "task": "hopper",
+            "algo": "npg",
+            "preset": "p",
+            "seed": 2,
+            "status": 0,
+            "run_dir": "r2",
+            "gymnasium_return": 0.0,
+        },
+    ]
+    text = json.dumps(suite.finite_or_none({"rows": rows, "summary": [{"median": float("nan"), "scores": []}]}))
+    assert "NaN" not in text and json.loads(text)["rows"][0]["env_steps"] is None
+    failed = suite.failures(rows, episodes=10)
+    assert len(failed) == 2 and "seed 0: exit status 2" in failed[0] and "seed 1: no Gymnasium score" in failed[1]
+    assert suite.failures(rows[1:], episodes=0) == []

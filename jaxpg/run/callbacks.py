@@ -12,6 +12,8 @@ the order ``host_callbacks`` lists them, after every block of iterations:
   ``show_progress``     the progress bar;
   ``Summaries``         the summary line every ``log_every`` iterations, with its ETA, and the
                         warnings about rolled-back updates and physics overflows;
+  ``guard_divergence``  a diverged block (``jaxpg.run.divergence``) stops the run before
+                        anything of it is checkpointed;
   ``Checkpoints``       a checkpoint every ``checkpoint_every`` iterations and at the end, and
                         ``curves.png`` (redrawn at most every ``PLOT_EVERY_S`` seconds from the
                         start, and at the end, by a helper process while the checkpoint is
@@ -33,6 +35,7 @@ from typing import Any
 import numpy as np
 
 from jaxpg.run import console, metrics_log, plotting
+from jaxpg.run.divergence import guard_divergence
 from jaxpg.run.interrupts import Stop, StopAtOnce, TimeUp
 from jaxpg.run.metrics_log import block_length
 from jaxpg.run.output import is_primary
@@ -371,6 +374,7 @@ def host_callbacks(
         write_metrics(writer, clock, plan_.run.seeds, history),
         show_progress(progress, clock),
         Summaries(plan_, clock, progress),
+        guard_divergence(plan_, saving),
         saving,
         Videos(plan_, progress),
         time_limit(clock, saving),

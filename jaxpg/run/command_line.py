@@ -139,7 +139,7 @@ def _optional(parse: Any) -> Any:
 
 
 RUN_FLAGS = (
-    "task", "algo", "seed", "seeds", "iterations", "run_dir", "resume", "overwrite", "checkpoint_every",
+    "task", "algo", "seed", "seeds", "iterations", "run_dir", "resume", "from_step", "overwrite", "checkpoint_every",
     "keep_checkpoints", "log_every", "video_every", "preset", "profile", "fidelity", "impl",
     "max_episode_steps", "action_scaling", "shard", "progress", "coordinator_address", "num_processes", "process_id",
     "distributed_timeout", "minutes", "env_kwargs",
@@ -267,6 +267,13 @@ def build_parser(experiment: Experiment, algo: str, config_cls: type | None, con
         "--resume",
         metavar="RUN_DIR",
         help="continue RUN_DIR from its latest checkpoint (--iterations sets a new total)",
+    )
+    run.add_argument(
+        "--from-step",
+        type=_positive,
+        metavar="N",
+        help="with --resume: continue from the earlier checkpoint of iteration N instead; the checkpoints after "
+        "it and the metrics after iteration N are deleted once the run directory is locked",
     )
     run.add_argument("--overwrite", action="store_true", default=None, help="replace an existing run directory")
     run.add_argument(

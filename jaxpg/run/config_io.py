@@ -23,6 +23,38 @@ from jaxpg.run.layout import (
     write_json_atomic,
 )
 
+SCHEDULE_MINIMUMS = {"iterations": 1, "log_every": 1, "checkpoint_every": 0, "keep_checkpoints": 1, "video_every": 0}
+"""The smallest value of each of a run's schedule fields, in ``config.json`` as on the command
+line (``--iterations`` of a new run, ``--log-every``, ``--checkpoint-every``,
+``--keep-checkpoints``, ``--video-every``)."""
+
+
+def schedule_problems(values: dict[str, Any], prefix: str = "") -> list[str]:
+    """One line for each schedule field of ``values`` below its minimum (``SCHEDULE_MINIMUMS``)."""
+    return [
+        f"{prefix}{name} must be >= {low}, got {values[name]}"
+        for name, low in SCHEDULE_MINIMUMS.items()
+        if isinstance(values.get(name), int) and values[name] < low
+    ]
+
+
+class ConfigProblems(RunDirError):
+    """A ``config.json`` with one or more bad values: ``problems`` holds one line for each (the
+    command line prints each as an ``error:`` line); the message joins them on one line."""
+
+    def __init__(self, problems: list[str]):
+        super().__init__("; ".join(problems))
+        self.problems = list(problems)
+
+
+def error_lines(error: BaseException) -> list[str]:
+    """The lines an error is reported in: one per bad value of a ``ConfigProblems``, else the
+    first line of its message (or its type's name)."""
+    if isinstance(error, ConfigProblems):
+        return error.problems
+    lines = str(error).strip().splitlines()
+    return lines[:1] or [type(error).__name__]
+
 
 @dataclasses.dataclass
 class RunConfig:
@@ -79,10 +111,46 @@ class RunConfig:
         return config_from_dict(self.algo_module().Config, self.config)
 
     def make_env(self) -> Any:
-        """The run's env (``jaxpg.envs.make_shared``: one object per task and arguments)."""
+        """The run's env (``jaxpg.envs.make_shared``: one object per task and arguments);
+        ``RunDirError`` (one line) for an unknown task or an ``env_kwargs`` entry the task does
+        not take or of the wrong type (``check_env_kwargs``)."""
         from jaxpg import envs  # here: python -m jaxpg.run.plotting reads config.json without JAX
 
+        self.check_env_kwargs()
         return envs.make_shared(self.task, **self.env_kwargs)
+
+    def check_env_kwargs(self) -> None:
+        """``ConfigProblems`` for an unknown task, or for each ``env_kwargs`` entry its task does
+        not take or of the wrong type: the task options by the rules of ``--env-kwargs``
+        (``jaxpg.run.task_options.check_options``), the simulation settings by their flags'."""
+        from jaxpg import envs
+        from jaxpg.run import task_options
+
+        where = f"{CONFIG_FILE}: env_kwargs"
+        if self.task not in envs.names():
+            raise ConfigProblems([f"{CONFIG_FILE}: task {self.task!r} is not a jaxpg task"])
+        settings = {
+            "fidelity": str,
+            "impl": str,
+            "max_episode_steps": int | None,
+            "action_scaling": bool,
+            "batch": int,
+            **{name: int for name in task_options.BUFFER_SIZES},
+        }
+        problems = []
+        for name, value in self.env_kwargs.items():
+            try:
+                if name in settings:
+                    coerce(settings[name], value)
+                else:
+                    task_options.check_options(self.task, {name: value})
+            except ValueError as e:
+                problems.append(f"{where}: {e}" if name not in settings else f"{where}: {name} {e}")
+        steps = self.env_kwargs.get("max_episode_steps")
+        if isinstance(steps, int) and not isinstance(steps, bool) and steps < 1:
+            problems.append(f"{where}: max_episode_steps must be >= 1, got {steps}")
+        if problems:
+            raise ConfigProblems(problems)
 
     def to_json(self) -> dict[str, Any]:
         return {"format": FORMAT_VERSION, **dataclasses.asdict(self)}
@@ -114,26 +182,34 @@ class RunConfig:
         identity = {"format": int, "task": str, "algo": str, "config": dict}
         if not isinstance(data, dict) or any(not isinstance(data.get(k), t) for k, t in identity.items()):
             raise RunDirError(f"{path} is not a jaxpg run configuration")
+        if isinstance(data["format"], bool) or data["format"] < 1:
+            raise RunDirError(f"{path}: format must be an integer >= 1, got {json.dumps(data['format'])}")
         if data["format"] > FORMAT_VERSION:
             raise RunDirError(f"{path} was written by a newer jaxpg (format {data['format']})")
         types_ = field_types(cls)
-        values = {}
+        values, problems = {}, []
+        unknown = sorted(set(data) - set(types_) - {"format"})
+        if unknown:
+            problems.append(f"{path}: unknown key{'s' if len(unknown) > 1 else ''} {', '.join(unknown)}")
         for name, value in data.items():
             if name not in types_:
                 continue
             try:
                 values[name] = coerce(types_[name], value)
             except ValueError as e:
-                raise RunDirError(f"{path}: {name} {e}") from None
-        missing = [f.name for f in dataclasses.fields(cls) if f.name not in values and _no_default(f)]
+                problems.append(f"{path}: {name} {e}")
+        missing = [f.name for f in dataclasses.fields(cls) if f.name not in data and _no_default(f)]
         if missing:
-            raise RunDirError(f"{path} lacks {', '.join(missing)}")
-        seeds = values["seeds"]
-        if not seeds or len(set(seeds)) != len(seeds):
-            raise RunDirError(f"{path}: seeds must be distinct integers, at least one, got {seeds}")
-        bad = [s for s in seeds if not 0 <= s <= MAX_SEED]
+            problems.append(f"{path} lacks {', '.join(missing)}")
+        seeds = values.get("seeds")
+        if seeds is not None and (not seeds or len(set(seeds)) != len(seeds)):
+            problems.append(f"{path}: seeds must be distinct integers, at least one, got {seeds}")
+        bad = [s for s in seeds or () if not 0 <= s <= MAX_SEED]
         if bad:
-            raise RunDirError(f"{path}: seeds must be integers in [0, {MAX_SEED}], got {bad[0]}")
+            problems.append(f"{path}: seeds must be integers in [0, {MAX_SEED}], got {bad[0]}")
+        problems += schedule_problems(values, prefix=f"{path}: ")
+        if problems:
+            raise ConfigProblems(problems)
         # JSON has no tuples: a task option such as healthy_z_range comes back as a list.
         values["env_kwargs"] = {k: _as_tuples(v) for k, v in values.get("env_kwargs", {}).items()}
         return cls(**values)

@@ -172,7 +172,10 @@ def main(argv: Sequence[str] | None = None, owns_process: bool = False) -> int:
         )
         action_set = replay.ale_action_set(policy.run.task, policy.run.env_kwargs) if args.ale else None
     except (ValueError, ImportError) as e:
-        print(f"error: {e}", file=sys.stderr)
+        from jaxpg.run.config_io import error_lines
+
+        for line in error_lines(e):  # one per bad value of a config.json
+            print(f"error: {line}", file=sys.stderr)
         return 2
     run = policy.run
     kind = "sampled actions" if args.sample else "mean policy, clipped mean" if policy.clipped_mean else "mean policy"

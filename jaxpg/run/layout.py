@@ -5,7 +5,8 @@ Layout of a run directory (``jaxpg.cli`` writes it, ``jaxpg.load_policy`` and
 ``python -m jaxpg.evaluate`` read it)::
 
     config.json      everything to rerun: task, env kwargs, algorithm, full Config, seeds, versions
-    metrics.jsonl    one JSON object per iteration (and seed); NaN ("not measured") is written as null
+    metrics.jsonl    one JSON object per iteration (and seed); null: not measured (no evaluation or no
+                     episode ended); a measured value that is not finite: "nan", "inf" or "-inf"
     tensorboard/     TensorBoard event files of the same scalars, one sub-directory per seed
     curves.png       returns over iterations (jaxpg.run.plotting)
     checkpoints/     Orbax checkpoints of the whole TrainState (jaxpg.run.checkpointer)
@@ -13,8 +14,10 @@ Layout of a run directory (``jaxpg.cli`` writes it, ``jaxpg.load_policy`` and
     profile.json     phase timings, only with --profile
     .jaxpg.lock      the process writing the directory, while it runs
 
-A directory holding only these (and their temporary ``*.tmp`` files) whose ``config.json`` reads
-as a ``RunConfig`` is a jaxpg run (``jaxpg.run.directory.check_replaceable``): ``--overwrite`` replaces nothing else.
+A directory holding only these (``RUN_ENTRIES``, with their temporary ``*.tmp`` files; inside
+them only ``RUN_SUBENTRIES`` and Orbax's checkpoint steps) whose ``config.json`` reads as a
+``RunConfig`` is a jaxpg run (``jaxpg.run.directory.check_replaceable``): ``--overwrite`` replaces
+nothing else.
 
 Iterations are counted from 1: the record with ``iteration == n`` describes the n-th update, and
 the checkpoint of step ``n`` holds the state after it.
@@ -64,6 +67,19 @@ RUN_ENTRIES = frozenset(
     {CONFIG_FILE, METRICS_FILE, TENSORBOARD_DIR, CHECKPOINT_DIR, VIDEO_DIR, CURVES_FILE, PROFILE_FILE, LOCK_FILE}
     | {CONFIG_FILE + ".tmp", METRICS_FILE + ".tmp", PROFILE_FILE + ".tmp", "curves.tmp.png"}
 )
+
+
+# The entries of RUN_ENTRIES that are directories; every other one is a file.
+RUN_DIRS = frozenset({TENSORBOARD_DIR, CHECKPOINT_DIR, VIDEO_DIR})
+
+
+# What a run writes inside its directories, as regular expressions of whole paths relative to the
+# run directory. Checkpoint steps are checked against their own list of files
+# (``jaxpg.run.directory``): Orbax's layout inside a step is Orbax's.
+RUN_SUBENTRIES = {
+    TENSORBOARD_DIR: (rf"{TENSORBOARD_DIR}/seed_\d+", rf"{TENSORBOARD_DIR}/seed_\d+/events\.out\.tfevents\.[^/]+"),
+    VIDEO_DIR: (rf"{VIDEO_DIR}/[^/]+\.(mp4|gif)",),
+}
 
 
 class RunDirError(ValueError):

@@ -16,7 +16,7 @@ import threading
 from collections.abc import Sequence
 from typing import NoReturn
 
-from jaxpg.run import planning, session, startup
+from jaxpg.run import config_io, planning, session, startup
 from jaxpg.run.command_line import DEFAULT_EPILOG, Experiment
 
 
@@ -31,8 +31,8 @@ def main(argv: Sequence[str] | None = None, experiment: Experiment | None = None
         pre = startup.start(argv, experiment, owns_process)
         plan_ = planning.plan(argv, experiment, pre)
     except ValueError as e:  # UsageError, RunDirError, CheckpointError, Config.validate, DistributedError
-        message = str(e).strip().splitlines()
-        print(f"error: {message[0] if message else type(e).__name__}", file=sys.stderr)
+        for line in config_io.error_lines(e):  # one line, or one per bad value of a config.json
+            print(f"error: {line}", file=sys.stderr)
         return 2
     except OSError as e:
         print(f"error: cannot put the run directory back in order: {e}", file=sys.stderr)

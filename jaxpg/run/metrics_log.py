@@ -31,10 +31,40 @@ LEADING_KEYS = (
 )
 
 
-def _scalar(x: Any) -> float | None:
-    """A JSON number; NaN/inf (not measured) become ``None``."""
+# Metrics that are NaN when nothing was measured, and the metric that says whether it was: the
+# mean policy's (not evaluated that iteration), and the episodes' (none ended in the iteration).
+MEASURED_BY = {
+    "return_mean_policy": "evaluated",
+    "episode_length_mean_policy": "evaluated",
+    "task_score_mean_policy": "evaluated",
+    "return_stochastic": "episodes",
+    "episode_length": "episodes",
+    "task_score": "episodes",
+}
+
+
+def _scalar(x: Any, measured: bool = True) -> float | str | None:
+    """A JSON value of a metric: a number; ``null`` when it was not measured; a measured value
+    that is not finite as the string ``"nan"``, ``"inf"`` or ``"-inf"`` (``float`` reads them
+    back), so that a diverged value is never mistaken for a missing one."""
     value = float(x)
-    return value if math.isfinite(value) else None
+    if math.isfinite(value):
+        return value
+    if not measured:
+        return None
+    return "nan" if math.isnan(value) else ("inf" if value > 0 else "-inf")
+
+
+def _measured(metrics: dict[str, np.ndarray], key: str, i: int, s: int, several: bool) -> bool:
+    """Whether ``key`` was measured at row ``i`` (seed column ``s``): ``MEASURED_BY``'s gate is
+    present and non-zero; metrics without a gate always are."""
+    gate = MEASURED_BY.get(key)
+    if gate is None:
+        return True
+    if gate not in metrics:
+        return False
+    value = metrics[gate][i, s] if several else metrics[gate][i]
+    return bool(float(value) > 0)
 
 
 def block_length(metrics: dict[str, np.ndarray]) -> int:
@@ -62,7 +92,8 @@ def block_records(
             record["wall_time_s"] = round(float(wall_times[i]), 4)
             for key in keys:
                 if key not in record:
-                    record[key] = _scalar(metrics[key][i, s] if several else metrics[key][i])
+                    value = metrics[key][i, s] if several else metrics[key][i]
+                    record[key] = _scalar(value, _measured(metrics, key, i, s, several))
             records.append(record)
     return records
 
@@ -168,7 +199,8 @@ class MetricsWriter:
             self._file.write(json.dumps(record) + "\n")
             if record["seed"] not in self._writers:
                 continue
-            scalars = {k: v for k, v in record.items() if k not in ("iteration", "seed") and v is not None}
+            # A non-finite value ("nan", "inf" in the record) is a float for TensorBoard.
+            scalars = {k: float(v) for k, v in record.items() if k not in ("iteration", "seed") and v is not None}
             seeds.append(record["seed"])
             events.append(tensorboard.event(now, record["iteration"], summary=tensorboard.scalars_summary(scalars)))
         for seed, framed in zip(seeds, tensorboard.records(events), strict=True):

@@ -26,6 +26,7 @@ class Plan:
     env: Any
     config: Any
     start: int = 0
+    later_checkpoints: list[int] = dataclasses.field(default_factory=list)  # --from-step: the steps after start
     state: Any = None
     overwrite: bool = False
     replaced: Path | None = None  # the old run that --overwrite moved aside

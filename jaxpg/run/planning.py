@@ -72,6 +72,10 @@ def _make_env(task: str, env_kwargs: dict[str, Any]) -> Any:
         raise UsageError(f"task {task!r} does not accept {given or 'these settings'} ({e})") from None
     except ValueError as e:  # e.g. --action-scaling on a discrete task
         raise UsageError(str(e)) from None
+    except ImportError as e:  # a task whose simulator is an optional package (atari_pong: ale-py)
+        raise UsageError(
+            str(e).strip().splitlines()[0] if str(e).strip() else f"task {task!r} cannot be imported"
+        ) from None
 
 
 def _explicit_config(args: argparse.Namespace) -> dict[str, Any]:
@@ -231,8 +235,16 @@ def plan_fresh(args: argparse.Namespace, experiment: Experiment, module: Any, al
         preset=args.preset,
     )
     run.shard = shard
-    run_dir = Path(args.run_dir) if args.run_dir else _default_run_dir(task, algo)
+    if args.run_dir is not None and not args.run_dir.strip():
+        raise UsageError("--run-dir is empty; name a directory (or leave the flag out for runs/<task>-<algo>-<time>)")
+    run_dir = Path(args.run_dir) if args.run_dir is not None else _default_run_dir(task, algo)
     layout.check_path(run_dir, "--run-dir")
+    inside = directory.enclosing_run(run_dir)
+    if inside is not None:
+        raise UsageError(
+            f"--run-dir {str(run_dir)!r} is inside the jaxpg run {str(inside)!r}; a run directory goes beside "
+            "other runs, never inside one"
+        )
     _check_fresh_run_dir(run_dir, bool(args.overwrite))
     return Plan(run=run, run_dir=run_dir, module=module, env=env, config=config, overwrite=bool(args.overwrite))
 
@@ -266,6 +278,7 @@ def plan_resume(args: argparse.Namespace, run: RunConfig, run_dir: Path) -> Plan
     module = algo_module(run.algo)
     config = run.algo_config()
     run.config = config_io.config_to_dict(config)  # saved again under the current field names
+    run.check_env_kwargs()  # the rules of --env-kwargs and the simulation flags, before the env is built
     env = _make_env(run.task, run.env_kwargs)
     config.validate(env)
     for key in ("iterations", "checkpoint_every", "keep_checkpoints", "log_every", "video_every"):
@@ -273,8 +286,13 @@ def plan_resume(args: argparse.Namespace, run: RunConfig, run_dir: Path) -> Plan
             setattr(run, key, getattr(args, key))
     if run.log_every < 1:
         raise UsageError(f"--log-every must be >= 1, got {run.log_every}")
+    # --iterations at or below the iterations done is "nothing to do", not an error.
+    problems = config_io.schedule_problems({k: v for k, v in dataclasses.asdict(run).items() if k != "iterations"})
+    if problems:
+        raise UsageError(problems[0])
     run.shard = _check_sharding(config, args.shard if args.shard is not None else (run.shard or None))
     check_memory(config, env, len(run.seeds), _device_count() if run.shard else 1)
+    directory.check_entry_types(run_dir)
     run_lock.check_unlocked(run_dir)
     no_checkpoint = UsageError(
         f"cannot resume {str(run_dir)!r}: it has no checkpoints (it stopped before its first one, so there is "
@@ -286,6 +304,17 @@ def plan_resume(args: argparse.Namespace, run: RunConfig, run_dir: Path) -> Plan
     step = checkpoints.latest_step()
     if step is None:
         raise no_checkpoint
+    later: list[int] = []
+    if args.from_step is not None:
+        steps = checkpoints.steps()
+        if args.from_step not in steps:
+            checkpoints.close()
+            raise UsageError(
+                f"--from-step {args.from_step}: {str(run_dir)!r} has no checkpoint of that iteration; its "
+                f"checkpoints: {', '.join(map(str, steps))}"
+            )
+        step = args.from_step
+        later = [s for s in steps if s > step]
     metrics_path = run_dir / layout.METRICS_FILE
     damaged = metrics_log.damaged_metrics_line(metrics_path) if metrics_path.is_file() else None
     if damaged is not None:
@@ -296,14 +325,31 @@ def plan_resume(args: argparse.Namespace, run: RunConfig, run_dir: Path) -> Plan
     logged = max((int(r.get("iteration", 0)) for r in metrics_log.read_metrics(metrics_path)), default=0)
     if logged < step:
         state = "is missing" if not metrics_path.exists() else f"ends at iteration {logged}"
+        earlier = [s for s in checkpoints.steps() if s <= logged]
+        instead = (
+            f"restore metrics.jsonl, or continue from the earlier checkpoint {earlier[-1]} with --from-step "
+            f"{earlier[-1]} (the later checkpoints go)"
+            if earlier
+            else "restore metrics.jsonl or start a new run"
+        )
+        checkpoints.close()
         raise UsageError(
             f"cannot resume {str(run_dir)!r}: its metrics.jsonl {state} but its checkpoint is at iteration "
-            f"{step}; restore metrics.jsonl or start a new run"
+            f"{step}; {instead}"
         )
     target = policy_io.abstract_train_state(run, env)
     state = checkpoints.restore(target, step, expect=policy_io.checkpoint_expectations(run))
     checkpoints.close()
-    return Plan(run=run, run_dir=run_dir, module=module, env=env, config=config, start=step, state=state)
+    return Plan(
+        run=run,
+        run_dir=run_dir,
+        module=module,
+        env=env,
+        config=config,
+        start=step,
+        state=state,
+        later_checkpoints=later,
+    )
 
 
 def _field_default(field: dataclasses.Field) -> Any:
@@ -337,6 +383,8 @@ def plan(argv: Sequence[str], experiment: Experiment, pre: PreFlags | None = Non
         defaults.update(config_io.current_field_names(config_cls, resume_run.config))
     parser = build_parser(experiment, algo, config_cls, defaults)
     args = parser.parse_args(argv)
+    if args.from_step is not None and args.resume is None:
+        raise UsageError("--from-step N goes with --resume RUN_DIR (it picks the checkpoint to continue from)")
     if args.resume is not None:
         result = plan_resume(args, resume_run, Path(args.resume))
     else:

@@ -81,6 +81,7 @@ def prepare_run_dir(plan_: Plan, lock: run_lock.RunLock) -> float:
     run_dir, run = plan_.run_dir, plan_.run
     if plan_.start > 0:
         _note_stale_lock(lock.acquire(), run_dir)
+        _drop_later_checkpoints(run_dir, plan_.start, plan_.later_checkpoints)
         wall_offset = metrics_log.truncate_metrics(run_dir, plan_.start)
         history = run.info.setdefault("resumes", [])
         history.append(
@@ -105,6 +106,23 @@ def prepare_run_dir(plan_: Plan, lock: run_lock.RunLock) -> float:
     run.info = provenance.provenance([sys.argv[0], *plan_.command])
     run.save(real)
     return 0.0
+
+
+def _drop_later_checkpoints(run_dir: Path, start: int, later: list[int]) -> None:
+    """``--from-step``: delete the checkpoints after ``start`` (``later``), which belong to the
+    continuation the resume replaces (the new one writes its own at those iterations), saying so
+    in one ``note:`` line."""
+    if not later:
+        return
+    ckpt_dir = run_dir / layout.CHECKPOINT_DIR
+    for step in later:
+        for path in [ckpt_dir / str(step), *ckpt_dir.glob(f"{step}.orbax-checkpoint-tmp*")]:
+            shutil.rmtree(path)
+    print(
+        f"note: --from-step {start}: deleted the later checkpoint{'s' if len(later) > 1 else ''} "
+        f"{', '.join(map(str, later))} and the metrics after iteration {start}",
+        file=sys.stderr,
+    )
 
 
 def _note_stale_lock(stale: dict[str, Any] | None, run_dir: Path) -> None:
@@ -152,11 +170,16 @@ def _put_back(replaced: Path, real: Path) -> None:
 def finish_run_dir(plan_: Plan, checkpointed: bool) -> str:
     """After the run: drop the run it replaced once the new one has a checkpoint; otherwise (it
     stopped before its first checkpoint) put back what was there (the old run, or nothing), so
-    that the same command can simply be run again. Returns a note for the user ('' if none), which
-    says where things are."""
+    that the same command can simply be run again. A run directory that holds a committed
+    checkpoint (``has_checkpoint``) counts as ``checkpointed`` whatever the caller says: no
+    interrupt or failure ever removes a run that has one. Returns a note for the user ('' if
+    none), which says where things are."""
     run_dir = plan_.run_dir
     if plan_.start > 0 or not plan_.fresh:
         return ""
+    # What is on disk decides, not what the caller believes: a second interrupt can arrive after
+    # a checkpoint was written and before anyone noted it. A run with a checkpoint is never removed.
+    checkpointed = checkpointed or has_checkpoint(run_dir)
     if checkpointed:
         if plan_.replaced is not None:
             shutil.rmtree(plan_.replaced, ignore_errors=True)
@@ -174,6 +197,16 @@ def finish_run_dir(plan_: Plan, checkpointed: bool) -> str:
         else:
             entry.unlink(missing_ok=True)
     return f"; {run_dir} is empty again (no checkpoint had been written)"
+
+
+def stopped_at_once_note(plan_: Plan, checkpointed: bool) -> str:
+    """What a run stopped at once (a second Ctrl-C, or one before the first call returned) tells
+    the user, after putting its directory in order (``finish_run_dir``, which never removes a run
+    that has a checkpoint): where the old run went, or how to continue from the latest checkpoint."""
+    note = finish_run_dir(plan_, checkpointed)
+    if not note and has_checkpoint(plan_.run_dir):
+        return f"; continue from its latest checkpoint with: {resume_command(plan_.run_dir)}"
+    return note
 
 
 def _dead_siblings(real: Path, mark: str) -> list[tuple[Path, int]]:

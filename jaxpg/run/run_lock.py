@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import atexit
 import datetime
+import fcntl
 import json
 import os
 import platform
@@ -74,7 +75,24 @@ class RunLock:
 
     def acquire(self) -> dict[str, Any] | None:
         """Take the lock (``RunDirError`` when a live process holds it); returns the record of the
-        stale lock it took over (``{}`` for an unreadable one), ``None`` when there was none."""
+        stale lock it took over (``{}`` for an unreadable one), ``None`` when there was none.
+
+        Taking over a stale lock is three steps (see that its process has ended, delete it, create
+        ours), so two writers that find the same stale lock could both pass the first before
+        either creates its own, and the second would delete the first's new lock. Every writer
+        therefore goes through them holding ``flock`` on the run directory itself (released when
+        done; the lock file, not the ``flock``, is what marks the directory as taken)."""
+        guard = os.open(self.path.parent, os.O_RDONLY)
+        try:
+            try:
+                fcntl.flock(guard, fcntl.LOCK_EX)
+            except OSError:  # a file system without flock (some network ones): the steps unguarded, as before
+                pass
+            return self._acquire_guarded()
+        finally:
+            os.close(guard)  # releases the flock
+
+    def _acquire_guarded(self) -> dict[str, Any] | None:
         stale = None
         for _ in range(2):
             try:

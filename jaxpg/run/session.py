@@ -50,7 +50,7 @@ from jaxpg.run.callbacks import BlockClock, HostCallbacks, host_callbacks
 from jaxpg.run.interrupts import Interrupts, Stop, TimeUp, exit_status
 from jaxpg.run.output import Silent, is_primary, seed_slice, show
 from jaxpg.run.plan import Plan, initial_state
-from jaxpg.run.replacing import finish_run_dir, prepare_run_dir, resume_command
+from jaxpg.run.replacing import finish_run_dir, prepare_run_dir, resume_command, stopped_at_once_note
 
 
 def run_profile(plan_: Plan, ts: Any, out: Any) -> dict[str, float] | None:
@@ -79,8 +79,10 @@ def execute(plan_: Plan) -> int:
 
     The initial state is built (and its program compiled) before the run directory is touched.
     SIGINT / SIGTERM finish the current compiled call, write a checkpoint, print one line and exit
-    with 130 / 143; a second SIGINT exits at once. Write errors (disk full, permissions) and
-    checkpoint errors are one ``error:`` line with status 2.
+    with 130 / 143; a second SIGINT exits at once, and never removes a run directory that holds a
+    checkpoint (``replacing.finish_run_dir`` looks at the disk). Write errors (disk full,
+    permissions) and checkpoint errors are one ``error:`` line with status 2; a run that diverges
+    (``jaxpg.run.divergence``) is one ``error:`` line with status 1, its last good checkpoint kept.
     """
     run, run_dir = plan_.run, plan_.run_dir
     primary = is_primary()
@@ -123,10 +125,9 @@ def execute(plan_: Plan) -> int:
             # While writing the run directory or between that and the training loop's own handler
             # (imports, profiling, device placement): the same clean-up as an interrupt in the
             # first block.
-            note = finish_run_dir(plan_, checkpointed=plan_.start > 0) if primary else ""
-            resume = f"; continue with: {resume_command(run_dir)}" if plan_.start > 0 else ""
+            note = stopped_at_once_note(plan_, checkpointed=plan_.start > 0) if primary else ""
             signum = interrupts.requested or signal.SIGINT
-            print(f"\n{signal.Signals(signum).name}: stopped at once{resume}{note}", file=sys.stderr)
+            print(f"\n{signal.Signals(signum).name}: stopped at once{note}", file=sys.stderr)
             return exit_status(signum)
         finally:
             lock.release()
@@ -221,10 +222,9 @@ def _train(plan_: Plan, ts: Any, wall_offset: float, interrupts: Interrupts) -> 
         if progress is not None:
             progress.close()
         saved = callbacks.last_saved if callbacks is not None else plan_.start
-        note = finish_run_dir(plan_, checkpointed=saved > 0) if primary else ""
-        resume = f"; continue from checkpoint {saved} with: {resume_command(run_dir)}" if saved else ""
+        note = stopped_at_once_note(plan_, checkpointed=saved > 0) if primary else ""
         signum = interrupts.requested or signal.SIGINT
-        print(f"\n{signal.Signals(signum).name}: stopped at once{resume}{note}", file=sys.stderr)
+        print(f"\n{signal.Signals(signum).name}: stopped at once{note}", file=sys.stderr)
         return exit_status(signum)
     except TimeUp:
         progress.close()
@@ -251,7 +251,11 @@ def _train(plan_: Plan, ts: Any, wall_offset: float, interrupts: Interrupts) -> 
                 except Exception:  # noqa: BLE001 - closing after a failure must not hide it
                     pass
         if callbacks is not None:  # the curves' last drawing, in its helper process while the above closed
-            for warning in callbacks.close(wait=not stopped_at_once):
+            try:
+                warnings = callbacks.close(wait=not stopped_at_once)
+            except KeyboardInterrupt:  # a second Ctrl-C while waiting for that drawing: stop waiting
+                warnings = callbacks.close(wait=False)
+            for warning in warnings:
                 print(warning, file=sys.stderr)
     saved = callbacks.last_saved if callbacks is not None else plan_.start
     note = finish_run_dir(plan_, checkpointed=saved > 0) if primary else ""

@@ -6,8 +6,9 @@ left moved aside, and leave MuJoCo Warp out of a process that will not use it (`
 from __future__ import annotations
 
 import os
+import platform
 import sys
-from collections.abc import MutableMapping, Sequence
+from collections.abc import Mapping, MutableMapping, Sequence
 
 import jax
 
@@ -15,7 +16,7 @@ from jaxpg import video as video_lib
 from jaxpg.envs import mjx_import
 from jaxpg.run import compile_cache, config_io, processes, replacing
 from jaxpg.run.command_line import Experiment
-from jaxpg.run.flags import check_backend
+from jaxpg.run.flags import UsageError, check_backend
 from jaxpg.run.pre_flags import PreFlags, parse_pre_flags
 
 
@@ -31,6 +32,7 @@ def start(argv: Sequence[str], experiment: Experiment, owns_process: bool = Fals
     (``allocate_gpu_memory_on_demand``)."""
     if owns_process:
         allocate_gpu_memory_on_demand()  # before JAX starts its GPU backend (check_backend below)
+    check_mujoco_gl()  # before anything imports MuJoCo, which refuses a bad value with a traceback
     pre = parse_pre_flags(argv, experiment)
     if pre.videos:
         video_lib.configure_gl()  # before MuJoCo is imported, and only when a video may be drawn
@@ -41,6 +43,24 @@ def start(argv: Sequence[str], experiment: Experiment, owns_process: bool = Fals
     if owns_process and steps_mjx_on_jax_only(pre, experiment, jax.default_backend()):
         mjx_import.leave_out_warp()  # most of `import mujoco.mjx` on two CPU cores (BENCHMARKS.md, "CPU")
     return pre
+
+
+def mujoco_gl_values(system: str | None = None) -> tuple[str, ...]:
+    """The values of ``MUJOCO_GL`` that ``import mujoco`` accepts on ``system`` (``platform.system()``),
+    case and surrounding spaces aside: off, on, GLFW, and the platform's own backends."""
+    system = platform.system() if system is None else system
+    values = ("disable", "disabled", "off", "false", "0", "enable", "enabled", "on", "true", "1", "glfw", "")
+    return values + {"Linux": ("glx", "egl", "osmesa"), "Windows": ("wgl",), "Darwin": ("cgl",)}.get(system, ())
+
+
+def check_mujoco_gl(environ: Mapping[str, str] = os.environ, system: str | None = None) -> None:
+    """``UsageError`` (one line) when ``MUJOCO_GL`` holds a value MuJoCo refuses at import on
+    ``system`` (a ``RuntimeError`` traceback from deep inside the first env), whether or not a
+    video is drawn."""
+    value = environ.get("MUJOCO_GL")
+    if value is not None and value.lower().strip() not in mujoco_gl_values(system):
+        choices = ", ".join(v for v in mujoco_gl_values(system) if v)
+        raise UsageError(f"MUJOCO_GL={value} is not a value MuJoCo accepts ({choices}); unset it or pick one of those")
 
 
 PREALLOCATE_VARIABLE = "XLA_PYTHON_CLIENT_PREALLOCATE"

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import dataclasses
 import os
+import resource
 import sys
 import time
 
@@ -22,6 +23,19 @@ def seconds_since_process_start() -> float | None:
         return max(since_boot - start_ticks / os.sysconf("SC_CLK_TCK"), 0.0)
     except (OSError, ValueError, IndexError):
         return None
+
+
+def children_cpu_seconds() -> float:
+    """CPU seconds of the programs this process ran and waited for (``RUSAGE_CHILDREN``), which
+    survive an ``exec``."""
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
+
+
+CHILDREN_CPU_AT_IMPORT = children_cpu_seconds()
+"""``children_cpu_seconds`` when the command line was imported, before jaxpg ran any program: more
+than none when a shell ran commands and then ``exec``-ed Python in its own process (``bash -c 'pip
+install -e . && python ...'`` does), whose age then counts those commands (``pip``) as well."""
 
 
 def mjx_import_span() -> tuple[float, float] | None:
@@ -54,13 +68,14 @@ class StartupTimes:
         process was started for it: its ``__main__`` is ``python -m jaxpg.cli`` or a ``.py`` script,
         not an installed tool that calls ``main`` later (pytest, whether through its launcher in the
         environment's ``bin/`` or ``python -m pytest``) or a notebook's kernel, whose age says
-        nothing."""
+        nothing, and it ran no program before (``CHILDREN_CPU_AT_IMPORT``)."""
         entry = sys.modules.get("__main__")
         spec_name = getattr(getattr(entry, "__spec__", None), "name", "") or ""
         path = getattr(entry, "__file__", None) or ""
         installed = any(part in path for part in ("site-packages", "dist-packages"))
         script = path.endswith(".py") and not installed
-        for_this = spec_name.startswith("jaxpg.") or script
+        # A process that ran other programs before Python (a shell that exec-ed it) is older than the command.
+        for_this = (spec_name.startswith("jaxpg.") or script) and CHILDREN_CPU_AT_IMPORT == 0.0
         return cls(before_planning=seconds_since_process_start() if for_this else None, planning=time.perf_counter())
 
     def report(self, first_block: float) -> str | None:

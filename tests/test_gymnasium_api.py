@@ -124,7 +124,7 @@ def test_single_env_truncates_at_the_time_limit_and_matches_the_registration():
     assert obs.dtype == np.float64 and obs.shape == (4,) and info == {}
     for t in range(5):
         obs, reward, terminated, truncated, _ = env.step(np.zeros(1, np.float32))
-        assert isinstance(reward, float) and not terminated
+        assert type(reward) is int and not terminated  # as Gymnasium's InvertedPendulum-v5 gives it
         assert truncated == (t == 4)
 
 

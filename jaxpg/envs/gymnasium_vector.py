@@ -22,10 +22,12 @@ from jaxpg.envs.gymnasium_spaces import (
     GYMNASIUM_IDS,
     INFO_KEYS,
     check_actions,
+    enable_compile_cache,
     gymnasium_observation_space,
     info_arrays,
     make_key,
     render_one,
+    seed_key,
     task_spaces,
 )
 
@@ -111,6 +113,7 @@ class JaxpgVectorEnv(gymnasium.vector.VectorEnv):
             raise ValueError(f"autoreset_mode must be AutoresetMode.NEXT_STEP or SAME_STEP, got {autoreset_mode!r}")
         mode = AutoresetMode(autoreset_mode)
         task = GYMNASIUM_IDS[name][0] if name in GYMNASIUM_IDS else name
+        enable_compile_cache()
         env, self._reset_fn, self._step_fn = _vector_env(task, make_key(make_kwargs), num_envs, mode)
         self.task, self.env, self.num_envs, self.autoreset_mode = task, env, num_envs, mode
         self.device = device or jax.devices()[0]
@@ -151,12 +154,12 @@ class JaxpgVectorEnv(gymnasium.vector.VectorEnv):
         if isinstance(seed, list | tuple):
             if len(seed) != self.num_envs:
                 raise ValueError(f"expected {self.num_envs} seeds, got {len(seed)}")
-            keys = jnp.stack([jax.random.PRNGKey(s) for s in seed])
+            keys = jnp.stack([seed_key(s) for s in seed])
         elif self._state is not None:
             keys = self._state.info["rng"]
         else:
             start = int(self.np_random.integers(2**31))
-            keys = jnp.stack([jax.random.PRNGKey(start + i) for i in range(self.num_envs)])
+            keys = jnp.stack([seed_key(start + i) for i in range(self.num_envs)])
         self._state = self._reset_fn(jax.device_put(keys, self.device))
         info: dict[str, Any] = {}
         if self.task in INFO_KEYS:

@@ -15,6 +15,14 @@ short Newton solve; an order of magnitude faster on a GPU, and no longer step-fo
 is one explicit choice: the id ``jaxpg/<Name>Fast-v<N>`` (``fast_id``), which a script that takes
 only an id can name, or ``fidelity="fast"`` given to ``gymnasium.make``.
 
+In Gymnasium's physics the single env's ``reset(seed)`` draws Gymnasium's start state from
+``np_random`` (``gymnasium_mujoco``); rewards and ``info`` values have the types of Gymnasium's
+env (``gymnasium_spaces.REWARD_TYPES``), and ``env.unwrapped`` has ``MujocoEnv``'s ``data``,
+``model``, ``dt``, ``frame_skip``, ``init_qpos``, ``init_qvel`` and ``state_vector()``. Every
+process that makes an env turns jaxpg's persistent compilation cache on
+(``gymnasium_spaces.enable_compile_cache``). ``gymnasium_registration`` registers the ids without
+importing jaxpg, for a start-up hook in scripts that never import it.
+
 Time limits are Gymnasium's ``TimeLimit``'s alone: ``gymnasium.make(id, max_episode_steps=n)``
 truncates at ``n``, above the registered limit too (the single env has no limit of its own).
 
@@ -155,7 +163,7 @@ MUJOCO_ATTRIBUTES = ("data", "model", "dt", "frame_skip", "init_qpos", "init_qve
 def check_keywords(task: str, keywords: dict[str, Any]) -> None:
     """``ValueError`` naming the first of Gymnasium's ``MujocoEnv`` keywords in ``keywords`` that
     jaxpg cannot honour (``REFUSED_KEYWORDS``; ``frame_skip`` and the render keywords are checked by
-    ``JaxpgEnv``), or a MuJoCo keyword given for CartPole."""
+    ``JaxpgEnv``)."""
     for name, why in REFUSED_KEYWORDS.items():
         if name in keywords:
             raise ValueError(f"{name}={keywords[name]!r} is not supported by jaxpg's {task} env: {why}")
@@ -441,6 +449,34 @@ def _field(physics: Any, name: str) -> jax.Array:
     """Field ``name`` of an ``mjx.Data``, from its implementation's part where MJX keeps it there."""
     impl = getattr(physics, "_impl", None)
     return getattr(physics, name) if hasattr(physics, name) else getattr(impl, name)
+
+
+def _task_classes(task: str, theirs: str) -> tuple[type, type]:
+    """``<Name>Env`` and ``<Name>VectorEnv`` of ``task`` (Gymnasium's id ``theirs``): the ids'
+    entry points, ``JaxpgEnv`` and ``JaxpgVectorEnv`` of the task in Gymnasium's physics unless
+    given ``fidelity``, so that the ids' ``spec.kwargs`` are Gymnasium's."""
+    default = {} if task in NO_FIDELITY else {"fidelity": "gymnasium"}
+
+    def init_env(self: JaxpgEnv, render_mode: str | None = None, **kwargs: Any) -> None:
+        JaxpgEnv.__init__(self, task, render_mode=render_mode, **{**default, **kwargs})
+
+    def init_vector(self: JaxpgVectorEnv, num_envs: int, **kwargs: Any) -> None:
+        JaxpgVectorEnv.__init__(self, task, num_envs, **{**default, **kwargs})
+
+    name = gymnasium_registration.class_name(theirs)
+    env_doc = f"``JaxpgEnv`` of task {task!r}: the entry point of ``jaxpg/{theirs}`` and its fast id."
+    vector_doc = f"``JaxpgVectorEnv`` of task {task!r}: the vector entry point of ``jaxpg/{theirs}``."
+    env_class = type(name, (JaxpgEnv,), {"__init__": init_env, "__module__": __name__, "__doc__": env_doc})
+    vector_name = name.removesuffix("Env") + "VectorEnv"
+    vector_class = type(
+        vector_name, (JaxpgVectorEnv,), {"__init__": init_vector, "__module__": __name__, "__doc__": vector_doc}
+    )
+    return env_class, vector_class
+
+
+for _task, (_theirs, _) in envs_lib.GYMNASIUM_COUNTERPARTS.items():
+    for _class in _task_classes(_task, _theirs):
+        globals()[_class.__name__] = _class
 
 
 def gymnasium_id(name: str, fidelity: str = "gymnasium") -> str:

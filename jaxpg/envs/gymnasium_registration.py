@@ -60,25 +60,43 @@ def fast_id(gym_id: str) -> str:
     return f"{name}Fast-v{version}"
 
 
+def class_name(theirs: str) -> str:
+    """The name of the env class of Gymnasium's id ``theirs`` (``"Hopper-v5"`` -> ``"HopperEnv"``),
+    as Gymnasium names its own; ``jaxpg.envs.gymnasium_api`` defines one per task, and
+    ``<Name>VectorEnv`` for the batched env."""
+    return theirs.rsplit("-v", 1)[0] + "Env"
+
+
+def id_arguments(gym_id: str) -> tuple[str, dict[str, Any]] | None:
+    """``(task, keywords)`` that jaxpg id ``gym_id`` makes its task with (its fidelity), or
+    ``None`` for an id that is not jaxpg's."""
+    for task, (theirs, _) in COUNTERPARTS.items():
+        ours = f"jaxpg/{theirs}"
+        if gym_id == ours:
+            return task, ({} if task in NO_FIDELITY else {"fidelity": "gymnasium"})
+        if gym_id == fast_id(ours) and task not in NO_FIDELITY:
+            return task, {"fidelity": "fast"}
+    return None
+
+
 def register_ids(gymnasium: ModuleType) -> None:
     """Register ``jaxpg/<Id>`` (Gymnasium's physics) and its ``fast_id`` for every task with
     ``gymnasium`` (the imported module), each with Gymnasium's time limit and
-    ``reward_threshold``; ids already registered are left as they are."""
+    ``reward_threshold``, entry points named as Gymnasium's (``class_name``) and ``kwargs`` as
+    Gymnasium's env has them (none; the fast id's ``fidelity``); ids already registered are left
+    as they are."""
     for task, (theirs, limit) in COUNTERPARTS.items():
         gym_id = f"jaxpg/{theirs}"
         threshold = gymnasium.spec(theirs).reward_threshold if theirs in gymnasium.registry else None
-        variants = (
-            {gym_id: {}}
-            if task in NO_FIDELITY
-            else {gym_id: {"fidelity": "gymnasium"}, fast_id(gym_id): {"fidelity": "fast"}}
-        )
-        for variant, fidelity in variants.items():
+        variants = {gym_id: {}} if task in NO_FIDELITY else {gym_id: {}, fast_id(gym_id): {"fidelity": "fast"}}
+        env_class = class_name(theirs)
+        for variant, keywords in variants.items():
             if variant not in gymnasium.registry:
                 gymnasium.register(
                     variant,
-                    entry_point=f"{API_MODULE}:JaxpgEnv",
-                    vector_entry_point=f"{API_MODULE}:make_vector",
-                    kwargs={"task": task, **fidelity},
+                    entry_point=f"{API_MODULE}:{env_class}",
+                    vector_entry_point=f"{API_MODULE}:{env_class.removesuffix('Env')}VectorEnv",
+                    kwargs=keywords,
                     max_episode_steps=limit,
                     reward_threshold=threshold,
                 )

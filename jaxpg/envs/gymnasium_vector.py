@@ -17,7 +17,7 @@ from gymnasium.vector import AutoresetMode
 from gymnasium.vector.utils import batch_space
 
 from jaxpg import envs as envs_lib
-from jaxpg.envs import compile_options
+from jaxpg.envs import compile_options, gymnasium_registration
 from jaxpg.envs.gymnasium_spaces import (
     GYMNASIUM_IDS,
     INFO_KEYS,
@@ -217,10 +217,9 @@ class JaxpgVectorEnv(gymnasium.vector.VectorEnv):
 
 
 def make_vector(num_envs: int, task: str, **kwargs: Any) -> JaxpgVectorEnv:
-    """The ids' ``vector_entry_point``: ``gymnasium.make_vec(id, num_envs, **kwargs)`` lands here
-    with the id's ``task``, ``fidelity`` and ``max_episode_steps``; ``kwargs`` go to
-    ``JaxpgVectorEnv`` (``autoreset_mode``, ``render_mode``, ``array_type``, ``device``) and the
-    task."""
+    """``JaxpgVectorEnv`` of ``num_envs`` envs of ``task`` (``kwargs`` go to it and the task);
+    the ids' vector entry points (``gymnasium_api``'s ``<Name>VectorEnv``) make the same, in
+    the id's fidelity."""
     return JaxpgVectorEnv(task, num_envs, **kwargs)
 
 
@@ -233,11 +232,11 @@ def gymnasium_vector_env(
     ``impl``, ``max_episode_steps`` ...). A task name gets the task's defaults
     (``fidelity="fast"``), a jaxpg id the id's (its fidelity and time limit), as
     ``gymnasium.make_vec(id, num_envs)`` does."""
-    if name.startswith("jaxpg/") and name in gymnasium.registry:
-        spec = gymnasium.spec(name)
-        id_kwargs = {k: v for k, v in spec.kwargs.items() if k != "task"}
-        make_kwargs = {**id_kwargs, "max_episode_steps": spec.max_episode_steps, **make_kwargs}
-        name = spec.kwargs["task"]
+    of_id = gymnasium_registration.id_arguments(name)
+    if of_id is not None:
+        limit = gymnasium.spec(name).max_episode_steps
+        name, id_kwargs = of_id
+        make_kwargs = {**id_kwargs, "max_episode_steps": limit, **make_kwargs}
     if name not in envs_lib.names():
         raise ValueError(f"unknown environment {name!r}; known environments: {', '.join(envs_lib.names())}")
     return JaxpgVectorEnv(name, num_envs, device=device, **make_kwargs)

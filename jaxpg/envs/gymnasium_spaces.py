@@ -1,6 +1,7 @@
 """What jaxpg's Gymnasium envs share: their ids, Gymnasium's spaces and ``info`` keys for each task,
-action checks and host-side conversions (``gymnasium_api`` has the single env and the ids'
-registration, ``gymnasium_vector`` the batched vector env).
+action checks, host-side conversions to Gymnasium's types, the compile cache (``gymnasium_api``
+has the contract and the ids' entry points, ``gymnasium_single`` the single env,
+``gymnasium_vector`` the batched vector env, ``gymnasium_registration`` the ids' registration).
 
 Importing it checks Gymnasium's version first: an older Gymnasium gets one ``ImportError`` line
 naming the version needed.

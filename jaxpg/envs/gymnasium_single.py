@@ -101,7 +101,7 @@ def check_keywords(task: str, keywords: dict[str, Any]) -> None:
 
 
 class JaxpgEnv(gymnasium.Env):
-    """One jaxpg task as a ``gymnasium.Env`` (module docstring); jitted ``reset`` and ``step``.
+    """One jaxpg task as a ``gymnasium.Env`` (``gymnasium_api``'s docstring); jitted ``reset`` and ``step``.
 
     Make it through ``gymnasium.make("jaxpg/...")`` (or ``gymnasium_env``), which adds
     Gymnasium's ``TimeLimit``; the bare class never truncates. ``make_kwargs`` go to the task

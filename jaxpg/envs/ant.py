@@ -161,6 +161,10 @@ class Ant(MjxEnv):
         s = self.reset_noise_scale
         qpos = self.init_qpos + jax.random.uniform(kq, (self.nq,), minval=-s, maxval=s)
         qvel = self.init_qvel + s * jax.random.normal(kv, (self.nv,))
+        return self.start_state(qpos, qvel)
+
+    def start_state(self, qpos: jax.Array, qvel: jax.Array) -> tuple[Any, jax.Array, dict[str, jax.Array]]:
+        """The reset's ``(data, obs, metrics)`` at ``qpos [nq]``, ``qvel [nv]`` (``MjxEnv.start_state``)."""
         data = self.physics_state(qpos, qvel)
         # What mj_forward would give the first step's x_before: a free body's xpos is its joint's position.
         data = data.replace(xpos=data.xpos.at[TORSO].set(data.qpos[:3]))

@@ -1,6 +1,7 @@
 """What jaxpg's Gymnasium envs share: their ids, Gymnasium's spaces and ``info`` keys for each task,
-action checks and host-side conversions (``gymnasium_api`` has the single env and the ids'
-registration, ``gymnasium_vector`` the batched vector env).
+action checks, host-side conversions to Gymnasium's types, the compile cache (``gymnasium_api``
+has the contract and the ids' entry points, ``gymnasium_single`` the single env,
+``gymnasium_vector`` the batched vector env, ``gymnasium_registration`` the ids' registration).
 
 Importing it checks Gymnasium's version first: an older Gymnasium gets one ``ImportError`` line
 naming the version needed.
@@ -8,6 +9,7 @@ naming the version needed.
 
 from __future__ import annotations
 
+import functools
 import re
 from typing import Any
 
@@ -35,6 +37,7 @@ import jax  # noqa: E402
 from gymnasium import spaces  # noqa: E402
 
 from jaxpg import envs as envs_lib  # noqa: E402
+from jaxpg.envs.gymnasium_registration import NO_FIDELITY, fast_id  # noqa: E402, F401 - part of this module's API
 
 # jaxpg's Gymnasium id -> (jaxpg task, Gymnasium's step limit for it): ``jaxpg/<id>`` for each of
 # ``envs.GYMNASIUM_COUNTERPARTS``.
@@ -42,8 +45,6 @@ GYMNASIUM_IDS: dict[str, tuple[str, int]] = {
     f"jaxpg/{gym_id}": (task, limit) for task, (gym_id, limit) in envs_lib.GYMNASIUM_COUNTERPARTS.items()
 }
 
-# Tasks with no physics fidelity to choose (pure JAX, the same equations as Gymnasium's).
-NO_FIDELITY = frozenset({"cartpole"})
 
 _POSITION = ("x_position", "z_distance_from_origin")
 _PLANAR = ("x_position", "y_position", "distance_from_origin")
@@ -83,11 +84,14 @@ DATA_INFO = {"tendon_length": "ten_length", "tendon_velocity": "ten_velocity"}
 NO_LIMIT = 2**31 - 1
 
 
-def fast_id(gym_id: str) -> str:
-    """The id of ``gym_id``'s task in jaxpg's fast physics: ``"jaxpg/Hopper-v5"`` ->
-    ``"jaxpg/HopperFast-v5"``."""
-    name, version = gym_id.rsplit("-v", 1)
-    return f"{name}Fast-v{version}"
+@functools.cache
+def enable_compile_cache() -> Any:
+    """Turn on jaxpg's persistent compilation cache in this process, once, before a Gymnasium env
+    compiles (``jaxpg.run.compile_cache.enable_unless_chosen``: a second process making the same
+    env loads its programs; ``JAXPG_COMPILATION_CACHE=off`` leaves the cache off)."""
+    from jaxpg.run import compile_cache
+
+    return compile_cache.enable_unless_chosen()
 
 
 def gymnasium_observation_space(task: str, size: int) -> spaces.Box:
@@ -148,13 +152,47 @@ def _data_field(data: Any, name: str) -> jax.Array:
     return getattr(impl, name) if hasattr(impl, name) else getattr(data, name)
 
 
-def host_info(values: dict[str, Any], keys: tuple[str, ...]) -> dict[str, Any]:
-    """``info`` of one env from host ``values``: float64 scalars (as Gymnasium's MuJoCo envs give
-    them) or float64 arrays, for ``keys``."""
+# The Python types of the rewards and ``info`` values of Gymnasium's envs where they are not
+# NumPy float64 scalars (arrays are float64): what ``gymnasium.utils.env_checker.data_equivalence``
+# compares first. ``ACTION_TYPED`` keys take the action's float type (float32 for the actions its
+# spaces sample), as Gymnasium computes them from the action.
+REWARD_TYPES: dict[str, type] = {"inverted_pendulum": int, "cartpole": float}
+INFO_TYPES: dict[str, dict[str, type]] = {
+    "hopper": {"reward_survive": float},
+    "inverted_pendulum": {"reward_survive": int},
+    "inverted_double_pendulum": {"reward_survive": float},
+}
+ACTION_TYPED: dict[str, frozenset[str]] = {
+    task: frozenset({"reward_ctrl"})
+    for task in ("hopper", "walker2d", "half_cheetah", "ant", "swimmer", "reacher", "pusher")
+}
+
+
+def host_reward(task: str, reward: Any) -> Any:
+    """The reward of one step as Gymnasium's env of ``task`` types it (``REWARD_TYPES``, else a
+    NumPy float64)."""
+    kind = REWARD_TYPES.get(task, np.float64)
+    return kind(round(float(reward))) if kind is int else kind(reward)
+
+
+def host_info(
+    values: dict[str, Any], keys: tuple[str, ...], task: str | None = None, action_dtype: Any = np.float32
+) -> dict[str, Any]:
+    """``info`` of one env from host ``values`` for ``keys``: each scalar of the type Gymnasium's
+    env of ``task`` gives it (``INFO_TYPES``, ``ACTION_TYPED`` with ``action_dtype``, else NumPy
+    float64), arrays float64."""
+    types = INFO_TYPES.get(task, {})
+    action_typed = ACTION_TYPED.get(task, frozenset())
     out: dict[str, Any] = {}
     for k in keys:
         v = np.asarray(values[k], np.float64)
-        out[k] = v[()] if v.ndim == 0 else v
+        if v.ndim:
+            out[k] = v
+        elif k in action_typed:
+            out[k] = np.result_type(action_dtype, np.float32).type(v)
+        else:
+            kind = types.get(k, np.float64)
+            out[k] = kind(round(float(v))) if kind is int else kind(v)
     return out
 
 
@@ -171,3 +209,15 @@ def render_one(env: envs_lib.Env, state: envs_lib.State) -> np.ndarray:
 def make_key(make_kwargs: dict[str, Any]) -> tuple:
     """``make_kwargs`` as a hashable, order-independent cache key."""
     return tuple(sorted(make_kwargs.items()))
+
+
+def seed_key(seed: int) -> jax.Array:
+    """A JAX PRNG key of ``seed``, any non-negative integer (Gymnasium accepts seeds past 64 bits,
+    and JAX's 32-bit ``PRNGKey`` keeps only a seed's low 32 bits): ``PRNGKey`` of the low 32 bits,
+    each higher 32 bits folded in, so that every seed below 2**32 keeps its ``PRNGKey(seed)``."""
+    key = jax.random.PRNGKey(seed % 2**32)
+    high = seed >> 32
+    while high:
+        key = jax.random.fold_in(key, high % 2**32)
+        high >>= 32
+    return key

@@ -17,15 +17,17 @@ from gymnasium.vector import AutoresetMode
 from gymnasium.vector.utils import batch_space
 
 from jaxpg import envs as envs_lib
-from jaxpg.envs import compile_options
+from jaxpg.envs import compile_options, gymnasium_registration
 from jaxpg.envs.gymnasium_spaces import (
     GYMNASIUM_IDS,
     INFO_KEYS,
     check_actions,
+    enable_compile_cache,
     gymnasium_observation_space,
     info_arrays,
     make_key,
     render_one,
+    seed_key,
     task_spaces,
 )
 
@@ -111,6 +113,7 @@ class JaxpgVectorEnv(gymnasium.vector.VectorEnv):
             raise ValueError(f"autoreset_mode must be AutoresetMode.NEXT_STEP or SAME_STEP, got {autoreset_mode!r}")
         mode = AutoresetMode(autoreset_mode)
         task = GYMNASIUM_IDS[name][0] if name in GYMNASIUM_IDS else name
+        enable_compile_cache()
         env, self._reset_fn, self._step_fn = _vector_env(task, make_key(make_kwargs), num_envs, mode)
         self.task, self.env, self.num_envs, self.autoreset_mode = task, env, num_envs, mode
         self.device = device or jax.devices()[0]
@@ -151,12 +154,12 @@ class JaxpgVectorEnv(gymnasium.vector.VectorEnv):
         if isinstance(seed, list | tuple):
             if len(seed) != self.num_envs:
                 raise ValueError(f"expected {self.num_envs} seeds, got {len(seed)}")
-            keys = jnp.stack([jax.random.PRNGKey(s) for s in seed])
+            keys = jnp.stack([seed_key(s) for s in seed])
         elif self._state is not None:
             keys = self._state.info["rng"]
         else:
             start = int(self.np_random.integers(2**31))
-            keys = jnp.stack([jax.random.PRNGKey(start + i) for i in range(self.num_envs)])
+            keys = jnp.stack([seed_key(start + i) for i in range(self.num_envs)])
         self._state = self._reset_fn(jax.device_put(keys, self.device))
         info: dict[str, Any] = {}
         if self.task in INFO_KEYS:
@@ -214,10 +217,9 @@ class JaxpgVectorEnv(gymnasium.vector.VectorEnv):
 
 
 def make_vector(num_envs: int, task: str, **kwargs: Any) -> JaxpgVectorEnv:
-    """The ids' ``vector_entry_point``: ``gymnasium.make_vec(id, num_envs, **kwargs)`` lands here
-    with the id's ``task``, ``fidelity`` and ``max_episode_steps``; ``kwargs`` go to
-    ``JaxpgVectorEnv`` (``autoreset_mode``, ``render_mode``, ``array_type``, ``device``) and the
-    task."""
+    """``JaxpgVectorEnv`` of ``num_envs`` envs of ``task`` (``kwargs`` go to it and the task);
+    the ids' vector entry points (``gymnasium_api``'s ``<Name>VectorEnv``) make the same, in
+    the id's fidelity."""
     return JaxpgVectorEnv(task, num_envs, **kwargs)
 
 
@@ -230,11 +232,11 @@ def gymnasium_vector_env(
     ``impl``, ``max_episode_steps`` ...). A task name gets the task's defaults
     (``fidelity="fast"``), a jaxpg id the id's (its fidelity and time limit), as
     ``gymnasium.make_vec(id, num_envs)`` does."""
-    if name.startswith("jaxpg/") and name in gymnasium.registry:
-        spec = gymnasium.spec(name)
-        id_kwargs = {k: v for k, v in spec.kwargs.items() if k != "task"}
-        make_kwargs = {**id_kwargs, "max_episode_steps": spec.max_episode_steps, **make_kwargs}
-        name = spec.kwargs["task"]
+    of_id = gymnasium_registration.id_arguments(name)
+    if of_id is not None:
+        limit = gymnasium.spec(name).max_episode_steps
+        name, id_kwargs = of_id
+        make_kwargs = {**id_kwargs, "max_episode_steps": limit, **make_kwargs}
     if name not in envs_lib.names():
         raise ValueError(f"unknown environment {name!r}; known environments: {', '.join(envs_lib.names())}")
     return JaxpgVectorEnv(name, num_envs, device=device, **make_kwargs)

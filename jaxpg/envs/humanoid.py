@@ -283,7 +283,14 @@ class Humanoid(HumanoidBase):
         return self.external_force_cost(data, self.contact_cost_weight, self.contact_cost_range)
 
     def _reset(self, key: jax.Array) -> tuple[Any, jax.Array, dict[str, jax.Array]]:
-        data = self.reset_state(key)
+        return self._start_from(self.reset_state(key))
+
+    def start_state(self, qpos: jax.Array, qvel: jax.Array) -> tuple[Any, jax.Array, dict[str, jax.Array]]:
+        """The reset's ``(data, obs, metrics)`` at ``qpos [nq]``, ``qvel [nv]`` (``MjxEnv.start_state``)."""
+        return self._start_from(self.physics_state(qpos, qvel, forward=True))
+
+    def _start_from(self, data: Any) -> tuple[Any, jax.Array, dict[str, jax.Array]]:
+        """The reset's ``(data, obs, metrics)`` from its physics state ``data`` (after a forward pass)."""
         zero = jnp.zeros((), data.qpos.dtype)  # the dtype of the step's metrics: one compiled step
         metrics = {
             "reward_survive": zero,

@@ -90,6 +90,10 @@ class InvertedDoublePendulum(MjxEnv):
         s = self.reset_noise_scale
         qpos = self.init_qpos + jax.random.uniform(kq, (self.nq,), minval=-s, maxval=s)
         qvel = self.init_qvel + s * jax.random.normal(kv, (self.nv,))
+        return self.start_state(qpos, qvel)
+
+    def start_state(self, qpos: jax.Array, qvel: jax.Array) -> tuple[Any, jax.Array, dict[str, jax.Array]]:
+        """The reset's ``(data, obs, metrics)`` at ``qpos [nq]``, ``qvel [nv]`` (``MjxEnv.start_state``)."""
         # The observation reads qfrc_constraint, so the reset state needs a forward pass.
         data = self.physics_state(qpos, qvel, forward=True)
         _, _, terms = self.reward(data)

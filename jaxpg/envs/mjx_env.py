@@ -205,6 +205,12 @@ class MjxEnv(Env):
             data = mjx.kinematics(self.mjx_model, data)
         return data
 
+    def start_state(self, qpos: jax.Array, qvel: jax.Array) -> tuple[Any, jax.Array, dict[str, jax.Array]]:
+        """What ``_reset`` returns (``(data, obs, metrics)``) once it has drawn ``qpos [nq]`` and
+        ``qvel [nv]``: a reset to a given start state (Gymnasium's start states in
+        ``jaxpg.envs.gymnasium_api``). Every MJX task implements it."""
+        raise NotImplementedError(f"{type(self).__name__} has no start_state")
+
     def physics_step(self, data: Any, ctrl: jax.Array) -> Any:
         """Set ``ctrl [nu]`` and run ``frame_skip`` MJX steps.
 

@@ -107,6 +107,10 @@ class Pusher(MjxEnv):
         object_position = self.sample_object_position(k_object).astype(self.init_qpos.dtype)
         qpos = self.init_qpos.at[7:9].set(object_position).at[9:].set(0.0)
         qvel = jax.random.uniform(k_vel, (self.nv,), minval=-5e-3, maxval=5e-3).at[7:].set(0.0)
+        return self.start_state(qpos, qvel)
+
+    def start_state(self, qpos: jax.Array, qvel: jax.Array) -> tuple[Any, jax.Array, dict[str, jax.Array]]:
+        """The reset's ``(data, obs, metrics)`` at ``qpos [nq]``, ``qvel [nv]`` (``MjxEnv.start_state``)."""
         data = self.physics_state(qpos, qvel, kinematics=True)  # the observation reads body positions
         terms = self.reward_terms(data, jnp.zeros(self.action_size))
         metrics = {k: jnp.zeros((), jnp.float32) for k in terms} | {"task_score": terms["task_score"]}

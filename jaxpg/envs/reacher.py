@@ -102,6 +102,10 @@ class Reacher(MjxEnv):
         arm = self.init_qpos[:2] + jax.random.uniform(k_arm, (2,), minval=-s, maxval=s)
         qpos = jnp.concatenate([arm, self.sample_target(k_target)])
         qvel = jnp.concatenate([jax.random.uniform(k_vel, (2,), minval=-v, maxval=v), jnp.zeros(2)])
+        return self.start_state(qpos, qvel)
+
+    def start_state(self, qpos: jax.Array, qvel: jax.Array) -> tuple[Any, jax.Array, dict[str, jax.Array]]:
+        """The reset's ``(data, obs, metrics)`` at ``qpos [nq]``, ``qvel [nv]`` (``MjxEnv.start_state``)."""
         # The observation reads the bodies' positions: the kinematic pass computes them.
         data = self.physics_state(qpos, qvel, kinematics=True)
         _, terms = self.reward(data, jnp.zeros(self.action_size))

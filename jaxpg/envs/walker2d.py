@@ -81,6 +81,10 @@ class Walker2d(MjxEnv):
         s = self.reset_noise_scale
         qpos = self.init_qpos + jax.random.uniform(kq, (self.nq,), minval=-s, maxval=s)
         qvel = self.init_qvel + jax.random.uniform(kv, (self.nv,), minval=-s, maxval=s)
+        return self.start_state(qpos, qvel)
+
+    def start_state(self, qpos: jax.Array, qvel: jax.Array) -> tuple[Any, jax.Array, dict[str, jax.Array]]:
+        """The reset's ``(data, obs, metrics)`` at ``qpos [nq]``, ``qvel [nv]`` (``MjxEnv.start_state``)."""
         data = self.physics_state(qpos, qvel)
         zero = jnp.zeros((), data.qpos.dtype)  # the dtype of the step's metrics: one compiled step
         metrics = {

@@ -63,6 +63,24 @@ def enable(directory: str | os.PathLike | None = None, min_compile_seconds: floa
     return path
 
 
+def enable_unless_chosen() -> Path | None:
+    """``enable()`` in a process that has not chosen a cache directory itself (JAX's
+    ``jax_compilation_cache_dir`` unset), e.g. one that makes jaxpg's Gymnasium envs; returns the
+    directory in use (``None``: off). Safe after the process compiled other programs: JAX, which
+    settles its cache at the first compilation, settles it again at the next one. Processes share
+    the directory: JAX writes an entry once, under a name of its key, and a process that reads an
+    entry another is still writing only warns and compiles the program itself."""
+    chosen = jax.config.jax_compilation_cache_dir
+    if chosen:
+        return Path(chosen)
+    path = enable()
+    if path is not None:
+        from jax.experimental.compilation_cache import compilation_cache as jax_cache
+
+        jax_cache.reset_cache()
+    return path
+
+
 def _unusable(path: Path) -> str | None:
     """Why ``path`` cannot hold the cache (its creation or a test file in it fails), or ``None``."""
     try:

@@ -103,8 +103,9 @@ def hyperparameters(config: Any) -> dict[str, jax.Array]:
 
 
 def is_traced(ts: Any) -> bool:
-    """Whether ``ts`` carries its hyperparameters as data (``TrainState.hparams`` not empty)."""
-    return bool(ts.hparams)
+    """Whether ``ts`` carries its hyperparameters as data (``TrainState.hparams`` not empty; a
+    state-like object without the attribute does not)."""
+    return bool(getattr(ts, "hparams", ()))
 
 
 def run_config(ts: Any) -> Any:

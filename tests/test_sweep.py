@@ -181,18 +181,23 @@ def test_spec_errors_are_spec_errors():
         SweepSpec(task="cartpole", algo="ddpg").expand()
 
 
-def test_two_processes_share_a_sweep(swept, tmp_path):
-    """The sweep over two processes of one CPU device each (``jax.distributed``): each chunk of two
-    runs is split one run per process. Its tables hold the same runs; the first iteration, sampled
-    with the initial policies, gives the one-process sweep's returns (the same float32 program for
-    each run, to reduction order: rtol 1e-5), and the scores come from process 0."""
+def test_two_processes_share_a_sweep(tmp_path):
+    """A sweep over two processes of one CPU device each (``jax.distributed``; cartpole, whose env
+    holds no MJX model: MJX places a model on ``jax.devices()[0]``, which in a process other than 0
+    is another process's device): each chunk of two runs is split one run per process. It holds
+    the runs of the one-process sweep, and its first iteration, sampled with the initial policies,
+    gives that sweep's returns (the same float32 program for each run, to reduction order: rtol
+    1e-5); process 0 scores them all."""
+    args = [arg.replace("inverted_pendulum", "cartpole") for arg in CLI_ARGS]
+    one = tmp_path / "one"
+    assert cli.main([*args, "--out", str(one)]) == 0
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]
-    out = tmp_path / "two"
+    two = tmp_path / "two"
     env = {**os.environ, "JAX_PLATFORMS": "cpu", "PYTHONUNBUFFERED": "1"}
     env["XLA_FLAGS"] = f"{os.environ.get('XLA_FLAGS', '')} --xla_force_host_platform_device_count=1"
-    common = [*CLI_ARGS, "--out", str(out), "--coordinator-address", f"127.0.0.1:{port}", "--num-processes", "2"]
+    common = [*args, "--out", str(two), "--coordinator-address", f"127.0.0.1:{port}", "--num-processes", "2"]
     procs = [
         subprocess.Popen(
             [sys.executable, "-m", "jaxpg.sweep", *common, "--process-id", str(i)],
@@ -214,10 +219,10 @@ def test_two_processes_share_a_sweep(swept, tmp_path):
     for proc, (_, stderr) in zip(procs, results, strict=True):
         assert proc.returncode == 0, stderr[-3000:]
     assert "on 2 device(s)" in results[0][0]
-    one = {(r["run"], r["iteration"]): float(r["return"]) for r in csv_rows(swept[0] / "curves.csv")}
-    two = {(r["run"], r["iteration"]): float(r["return"]) for r in csv_rows(out / "curves.csv")}
-    assert set(one) == set(two)
+    ones = {(r["run"], r["iteration"]): float(r["return"]) for r in csv_rows(one / "curves.csv")}
+    twos = {(r["run"], r["iteration"]): float(r["return"]) for r in csv_rows(two / "curves.csv")}
+    assert set(ones) == set(twos)
     for run in ("0", "1", "2", "3"):
-        assert two[(run, "1")] == pytest.approx(one[(run, "1")], rel=1e-5)
-    rows = list(csv_rows(out / "runs.csv"))
+        assert twos[(run, "1")] == pytest.approx(ones[(run, "1")], rel=1e-5)
+    rows = list(csv_rows(two / "runs.csv"))
     assert len(rows) == 4 and all(r["score"] for r in rows)

@@ -226,3 +226,20 @@ def test_two_processes_share_a_sweep(tmp_path):
         assert twos[(run, "1")] == pytest.approx(ones[(run, "1")], rel=1e-5)
     rows = list(csv_rows(two / "runs.csv"))
     assert len(rows) == 4 and all(r["score"] for r in rows)
+
+
+def test_sweep_speed_quick(tmp_path, capsys):
+    """``benchmarks/sweep_speed.py --quick`` (the GPU benchmark at tiny sizes on cartpole): the
+    sweep of 4 configurations x 2 seeds and one sequential run in its own process; its table and
+    JSON hold the counts and the ratios as the seconds give them."""
+    from script_loader import load_script
+
+    bench = load_script("benchmarks/sweep_speed.py")
+    assert bench.main(["--quick", "--case", "npg", "--sequential", "1", "--out", str(tmp_path)]) == 0
+    data = json.loads((tmp_path / "sweep_speed.json").read_text())
+    (result,) = data["results"]
+    assert result["sweep"]["runs"] == 8 and len(result["sequential"]) == 1
+    assert result["sweep_s_per_run"] == pytest.approx(result["sweep"]["wall_s"] / 8)
+    assert result["speedup"] == pytest.approx(result["sequential_process_s_per_run"] / result["sweep_s_per_run"])
+    assert result["sequential_extrapolated_s"] == pytest.approx(8 * result["sequential_process_s_per_run"])
+    assert "speed-up" in capsys.readouterr().out

@@ -81,6 +81,24 @@ CASES = {
             normalize_rewards=True,
         ),
     ),
+    # Every switch off (no clipping, annealing, value clipping or KL guard): the traced numbers
+    # must not switch them on.
+    "ppo_switches_off": (
+        ppo,
+        "cartpole",
+        ppo.Config(
+            **SMALL,
+            num_epochs=2,
+            num_minibatches=2,
+            lr=7e-4,
+            clip_eps=0.3,
+            value_coef=0.7,
+            entropy_coef=0.02,
+            max_grad_norm=0.0,
+            max_update_kl=0.0,
+            gamma=0.97,
+        ),
+    ),
     "a2c": (
         a2c,
         "cartpole",

@@ -111,10 +111,13 @@ def is_traced(ts: Any) -> bool:
 def run_config(ts: Any) -> Any:
     """The config whose numbers ``ts``'s update uses: ``ts.config`` itself, or with
     ``ts.hparams``' traced values in place of its traced fields. Read structure (Python ``if``s,
-    shapes) from ``ts.config``, never from this: its traced fields are arrays."""
+    shapes) from ``ts.config``, never from this: its traced fields are arrays. A switch field that
+    is off in ``ts.config`` keeps its static value: every run of the program has it off, and any
+    off value (0, or no log-std floor) acts alike."""
     if not is_traced(ts):
         return ts.config
-    names = set(traced_fields(ts.config))
+    off = {name for name, on in switch_states(ts.config) if not on}
+    names = set(traced_fields(ts.config)) - off
     return dataclasses.replace(ts.config, **{k: v for k, v in ts.hparams.items() if k in names})
 
 

@@ -58,6 +58,9 @@ class Config(actor_critic.ActorCriticConfig):
     gae_lambda: float = 1.0
     normalize_advantages: bool = False
 
+    # rmsprop_decay stays static: optax computes 1 - decay in Python, which a traced value would round apart.
+    TRACED_FIELDS: ClassVar[tuple[str, ...]] = ("lr", "eps")
+
     def validate(self, env: Env) -> None:
         super().validate(env)
         if self.optimizer not in ("rmsprop", "adam"):
@@ -72,15 +75,18 @@ class Config(actor_critic.ActorCriticConfig):
 PRESETS = presets.by_algorithm("a2c")
 
 
-def optimizer(config: Config) -> optax.GradientTransformation:
+def optimizer(config: Config, structure: Config | None = None) -> optax.GradientTransformation:
     """Gradient clipping, then RMSprop or Adam at ``lr``, annealed over one optimizer step an
-    iteration (``actor_critic.learning_rate_schedule``)."""
+    iteration (``actor_critic.learning_rate_schedule``). ``config``'s numbers may be traced
+    (``core.run_config``); ``structure`` (default ``config``) then says whether to clip."""
+    structure = config if structure is None else structure
     lr = actor_critic.learning_rate_schedule(config.lr, config, 1)
     if config.optimizer == "rmsprop":
         step = optax.rmsprop(lr, decay=config.rmsprop_decay, eps=config.eps, eps_in_sqrt=config.rmsprop_eps_in_sqrt)
     else:
         step = optax.adam(lr, eps=config.eps)
-    return optax.chain(core.clip_gradients(config.max_grad_norm), step)
+    clip = optax.clip_by_global_norm(config.max_grad_norm) if structure.max_grad_norm > 0 else optax.identity()
+    return optax.chain(clip, step)
 
 
 def init(key: jax.Array, env: Env, config: Config) -> TrainState:
@@ -96,7 +102,7 @@ def update(ts: TrainState) -> tuple[TrainState, dict[str, jax.Array]]:
     batch = actor_critic.phase_advantages(ts, learning_traj)
     ts, fit_batch = core.standardise_value_targets(ts, batch)
     joint, opt_state, diagnostics = actor_critic.gradient_step(
-        ts, optimizer(ts.config), actor_critic.joint_params(ts), ts.opt_state, fit_batch
+        ts, optimizer(core.run_config(ts), ts.config), actor_critic.joint_params(ts), ts.opt_state, fit_batch
     )
     ts = actor_critic.with_joint_params(ts, joint, opt_state)
     metrics = {name: diagnostics[name] for name in ("entropy", "policy_loss", "value_loss", "grad_norm", "loss")}

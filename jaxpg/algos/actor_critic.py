@@ -18,7 +18,7 @@ rewards, so that it does not swamp the policy's share of the clipped joint gradi
 from __future__ import annotations
 
 import dataclasses
-from typing import Any
+from typing import Any, ClassVar
 
 import jax
 import jax.numpy as jnp
@@ -54,6 +54,14 @@ class ActorCriticConfig(core.GAEConfig):
     anneal_lr_iterations: int = 0
     normalize_rewards: bool = False
 
+    TRACED_FIELDS: ClassVar[tuple[str, ...]] = (
+        "value_coef",
+        "entropy_coef",
+        "max_grad_norm",
+        "reward_scaling",
+        "anneal_lr_iterations",
+    )
+
     def validate(self, env: Env) -> None:
         super().validate(env)
         if self.max_grad_norm < 0:
@@ -64,10 +72,30 @@ class ActorCriticConfig(core.GAEConfig):
 
 def learning_rate_schedule(lr: float, config: ActorCriticConfig, steps_per_iteration: int) -> optax.Schedule | float:
     """The learning rate as optax takes it: ``lr``, or its linear decay to 0 over
-    ``config.anneal_lr_iterations`` iterations of ``steps_per_iteration`` optimizer steps each."""
-    if not config.anneal_lr_iterations:
-        return lr
-    return optax.linear_schedule(lr, 0.0, config.anneal_lr_iterations * steps_per_iteration)
+    ``config.anneal_lr_iterations`` iterations of ``steps_per_iteration`` optimizer steps each.
+    ``lr`` and ``config``'s fields may be traced (``core.run_config``; a traced horizon always
+    anneals): the schedule is then ``linear_decay``, which rounds as optax's does."""
+    anneal = config.anneal_lr_iterations
+    if not isinstance(anneal, jax.Array):
+        if not anneal:
+            return lr
+        if not isinstance(lr, jax.Array):
+            return optax.linear_schedule(lr, 0.0, anneal * steps_per_iteration)
+    return linear_decay(lr, anneal * steps_per_iteration)
+
+
+def linear_decay(init_value: jax.Array, transition_steps: jax.Array) -> optax.Schedule:
+    """``count -> init_value * (1 - min(count, transition_steps) / transition_steps)`` for traced
+    ``init_value`` and ``transition_steps`` (``[]``): ``optax.linear_schedule(init_value, 0.0,
+    transition_steps)`` written for arrays, its division by the constant number of steps done as
+    XLA does it there (``core.divide``)."""
+
+    def schedule(count: jax.Array) -> jax.Array:
+        count = jnp.clip(count - 0, 0, transition_steps)
+        frac = 1 - core.divide(count, transition_steps)
+        return (init_value - 0.0) * (frac**1) + 0.0
+
+    return schedule
 
 
 def joint_params(ts: TrainState) -> dict[str, Any]:
@@ -97,14 +125,19 @@ def phase_rewards(ts: TrainState, traj: Trajectory) -> tuple[TrainState, Traject
     both as they are. The metrics come from the sampled ``traj``, not from this one."""
     if not ts.config.normalize_rewards:
         return ts, traj
-    traj, normalizer = core.normalize_trajectory_rewards(ts.reward_normalizer, traj, ts.config.gamma)
+    traj, normalizer = core.normalize_trajectory_rewards(ts.reward_normalizer, traj, core.run_config(ts).gamma)
     return ts.replace(reward_normalizer=normalizer), traj
 
 
 def phase_advantages(ts: TrainState, traj: Trajectory) -> core.Batch:
     """``core.phase_advantages`` on rewards multiplied by ``config.reward_scaling``."""
-    scaled = traj.replace(rewards=traj.rewards * ts.config.reward_scaling)
+    scaled = traj.replace(rewards=traj.rewards * core.run_config(ts).reward_scaling)
     return core.phase_advantages(ts, scaled)
+
+
+def _is_on(eps: Any) -> bool:
+    """Whether a clip range turns its clipping on: > 0, or traced (a program clips or not for all its runs)."""
+    return not isinstance(eps, int | float) or eps > 0
 
 
 def loss(
@@ -123,25 +156,28 @@ def loss(
     ``value_clip_eps`` > 0 the larger of that error and the error of
     ``old_values + clip(V(s) - old_values, -+ value_clip_eps)`` (PPO2's value clipping;
     ``old_values [n]`` are the predictions at sampling time). Entropy term: ``E[H(pi(.|s))]``.
-    ``ts.config`` supplies ``value_coef`` and ``entropy_coef``; means are weighted by
+    ``ts``'s run (``core.run_config``) supplies ``value_coef`` and ``entropy_coef``; a traced
+    ``clip_eps`` must be ``config.clip_eps``'s (its bounds come from ``core.derived``); means are weighted by
     ``batch.weights``. ``diagnostics``: ``policy_loss``, ``value_loss``, ``entropy``,
     ``approx_kl`` and ``clip_fraction``.
     """
-    config = ts.config
+    config = core.run_config(ts)
     w = batch.weights
     dist = ts.policy.dist(joint["policy"], batch.obs)
     log_ratio = ts.policy.dist_log_prob(dist, batch.actions) - batch.log_probs
     ratio = jnp.exp(log_ratio)
-    if clip_eps > 0:
-        surrogate = jnp.minimum(
-            ratio * batch.advantages, jnp.clip(ratio, 1.0 - clip_eps, 1.0 + clip_eps) * batch.advantages
-        )
+    if _is_on(clip_eps):
+        if isinstance(clip_eps, int | float):
+            low, high = 1.0 - clip_eps, 1.0 + clip_eps
+        else:  # traced: PPO's config.clip_eps, whose bounds the host computed (core.derived)
+            low, high = core.derived(ts, "1-clip_eps"), core.derived(ts, "1+clip_eps")
+        surrogate = jnp.minimum(ratio * batch.advantages, jnp.clip(ratio, low, high) * batch.advantages)
         clipped = (jnp.abs(ratio - 1.0) > clip_eps).astype(ratio.dtype)
     else:
         surrogate = ratio * batch.advantages
         clipped = jnp.zeros_like(ratio)
     policy_loss = -core.weighted_mean(surrogate, w)
-    if value_clip_eps > 0:
+    if _is_on(value_clip_eps):
         values = ts.value_fn.apply(joint["value"], batch.obs)
         values_clipped = old_values + jnp.clip(values - old_values, -value_clip_eps, value_clip_eps)
         targets = batch.value_targets

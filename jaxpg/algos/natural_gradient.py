@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Callable
-from typing import Any
+from typing import Any, ClassVar
 
 import jax
 import jax.numpy as jnp
@@ -41,6 +41,8 @@ class NaturalGradientConfig(core.GAEConfig, core.ValueFitConfig):
     cg_damping: float = 1e-4
     fvp: str = "gauss_newton"
     fisher_samples: int = 0
+
+    TRACED_FIELDS: ClassVar[tuple[str, ...]] = ("cg_damping",)
 
     def validate(self, env: Env) -> None:
         super().validate(env)
@@ -81,9 +83,9 @@ def fisher_operator(ts: core.TrainState, obs: jax.Array, weights: jax.Array) -> 
     """``v -> (F + cg_damping I) v`` on pytrees like the parameters, ``F`` the policy's Fisher
     matrix at ``ts.params`` averaged over the states ``obs [M, obs_dim]`` weighted by
     ``weights [M]`` (``config.fvp`` says how)."""
-    config = ts.config
+    damping = core.run_config(ts).cg_damping
     return linalg.make_fisher_vector_product(
-        ts.policy, ts.params, obs, weights=weights, damping=config.cg_damping, mode=config.fvp
+        ts.policy, ts.params, obs, weights=weights, damping=damping, mode=ts.config.fvp
     )
 
 

@@ -56,6 +56,8 @@ class Config(natural_gradient.NaturalGradientConfig):
     kl_delta: float = 0.05
     anneal_kl_iterations: int = 0
 
+    TRACED_FIELDS: ClassVar[tuple[str, ...]] = ("kl_delta", "anneal_kl_iterations")
+
     OLD_FIELD_NAMES: ClassVar[dict[str, str | None]] = {
         **natural_gradient.NaturalGradientConfig.OLD_FIELD_NAMES,
         "step_size": "kl_delta",
@@ -158,25 +160,28 @@ def scale_by_natural_gradient(kl_delta: jax.Array | float, cg_iters: int) -> opt
 def kl_delta_at(config: Config, iteration: jax.Array) -> jax.Array | float:
     """The normalised step's delta at ``iteration`` (``[]``, iterations completed):
     ``config.kl_delta``, or with ``anneal_kl_iterations = N > 0`` the linear decay
-    ``kl_delta * (1 - iteration / N)``, which is 0 from iteration ``N`` on (no step)."""
-    if not config.anneal_kl_iterations:
+    ``kl_delta * (1 - iteration / N)``, which is 0 from iteration ``N`` on (no step). ``config``'s
+    fields may be traced (``core.run_config``; a traced ``N`` always anneals)."""
+    if isinstance(config.anneal_kl_iterations, int) and not config.anneal_kl_iterations:
         return config.kl_delta
-    remaining = 1.0 - iteration.astype(jnp.float32) / config.anneal_kl_iterations
+    remaining = 1.0 - core.divide(iteration.astype(jnp.float32), config.anneal_kl_iterations)
     return config.kl_delta * jnp.clip(remaining, 0.0, 1.0)
 
 
 BACKTRACKS = 6  # halvings of the natural step tried when it overshoots its KL bound
 
 
-def kl_bound(config: Config, kl_delta: jax.Array | float | None = None) -> jax.Array | float:
+def kl_bound(config: Config, kl_delta: jax.Array | float | None = None, check: bool | None = None) -> jax.Array | float:
     """The mean KL an NPG step may reach: twice the ``kl_delta / 2`` that the normalised step
     aims at in the Fisher metric, and never more than ``max_update_kl`` (when that is set).
 
     ``kl_delta`` (e.g. a traced array, see ``update_with_kl_delta``) stands in for
-    ``config.kl_delta``; the bound is then an array."""
+    ``config.kl_delta``; the bound is then an array. ``check`` says whether ``max_update_kl`` is
+    set, for a ``config`` whose fields are traced (``core.run_config``)."""
+    check = config.max_update_kl > 0 if check is None else check
     if kl_delta is None:
-        return min(config.kl_delta, config.max_update_kl) if config.max_update_kl > 0 else config.kl_delta
-    return jnp.minimum(kl_delta, config.max_update_kl) if config.max_update_kl > 0 else jnp.asarray(kl_delta)
+        return min(config.kl_delta, config.max_update_kl) if check else config.kl_delta
+    return jnp.minimum(kl_delta, config.max_update_kl) if check else jnp.asarray(kl_delta)
 
 
 def step_within_kl(
@@ -267,11 +272,14 @@ def update_using(
     advantages = functools.partial(core.phase_advantages, advantage_fn=advantage_fn)
     batch = run_phase("advantages", advantages, ts, traj)
     grads = run_phase("gradient", natural_gradient.policy_gradient, ts, batch)
+    run = core.run_config(ts)
     if kl_delta is None and ts.config.anneal_kl_iterations:
-        kl_delta = kl_delta_at(ts.config, old.iteration)
+        kl_delta = kl_delta_at(run, old.iteration)
+    elif kl_delta is None and core.is_traced(ts):
+        kl_delta = run.kl_delta
     delta = ts.config.kl_delta if kl_delta is None else kl_delta
     solve = run_phase("natural_step", phase_natural_step, ts, batch, grads, delta)
-    bound = kl_bound(ts.config, kl_delta)
+    bound = kl_bound(run, kl_delta, ts.config.max_update_kl > 0)
     new_params, kl, fraction, entropy = run_phase("kl_backoff", phase_kl_backoff, ts, batch, solve, bound)
     ts, value_loss = run_phase("value_fit", core.phase_value_fit, ts.replace(params=new_params), batch, value_key)
     metrics = {

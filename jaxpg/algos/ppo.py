@@ -28,7 +28,7 @@ Both scans (epochs, minibatches) run inside ``jit``.
 from __future__ import annotations
 
 import dataclasses
-from typing import Any
+from typing import Any, ClassVar
 
 import jax
 import jax.numpy as jnp
@@ -77,6 +77,8 @@ class Config(actor_critic.ActorCriticConfig):
     normalize_minibatch_advantages: bool = False
     recompute_advantages: bool = False
 
+    TRACED_FIELDS: ClassVar[tuple[str, ...]] = ("lr", "adam_eps", "clip_eps", "value_clip_eps")
+
     @property
     def minibatch_size(self) -> int:
         return self.samples_per_iteration // self.num_minibatches
@@ -115,6 +117,16 @@ def optimizer(config: Config) -> optax.GradientTransformation:
     return optax.chain(
         core.clip_gradients(config.max_grad_norm), optax.adam(learning_rate_schedule(config), eps=config.adam_eps)
     )
+
+
+def run_optimizer(ts: TrainState) -> optax.GradientTransformation:
+    """``optimizer`` of ``ts``'s run: its numbers read through ``core.run_config`` (traced when
+    ``ts`` carries hparams), its structure (clipping on or off, a schedule or not) from ``ts.config``."""
+    if not core.is_traced(ts):
+        return optimizer(ts.config)
+    run = core.run_config(ts)
+    clip = optax.clip_by_global_norm(run.max_grad_norm) if ts.config.max_grad_norm > 0 else optax.identity()
+    return optax.chain(clip, optax.adam(learning_rate_schedule(run), eps=run.adam_eps))
 
 
 def learning_rate(config: Config, iteration: jax.Array) -> jax.Array:
@@ -156,7 +168,10 @@ def phase_epochs(
     config = ts.config
     if config.recompute_advantages and traj is None:
         raise ValueError("recompute_advantages needs the learning trajectory (traj)")
-    opt = optimizer(config)
+    opt = run_optimizer(ts)
+    run = core.run_config(ts)
+    clip_eps = run.clip_eps
+    value_clip_eps = run.value_clip_eps if config.value_clip_eps > 0 else 0.0
     n = config.samples_per_iteration
     old_values = ts.value_fn.apply(ts.value_params, batch.obs)
 
@@ -175,7 +190,7 @@ def phase_epochs(
             if config.normalize_minibatch_advantages:
                 mb = minibatch_advantages(mb)
             joint, opt_state, diagnostics = actor_critic.gradient_step(
-                ts, opt, joint, opt_state, mb, config.clip_eps, config.value_clip_eps, data_old_values[idx]
+                ts, opt, joint, opt_state, mb, clip_eps, value_clip_eps, data_old_values[idx]
             )
             return (joint, opt_state), diagnostics
 
@@ -198,5 +213,5 @@ def update(ts: TrainState) -> tuple[TrainState, dict[str, jax.Array]]:
     ts, diagnostics = phase_epochs(ts, fit_batch, epochs_key, learning_traj)
     # The exact mean KL(pi_old || pi_new) over the batch, as every algorithm reports it.
     kl = core.mean_kl(ts, old.params, ts.params, batch)
-    metrics = {**diagnostics, "learning_rate": learning_rate(ts.config, old.iteration)}
+    metrics = {**diagnostics, "learning_rate": learning_rate(core.run_config(ts), old.iteration)}
     return core.finish_iteration(old, ts, traj, loss=diagnostics["loss"], kl=kl, metrics=metrics)

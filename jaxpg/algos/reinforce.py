@@ -62,6 +62,8 @@ class Config(core.BaseConfig):
     entropy_coef: float = 0.0
     max_grad_norm: float = 0.0
 
+    TRACED_FIELDS: ClassVar[tuple[str, ...]] = ("lr", "weight_decay", "entropy_coef", "max_grad_norm")
+
     # REINFORCE has no value function (command lines offer no flag for these).
     UNUSED_FIELDS: ClassVar[tuple[str, ...]] = ("value_hidden", "value_activation", "normalize_value_targets")
     FIELD_CHOICES: ClassVar[dict[str, tuple[str, ...]]] = {"optimizer": ("adam", "adamw")}
@@ -85,13 +87,17 @@ class Config(core.BaseConfig):
 PRESETS = presets.by_algorithm("reinforce")
 
 
-def optimizer(config: Config) -> optax.GradientTransformation:
-    """Optional global-norm clipping, then Adam or AdamW with a constant learning rate."""
+def optimizer(config: Config, structure: Config | None = None) -> optax.GradientTransformation:
+    """Optional global-norm clipping, then Adam or AdamW with a constant learning rate.
+    ``config``'s numbers may be traced (``core.run_config``); ``structure`` (default ``config``)
+    then says whether to clip."""
+    structure = config if structure is None else structure
     if config.optimizer == "adamw":
         opt = optax.adamw(config.lr, weight_decay=config.weight_decay)
     else:
         opt = optax.adam(config.lr)
-    return optax.chain(core.clip_gradients(config.max_grad_norm), opt)
+    clip = optax.clip_by_global_norm(config.max_grad_norm) if structure.max_grad_norm > 0 else optax.identity()
+    return optax.chain(clip, opt)
 
 
 def init(key: jax.Array, env: Env, config: Config) -> TrainState:
@@ -116,7 +122,7 @@ def normalized_returns(traj: Trajectory, gamma: float, normalization: str) -> ja
 def phase_returns(ts: TrainState, traj: Trajectory) -> core.Batch:
     """The flat training batch whose ``advantages`` (and ``value_targets``) are the normalised
     returns; observations normalised with the statistics the batch was sampled with."""
-    g = normalized_returns(traj, ts.config.gamma, ts.config.return_normalization)
+    g = normalized_returns(traj, core.run_config(ts).gamma, ts.config.return_normalization)
     batch = core.Batch(
         obs=ts.obs_stats.normalize(traj.obs),
         actions=traj.actions,
@@ -137,14 +143,14 @@ def loss(ts: TrainState, params: Any, batch: core.Batch) -> tuple[jax.Array, dic
     advantages = jax.lax.stop_gradient(batch.advantages)
     policy_loss = -jnp.sum(advantages * log_probs * batch.weights) / total_weight
     entropy = jnp.sum(ts.policy.dist_entropy(dist) * batch.weights) / total_weight
-    return policy_loss - ts.config.entropy_coef * entropy, {"policy_loss": policy_loss, "entropy": entropy}
+    return policy_loss - core.run_config(ts).entropy_coef * entropy, {"policy_loss": policy_loss, "entropy": entropy}
 
 
 def policy_step(ts: TrainState, batch: core.Batch) -> tuple[TrainState, dict[str, jax.Array]]:
     """One optimizer step on ``loss``; returns the new state and the loss diagnostics with
     ``loss`` and the pre-clipping ``grad_norm``."""
     (total, diagnostics), grads = jax.value_and_grad(loss, argnums=1, has_aux=True)(ts, ts.params, batch)
-    updates, opt_state = optimizer(ts.config).update(grads, ts.opt_state, ts.params)
+    updates, opt_state = optimizer(core.run_config(ts), ts.config).update(grads, ts.opt_state, ts.params)
     ts = ts.replace(params=optax.apply_updates(ts.params, updates), opt_state=opt_state)
     return ts, {**diagnostics, "loss": total, "grad_norm": optax.tree.norm(grads)}
 

@@ -82,7 +82,7 @@ def update(ts: TrainState) -> tuple[TrainState, dict[str, jax.Array]]:
     docstring); ``jaxpg.algos.reinforce``'s pieces with ``point_returns`` for its returns."""
     old = ts
     ts, traj, _ = core.phase_sample(ts)
-    g, complete = point_returns(traj.rewards, traj.terminated, traj.truncated, ts.config.gamma)
+    g, complete = point_returns(traj.rewards, traj.terminated, traj.truncated, core.run_config(ts).gamma)
     weights = traj.valid * complete
     advantages = returns.normalize(g, mask=weights)
     batch = core.flatten_batch(

@@ -32,6 +32,8 @@ class Config(natural_gradient.NaturalGradientConfig):
     backtrack_ratio: float = 0.8
     accept_ratio: float = 0.1
 
+    TRACED_FIELDS: ClassVar[tuple[str, ...]] = ("max_kl", "backtrack_ratio", "accept_ratio")
+
     # Configs saved before TRPO stopped inheriting NPG's step size (which it never used).
     OLD_FIELD_NAMES: ClassVar[dict[str, str | None]] = {
         **natural_gradient.NaturalGradientConfig.OLD_FIELD_NAMES,
@@ -58,11 +60,11 @@ def line_search(
     the trust region's edge; returns the new params and ``[]`` diagnostics: ``step_length`` (0
     when rejected), ``kl``, ``surrogate_improvement``, ``line_search_accepted`` and
     ``line_search_backtracks``."""
-    config = ts.config
+    config = core.run_config(ts)
     flat_params, unravel = ravel_pytree(ts.params)
     curvature = jnp.dot(direction, natural_gradient.fisher_vector_product(ts, batch.obs, batch.weights)(direction))
-    full_step = jnp.sqrt(2.0 * config.max_kl / jnp.maximum(curvature, 1e-20))
-    fractions = config.backtrack_ratio ** jnp.arange(config.backtracks, dtype=jnp.float32)
+    full_step = jnp.sqrt(core.derived(ts, "2*max_kl") / jnp.maximum(curvature, 1e-20))
+    fractions = config.backtrack_ratio ** jnp.arange(ts.config.backtracks, dtype=jnp.float32)
     baseline = natural_gradient.surrogate(ts, ts.params, batch)
 
     def evaluate(fraction: jax.Array) -> tuple[jax.Array, jax.Array]:
@@ -81,7 +83,7 @@ def line_search(
         "kl": jnp.where(accepted, kl[first], 0.0),
         "surrogate_improvement": jnp.where(accepted, improvement[first], 0.0),
         "line_search_accepted": accepted.astype(jnp.float32),
-        "line_search_backtracks": jnp.where(accepted, first, config.backtracks).astype(jnp.float32),
+        "line_search_backtracks": jnp.where(accepted, first, ts.config.backtracks).astype(jnp.float32),
     }
 
 

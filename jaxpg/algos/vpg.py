@@ -55,6 +55,11 @@ class Config(reinforce.Config, core.ValueFitConfig):
     UNUSED_FIELDS: ClassVar[tuple[str, ...]] = ()
 
     @property
+    def value_fit_lr_field(self) -> str:
+        """The field that holds the baseline fit's learning rate: ``value_lr``, or ``lr`` when that is 0."""
+        return "value_lr" if self.value_lr else "lr"
+
+    @property
     def value_fit_lr(self) -> float:
         """The baseline fit's Adam learning rate: ``value_lr``, or the policy's ``lr`` when 0."""
         return self.value_lr or self.lr

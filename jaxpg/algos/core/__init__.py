@@ -16,6 +16,8 @@ these pieces and the algorithm's own step:
      Gaussian policy's log-std within its floor and falling ceiling (``log_std_bounds``), update
      the observation statistics, count the iteration and assemble the metrics (``iteration``).
 
+``hparams`` lets an update read its numeric hyperparameters as traced data (``run_config``),
+so that one program trains many configurations.
 ``TrainState`` and ``init_state`` (``state``) are the state every algorithm carries and how its
 ``init`` builds it; ``BaseConfig``, ``GAEConfig`` and ``ValueFitConfig`` (``config``) are the
 fields the core reads, which every algorithm's ``Config`` extends. ``evaluate`` runs episodes of
@@ -28,6 +30,16 @@ algorithm writes ``from jaxpg.algos import core`` and ``core.phase_sample(ts)``.
 from jaxpg.algos.core.advantages import AdvantageFn, gae_advantages, phase_advantages, value_predictions
 from jaxpg.algos.core.batch import Batch, flatten_batch, mean_entropy, mean_kl, weighted_mean
 from jaxpg.algos.core.config import POLICY_NAMES, BaseConfig, GAEConfig, ValueFitConfig
+from jaxpg.algos.core.hparams import (
+    derived,
+    divide,
+    hyperparameters,
+    is_traced,
+    program_key,
+    run_config,
+    traced_fields,
+    with_hyperparameters,
+)
 from jaxpg.algos.core.iteration import PhaseRunner, accept_if_finite, finish_iteration, run_inline
 from jaxpg.algos.core.log_std_bounds import clip_log_std, log_std_ceiling
 from jaxpg.algos.core.placement import shard_state
@@ -75,6 +87,14 @@ __all__ = [
     "ValueFitConfig",
     "absorb_value_targets",
     "accept_if_finite",
+    "derived",
+    "divide",
+    "hyperparameters",
+    "is_traced",
+    "program_key",
+    "run_config",
+    "traced_fields",
+    "with_hyperparameters",
     "apply_sample_budget",
     "clip_log_std",
     "clip_gradients",

@@ -87,6 +87,15 @@ class BaseConfig:
     eval_action: str = "mode"
     max_update_kl: float = 1.0
 
+    # The numeric fields an update may read as traced data (``core.hparams``); every subclass adds its own.
+    TRACED_FIELDS: ClassVar[tuple[str, ...]] = (
+        "gamma",
+        "log_std_init",
+        "log_std_final",
+        "log_std_min",
+        "anneal_log_std_iterations",
+        "max_update_kl",
+    )
     UNUSED_FIELDS: ClassVar[tuple[str, ...]] = ()
     # loop_unroll unrolled the learner's loops, which changed no number and, measured, no speed.
     OLD_FIELD_NAMES: ClassVar[dict[str, str | None]] = {"policy_init": "network_init", "loop_unroll": None}
@@ -209,6 +218,8 @@ class GAEConfig(BaseConfig):
     normalize_advantages: bool = True
     value_target: str = "gae"
 
+    TRACED_FIELDS: ClassVar[tuple[str, ...]] = ("gae_lambda",)
+
     def validate(self, env: Env) -> None:
         super().validate(env)
         if not 0 <= self.gae_lambda <= 1:
@@ -236,6 +247,8 @@ class ValueFitConfig(BaseConfig):
     value_minibatches: int = 0
     value_epoch_samples: int = 0
 
+    TRACED_FIELDS: ClassVar[tuple[str, ...]] = ("value_lr",)
+
     @property
     def value_samples_per_epoch(self) -> int:
         """Samples one value epoch visits: the iteration's, or ``value_epoch_samples`` if fewer."""
@@ -249,6 +262,11 @@ class ValueFitConfig(BaseConfig):
         if self.value_minibatches > 0:
             return max(1, self.value_samples_per_epoch // self.value_minibatches)
         return self.value_batch_size or self.samples_per_iteration
+
+    @property
+    def value_fit_lr_field(self) -> str:
+        """The field that holds the value fit's learning rate: ``value_lr``."""
+        return "value_lr"
 
     @property
     def value_fit_lr(self) -> float:

@@ -18,6 +18,7 @@ from typing import Any
 import jax
 import jax.numpy as jnp
 
+from jaxpg.algos.core.hparams import run_config
 from jaxpg.algos.core.log_std_bounds import clip_log_std
 from jaxpg.algos.core.sampling import sampling_metrics
 from jaxpg.algos.core.state import TrainState
@@ -93,8 +94,7 @@ def finish_iteration(
     The mean policy is not evaluated here: evaluation runs between compiled training calls
     (``jaxpg.train.evaluate_state``).
     """
-    limit = new.config.max_update_kl
-    within = (kl <= limit) if limit > 0 else True
+    within = (kl <= run_config(new).max_update_kl) if new.config.max_update_kl > 0 else True
     within = jnp.logical_and(within, step_accepted)
     ts, rejected = accept_if_finite(old, new, loss, within)
     ts = clip_log_std(ts, old.iteration + 1)

@@ -14,19 +14,26 @@ step still spends its trust region as it would. A run with neither bound traces 
 
 from __future__ import annotations
 
+from typing import Any
+
 import jax
 import jax.numpy as jnp
 
 from jaxpg.algos.core.config import NO_LOG_STD_FLOOR, BaseConfig
+from jaxpg.algos.core.hparams import derived, divide, run_config
 from jaxpg.algos.core.state import TrainState
 
 
-def log_std_ceiling(config: BaseConfig, iterations_done: jax.Array) -> jax.Array:
+def log_std_ceiling(config: BaseConfig, iterations_done: jax.Array, span: Any = None) -> jax.Array:
     """``[]`` float32: the log-std ceiling after ``iterations_done`` (``[]`` int) iterations,
     ``log_std_init + (log_std_final - log_std_init) * min(iterations_done / N, 1)`` for
-    ``N = anneal_log_std_iterations`` (> 0)."""
-    progress = jnp.clip(jnp.asarray(iterations_done, jnp.float32) / config.anneal_log_std_iterations, 0.0, 1.0)
-    return jnp.float32(config.log_std_init) + jnp.float32(config.log_std_final - config.log_std_init) * progress
+    ``N = anneal_log_std_iterations`` (> 0). ``config``'s fields may be traced
+    (``core.run_config``); ``span`` then gives ``log_std_final - log_std_init`` as the host computed
+    it (``core.derived``)."""
+    span = config.log_std_final - config.log_std_init if span is None else span
+    done = jnp.asarray(iterations_done, jnp.float32)
+    progress = jnp.clip(divide(done, config.anneal_log_std_iterations), 0.0, 1.0)
+    return jnp.float32(config.log_std_init) + jnp.float32(span) * progress
 
 
 def clip_log_std(ts: TrainState, iterations_done: jax.Array) -> TrainState:
@@ -37,9 +44,11 @@ def clip_log_std(ts: TrainState, iterations_done: jax.Array) -> TrainState:
     config = ts.config
     if not config.has_log_std_bounds:
         return ts
+    run = run_config(ts)
     log_std = ts.params["log_std"]
     if config.anneal_log_std_iterations:
-        log_std = jnp.minimum(log_std, log_std_ceiling(config, iterations_done))
+        span = derived(ts, "log_std_final-log_std_init")
+        log_std = jnp.minimum(log_std, log_std_ceiling(run, iterations_done, span))
     if config.log_std_min > NO_LOG_STD_FLOOR:
-        log_std = jnp.maximum(log_std, jnp.float32(config.log_std_min))
+        log_std = jnp.maximum(log_std, jnp.float32(run.log_std_min))
     return ts.replace(params={**ts.params, "log_std": log_std})

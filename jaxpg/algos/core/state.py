@@ -83,6 +83,9 @@ class TrainState:
       reward_normalizer: the ``core.RewardNormalizer`` of an actor-critic config with
         ``normalize_rewards``; ``()`` otherwise (no leaves, so the checkpoints of every other
         config keep their layout).
+      hparams: ``()``, the update reads every number from ``config``; or the ``[]`` arrays of
+        ``core.hyperparameters`` (``core.with_hyperparameters``), which it reads in place of the
+        config's traced fields, so that one program trains many configurations (``core.hparams``).
     """
 
     params: Any
@@ -100,6 +103,7 @@ class TrainState:
     policy: Any = struct.field(pytree_node=False)
     value_fn: Any = struct.field(pytree_node=False)
     reward_normalizer: Any = ()
+    hparams: Any = ()
 
 
 def make_networks(env: Env, config: BaseConfig) -> tuple[Any, ValueFunction]:

@@ -6,6 +6,8 @@ the standardisation (``standardise_value_targets``)."""
 
 from __future__ import annotations
 
+from typing import Any
+
 import jax
 import jax.numpy as jnp
 import optax
@@ -13,13 +15,22 @@ import optax
 from jaxpg import value as value_lib
 from jaxpg.algos.core.batch import Batch
 from jaxpg.algos.core.config import ValueFitConfig
+from jaxpg.algos.core.hparams import is_traced, run_config
 from jaxpg.algos.core.state import TrainState
 
 
-def value_optimizer(config: ValueFitConfig) -> optax.GradientTransformation:
-    """Adam at ``config.value_fit_lr``: the optimizer of ``phase_value_fit``, whose state is
-    ``TrainState.value_opt_state``."""
-    return optax.adam(config.value_fit_lr)
+def value_optimizer(config: ValueFitConfig, lr: Any = None) -> optax.GradientTransformation:
+    """Adam at ``config.value_fit_lr`` (or ``lr``, e.g. traced): the optimizer of
+    ``phase_value_fit``, whose state is ``TrainState.value_opt_state``."""
+    return optax.adam(config.value_fit_lr if lr is None else lr)
+
+
+def value_fit_lr(ts: TrainState) -> Any:
+    """The value fit's learning rate for ``ts``'s run: the field ``config.value_fit_lr_field``
+    names, read through ``core.run_config`` (a traced ``[]`` array when ``ts`` carries hparams)."""
+    if not is_traced(ts):
+        return ts.config.value_fit_lr
+    return getattr(run_config(ts), ts.config.value_fit_lr_field)
 
 
 def absorb_value_targets(ts: TrainState, batch: Batch) -> TrainState:
@@ -73,7 +84,7 @@ def phase_value_fit(ts: TrainState, batch: Batch, key: jax.Array) -> tuple[Train
         ts.value_fn,
         ts.value_params,
         ts.value_opt_state,
-        value_optimizer(config),
+        value_optimizer(config, value_fit_lr(ts)),
         batch.obs,
         batch.value_targets,
         key,

@@ -65,10 +65,11 @@ class BraxTask(Env):
         self.env = env
         self._name = name
         self.max_episode_steps = int(max_episode_steps)
-        size = env.observation_size
-        if not isinstance(size, int):
-            raise ValueError(f"{name}: observations must be one flat array; this env gives {size!r}")
-        self.observation_size = size
+        # Traced, not run: Brax's own ``observation_size`` runs a reset op by op (seconds on MJX).
+        obs = jax.eval_shape(env.reset, jax.random.PRNGKey(0)).obs
+        if not isinstance(obs, jax.ShapeDtypeStruct) or len(obs.shape) != 1:
+            raise ValueError(f"{name}: observations must be one flat array; this env gives {obs!r}")
+        self.observation_size = int(obs.shape[0])
         self.action_size = int(env.action_size)
         self.dt = float(env.dt() if callable(env.dt) else env.dt)
 

@@ -3,7 +3,8 @@
 Two suites of envs, each trained by both trainers:
   jaxpg  jaxpg's ``ant`` and ``humanoid`` (fast physics): jaxpg trains them natively (its preset
          ``ant_fast`` / ``humanoid_fast``), Brax's PPO through ``jaxpg.envs.brax_env`` (actions in
-         [-1, 1], Gymnasium's time limit and fresh reset noise);
+         [-1, 1], fresh reset noise as Gymnasium's, and the 1000-step limit handled as on Brax's own
+         envs: ``EpisodeWrapper`` truncates and PPO masks the cut step);
   brax   Brax's own ``ant`` and ``humanoid`` (backend mjx): Brax's PPO trains them natively, jaxpg
          through ``jaxpg.envs.brax_task`` (``--env brax:ant``) with the same presets.
 
@@ -146,7 +147,8 @@ def train_brax(race: Race, clock_evaluate: Any) -> tuple[Clock, Any]:
 
     clock = Clock(race, clock_evaluate)  # started before the env is built, as jaxpg's
     if race.suite == "jaxpg":
-        environment = brax_env.as_brax_env(race.env, **race.jaxpg_task_options())
+        # Brax's own time-limit handling (EpisodeWrapper's truncation mask), as on its own envs.
+        environment = brax_env.as_brax_env(race.env, time_limit=False, **race.jaxpg_task_options())
         wrap = brax_env.wrap_for_training
     else:
         environment, wrap = brax_envs.get_environment(race.env, backend="mjx"), None
@@ -249,14 +251,14 @@ def run(race: Race, gym_episodes: int) -> dict[str, Any]:
     reached = {t: None if i is None else clock.evals[i][0] for t, i in first.items()}
     # The score was crossed between the evaluation before and this one: its share of the time.
     resolution = {t: None if not i else 1.0 - clock.evals[i - 1][0] / clock.evals[i][0] for t, i in first.items()}
-    at_budget = [r for s, _, r in clock.evals if s <= race.budget]
     return {
         **dataclasses.asdict(race),
         "evals": clock.evals,
         "time_to": reached,
         "time_to_resolution": resolution,
-        "score_at_budget": at_budget[-1] if at_budget else None,
-        "final_score": clock.evals[-1][2],
+        # The last evaluation: at the first chunk's end past the budget (its clock time beside it).
+        "score_at_budget": clock.evals[-1][2],
+        "final_train_s": clock.evals[-1][0],
         "gymnasium_score": gymnasium_score(race, policy, gym_episodes),
         "process_start_to_trainer_s": called - PROCESS_START,
         "device": str(jax.devices()[0].device_kind),
@@ -273,7 +275,9 @@ def median_or_none(values: list[float | None]) -> str:
 
 def table(records: list[dict[str, Any]]) -> str:
     """Per suite, env and trainer: median time to each threshold over seeds (s of training clock;
-    "(k/n)" where only k of n seeds reached it), median score at the budget, in Gymnasium."""
+    "(k/n)" where only k of n seeds reached it), the largest share of such a time that falls
+    between two evaluations, the median score at the budget (the clock range of those last
+    evaluations under "budget"), and in Gymnasium."""
     groups: dict[tuple, list[dict]] = {}
     for r in records:
         groups.setdefault((r["suite"], r["env"], r["trainer"]), []).append(r)
@@ -283,7 +287,7 @@ def table(records: list[dict[str, Any]]) -> str:
     lines.append("|---|---|---|---|---|---|---|---|---|")
     for (suite, env, trainer), rs in sorted(groups.items()):
         times = ", ".join(f"{t}: {median_or_none([r['time_to'][t] for r in rs])}" for t in rs[0]["time_to"])
-        budget = f"{min(r['budget'] for r in rs):.0f}"
+        budget = f"{min(r['budget'] for r in rs):.0f}-{max(r['final_train_s'] for r in rs):.0f}"
         gym = median_or_none([r["gymnasium_score"] for r in rs])
         at = median_or_none([r["score_at_budget"] for r in rs])
         shares = [v for r in rs for v in r.get("time_to_resolution", {}).values() if v is not None]

@@ -180,7 +180,8 @@ def test_brax_env_as_jaxpg_task_steps_as_brax(brax_pendulum):
     for t in range(LIMIT):
         state, expected = step(state, jnp.array([0.1])), ref_step(expected, jnp.array([0.1]))
         np.testing.assert_allclose(np.asarray(state.obs), np.asarray(expected.obs), rtol=1e-6, atol=1e-7)
-        assert float(state.reward) == float(expected.reward)
+        # Two programs compute it (the task's step and the env's own): float32 rounding may differ.
+        assert float(state.reward) == pytest.approx(float(expected.reward), rel=1e-6)
         assert bool(state.terminated) == bool(expected.done)
         total += float(expected.reward)
         assert bool(state.truncated) == (t == LIMIT - 1 and not bool(expected.done))
@@ -234,3 +235,22 @@ def test_unknown_external_names_are_one_line_errors():
     assert done.returncode == 2, done.stderr
     assert done.stderr.strip().splitlines()[-1].startswith("error: ")
     assert "no_such_env" in done.stderr
+
+
+@pytest.mark.optional
+def test_playground_env_as_jaxpg_task_steps_as_playground():
+    """``playground:CartpoleBalance`` (needs ``pip install -e '.[playground]'``; optional: Playground
+    is not in the test extra) gives Playground's own observations and rewards, from the same key."""
+    playground = pytest.importorskip("mujoco_playground")
+    task = envs.make_task("playground:CartpoleBalance", max_episode_steps=LIMIT)
+    reference = playground.registry.load("CartpoleBalance")
+    key = jax.random.PRNGKey(7)
+    state = jax.jit(task.reset)(key)
+    expected = jax.jit(reference.reset)(jax.random.split(key)[1])
+    step, ref_step = jax.jit(task.step), jax.jit(reference.step)
+    for t in range(LIMIT):
+        state, expected = step(state, jnp.array([0.3])), ref_step(expected, jnp.array([0.3]))
+        np.testing.assert_allclose(np.asarray(state.obs), np.asarray(expected.obs), rtol=1e-6, atol=1e-7)
+        # Two programs compute it (the task's step and the env's own): float32 rounding may differ.
+        assert float(state.reward) == pytest.approx(float(expected.reward), rel=1e-6)
+        assert bool(state.truncated) == (t == LIMIT - 1)

@@ -174,7 +174,7 @@ def _brax_class(name: str, brax_name: str) -> type:
 
 
 def _playground_class(name: str, playground_name: str) -> type:
-    registry = _import("mujoco_playground.registry", "playground")
+    registry = _import("mujoco_playground", "playground").registry
     if playground_name not in registry.ALL_ENVS:
         raise ValueError(f"unknown environment {name!r}; see mujoco_playground.registry.ALL_ENVS")
 

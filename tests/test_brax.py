@@ -139,6 +139,35 @@ def test_brax_ppo_trains_a_jaxpg_task(pendulum):
     assert actions.shape == (3, 1) and np.all(np.abs(np.asarray(actions)) <= 1.0)
 
 
+def test_brax_sac_trains_a_jaxpg_task(pendulum):
+    """Brax's SAC, unchanged, on the same adapter: a few steps from a replay buffer, finite
+    evaluations within what a LIMIT-step episode can earn."""
+    import functools
+
+    from brax.training.agents.sac import networks as sac_networks
+    from brax.training.agents.sac import train as brax_sac
+
+    progress = []
+    with brax_compat.brax_jax_shim():
+        brax_sac.train(
+            environment=brax_env.as_brax_env(pendulum),
+            num_timesteps=256,
+            episode_length=LIMIT,
+            num_envs=4,
+            num_eval_envs=4,
+            batch_size=8,
+            num_evals=2,
+            min_replay_size=32,
+            max_replay_size=256,
+            wrap_env_fn=brax_env.wrap_for_training,
+            network_factory=functools.partial(sac_networks.make_sac_networks, hidden_layer_sizes=(8,)),
+            progress_fn=lambda step, m: progress.append((step, float(m["eval/episode_reward"]))),
+            seed=0,
+        )
+    assert len(progress) == 2 and progress[-1][0] >= 256
+    assert all(0.0 < r <= LIMIT for _, r in progress)
+
+
 def _tiny_ppo_networks():
     import functools
 

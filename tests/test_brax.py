@@ -283,3 +283,24 @@ def test_playground_env_as_jaxpg_task_steps_as_playground():
         # Two programs compute it (the task's step and the env's own): float32 rounding may differ.
         assert float(state.reward) == pytest.approx(float(expected.reward), rel=1e-6)
         assert bool(state.truncated) == (t == LIMIT - 1)
+
+
+def test_command_line_trains_a_brax_env(tmp_path):
+    """``python -m jaxpg.cli --env brax:NAME`` with the env's own option (``--env-kwargs backend=``)
+    trains another jaxpg algorithm (TRPO) and saves the task's name for a resume or evaluation."""
+    import json
+
+    run_dir = tmp_path / "run"
+    command = ["--env", "brax:inverted_pendulum", "--env-kwargs", "backend=spring", "--algo", "trpo"]
+    sizes = ["--iterations", "1", "--num-envs", "8", "--horizon", "8", "--eval-envs", "2", "--eval-horizon", "8"]
+    done = subprocess.run(
+        [sys.executable, "-m", "jaxpg.cli", *command, *sizes, "--run-dir", str(run_dir)],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    assert done.returncode == 0, done.stderr
+    config = json.loads((run_dir / "config.json").read_text())
+    assert config["task"] == "brax:inverted_pendulum"
+    rows = [json.loads(line) for line in (run_dir / "metrics.jsonl").read_text().splitlines()]
+    assert rows and all(np.isfinite(v) for row in rows for v in row.values() if isinstance(v, float))

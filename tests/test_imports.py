@@ -21,6 +21,8 @@ def module_name(path: Path) -> str:
 
 
 MODULES = {module_name(p): p for p in sorted(PACKAGE_DIR.rglob("*.py"))}
+# Modules of an optional extra -> the package they import at their top (skipped where it is missing).
+OPTIONAL_MODULES = {"jaxpg.envs.brax_env": "brax"}
 
 
 def imported_modules(path: Path) -> set[str]:
@@ -104,11 +106,13 @@ def test_every_module_imports_alone_in_a_fresh_interpreter():
     """Each module imported first, with no other jaxpg module loaded before it (one interpreter;
     the jaxpg modules are dropped from ``sys.modules`` between imports)."""
     script = (
-        "import importlib, sys\n"
+        "import importlib, importlib.util, sys\n"
         "failed = []\n"
         f"for name in {sorted(MODULES)!r}:\n"
         "    for loaded in [m for m in sys.modules if m == 'jaxpg' or m.startswith('jaxpg.')]:\n"
         "        del sys.modules[loaded]\n"
+        f"    if importlib.util.find_spec({OPTIONAL_MODULES!r}.get(name, 'jaxpg')) is None:\n"
+        "        continue\n"
         "    try:\n"
         "        importlib.import_module(name)\n"
         "    except Exception as e:\n"
@@ -148,6 +152,18 @@ def test_tasks_without_mujoco_import_none():
     asked = "[envs.is_mjx(name) for name in ('cartpole', 'pong')], envs.warp_capacity('pong', {}, 16)"
     check = f"{made}, {asked}, 'mujoco' in sys.modules, envs.is_mjx('hopper')"
     assert imported_in_a_fresh_interpreter("jaxpg.envs as envs", check) == "[True, True] [False, False] {} False True"
+
+
+def test_the_core_never_imports_brax_or_playground():
+    """Brax and MuJoCo Playground are optional extras: the package, its command lines, its trainer and
+    a task made by name leave both unimported, and only ``jaxpg.envs`` (inside ``task_class``, for a
+    name with a colon) reaches the module that resolves their names."""
+    modules = "jaxpg, jaxpg.envs as envs, jaxpg.cli, jaxpg.train, jaxpg.algos, jaxpg.evaluate"
+    check = "envs.make('cartpole') is not None, [m for m in ('brax', 'mujoco_playground') if m in sys.modules]"
+    assert imported_in_a_fresh_interpreter(modules, check) == "True []"
+    graph = import_graph()
+    importers = {name for name, imported in graph.items() if imported & {"jaxpg.envs.brax_task", "jaxpg.envs.brax_env"}}
+    assert importers <= {"jaxpg.envs", "jaxpg.envs.brax_env", "jaxpg.envs.brax_task"}, importers
 
 
 MAX_LINES = 400

@@ -69,7 +69,13 @@ def make_task(name: str, **kwargs: Any) -> Env:
 
 
 def task_class(name: str) -> type:
-    """The class registered as ``name`` (imported on first use). ``ValueError`` for an unknown name."""
+    """The class registered as ``name`` (imported on first use), or for a name with a colon
+    (``brax:ant``, ``playground:CheetahRun``, ``module:Class``) the one ``jaxpg.envs.brax_task``
+    resolves. ``ValueError`` for an unknown name."""
+    if name not in REGISTRY and ":" in name:
+        from jaxpg.envs import brax_task
+
+        return brax_task.task_class(name)
     if name not in REGISTRY:
         raise ValueError(f"unknown environment {name!r}; known environments: {', '.join(names())}")
     module_name, class_name = REGISTRY[name].split(":")

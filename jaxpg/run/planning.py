@@ -59,6 +59,8 @@ def default_checkpoint_every(every: int, iterations: int, log_every: int) -> int
 
 
 def _check_task(task: str, experiment: Experiment) -> None:
+    if ":" in task and not experiment.tasks:
+        return  # brax:NAME, playground:NAME, module:Class: checked when made (jaxpg.envs.brax_task)
     allowed = experiment.tasks or tuple(envs.names())
     if task not in envs.names() or task not in allowed:
         raise UsageError(f"unknown task {task!r}; known tasks: {', '.join(allowed)}")

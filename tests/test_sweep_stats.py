@@ -77,3 +77,39 @@ def test_performance_profile_by_hand():
 
 def test_normalize():
     assert stats.normalize(np.array([0.0, 50.0, 100.0]), 0.0, 100.0) == pytest.approx([0.0, 0.5, 1.0])
+
+
+def fake_sweep(path, task, scores):
+    """A finished sweep's ``summary.json`` with the given ``{label: [scores]}``."""
+    import json
+
+    runs = [{"label": label, "score": s, "final_return": 0.0} for label, values in scores.items() for s in values]
+    path.mkdir()
+    (path / "summary.json").write_text(json.dumps({"spec": {"task": task}, "runs": runs}))
+    return path
+
+
+def test_aggregate_normalises_and_pools_tasks(tmp_path, capsys):
+    """Two tasks' sweeps: label x scores [0, 100] on a (bounds 0:100 -> [0, 1]) and [50, 50] on b
+    (bounds 0:50 -> [1, 1]); label y [0, 0] and [0, 0] -> all 0. Pooled, x's runs are [0, 1, 1, 1]:
+    mean 0.75, IQM 1 (one run trimmed from each end). P(x > y): on a, two of the four pairs tie
+    (0 against 0) and two are won (100 against 0): 0.75; on b all four are won: 1; averaged 0.875."""
+    from jaxpg.sweep import aggregate
+
+    a = fake_sweep(tmp_path / "a", "a", {"x": [0.0, 100.0], "y": [0.0, 0.0]})
+    b = fake_sweep(tmp_path / "b", "b", {"x": [50.0, 50.0], "y": [0.0, 0.0], "z": [1.0]})
+    out = tmp_path / "out"
+    args = [str(a), str(b), "--normalize", "a=0:100", "--normalize", "b=0:50", "--out", str(out)]
+    assert aggregate.main([*args, "--compare", "x", "y"]) == 0
+    import csv
+
+    rows = {r["label"]: r for r in csv.DictReader((out / "aggregate.csv").open())}
+    assert set(rows) == {"x", "y"}  # z is not in both sweeps
+    assert float(rows["x"]["mean"]) == pytest.approx(0.75)
+    assert float(rows["x"]["iqm"]) == pytest.approx(1.0)
+    assert float(rows["y"]["mean"]) == 0.0
+    assert "P(x > y) = 0.875" in capsys.readouterr().out
+    assert (out / "performance_profiles.png").is_file() and (out / "profiles.csv").is_file()
+    assert aggregate.main([str(a), str(b), "--normalize", "a=0:100", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0] == "error: no --normalize bounds for b"

@@ -72,16 +72,13 @@ def interval(
         ]
         return statistic(*full, axis=axis)
 
-    result = scipy_stats.bootstrap(
-        tuple(free),
-        with_single,
-        paired=False,
-        vectorized=True,
-        n_resamples=RESAMPLES,
-        confidence_level=CONFIDENCE,
-        method="percentile",
-        rng=np.random.default_rng(seed),
+    options = dict(
+        paired=False, vectorized=True, n_resamples=RESAMPLES, confidence_level=CONFIDENCE, method="percentile"
     )
+    try:
+        result = scipy_stats.bootstrap(tuple(free), with_single, rng=np.random.default_rng(seed), **options)
+    except TypeError:  # SciPy before 1.15 names the generator random_state
+        result = scipy_stats.bootstrap(tuple(free), with_single, random_state=np.random.default_rng(seed), **options)
     return point, float(result.confidence_interval.low), float(result.confidence_interval.high)
 
 

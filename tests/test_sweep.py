@@ -175,6 +175,10 @@ def test_bad_specs_get_one_error_line(extra, message, tmp_path, capsys, monkeypa
 
 
 def test_spec_errors_are_spec_errors():
+    import jaxpg.sweep
+
+    with pytest.raises(SpecError, match="unknown field 'nope' of ppo's Config"):
+        jaxpg.sweep(SweepSpec(task="cartpole", algo="ppo", grid={"nope": [1]}), "unused")  # the module is callable
     with pytest.raises(SpecError, match="samples needs ranges"):
         SweepSpec(task="cartpole", algo="ppo", samples=3).expand()
     with pytest.raises(SpecError, match="unknown algorithm"):

@@ -17,6 +17,9 @@ Hopper; ``ppo``, 64 configurations (lr x clip_eps, 8 x 8) x 4 seeds of ``ant_1m`
   sweep's (the same iterations per call), timed from the process's start to its end (JAX start,
   env, compilation, training) and, separately, its training alone.
 
+Both allocate device memory on demand (``XLA_PYTHON_CLIENT_PREALLOCATE=false``, as ``jaxpg.cli``),
+and the sequential sample runs before the sweep, while this process holds no device memory.
+
 Extrapolation: the sequential runs' mean process seconds times the sweep's run count is what the
 sweep's runs would take one after another; the ratio of that to the sweep's seconds is the
 speed-up (GPU-seconds per run, sequential / sweep). The same ratio of training seconds alone
@@ -167,6 +170,9 @@ def run_case(case: str, spec: Any, args: argparse.Namespace) -> dict[str, Any]:
         shutil.rmtree(out)  # a timing, not a resume
     configs = len(spec.swept_values())
     runs = configs * len(spec.seeds)
+    # The sequential sample first, while this process holds no device memory.
+    print(f"{case}: {args.sequential} of the runs one process after another", flush=True)
+    sample = sequential_sample(case, args.sequential, configs, args)
     print(f"{case}: {configs} configurations x {len(spec.seeds)} seeds = {runs} runs, one sweep", flush=True)
     start = time.perf_counter()
     report = run_sweep(spec, out, episodes=0, figures=False, runs_per_chunk=args.runs_per_chunk)
@@ -178,7 +184,6 @@ def run_case(case: str, spec: Any, args: argparse.Namespace) -> dict[str, Any]:
         "train_s": report.timing["train_s"],
         **peak_memory(),
     }
-    sample = sequential_sample(case, args.sequential, configs, args)
     process_s = float(np.mean([r["process_s"] for r in sample]))
     train_s = float(np.mean([r["train_s"] for r in sample]))
     per_run_sweep = sweep_s / runs
@@ -228,6 +233,11 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--single", default=None, help=argparse.SUPPRESS)
     p.add_argument("--config-index", type=int, default=0, help=argparse.SUPPRESS)
     args = p.parse_args(argv)
+    from jaxpg.run import startup
+
+    # Memory on demand, here and in the sequential processes (which inherit it): a process that
+    # reserved 75 % of the GPU would leave the others too little, and the peaks stay comparable.
+    startup.allocate_gpu_memory_on_demand()
     specs = cases(args.quick, args.iterations)
     if args.single:
         print(json.dumps(run_single(specs[args.single], args.config_index, 0)))

@@ -175,6 +175,10 @@ def test_bad_specs_get_one_error_line(extra, message, tmp_path, capsys, monkeypa
 
 
 def test_spec_errors_are_spec_errors():
+    import jaxpg.sweep
+
+    with pytest.raises(SpecError, match="unknown field 'nope' of ppo's Config"):
+        jaxpg.sweep(SweepSpec(task="cartpole", algo="ppo", grid={"nope": [1]}), "unused")  # the module is callable
     with pytest.raises(SpecError, match="samples needs ranges"):
         SweepSpec(task="cartpole", algo="ppo", samples=3).expand()
     with pytest.raises(SpecError, match="unknown algorithm"):
@@ -243,3 +247,34 @@ def test_sweep_speed_quick(tmp_path, capsys):
     assert result["speedup"] == pytest.approx(result["sequential_process_s_per_run"] / result["sweep_s_per_run"])
     assert result["sequential_extrapolated_s"] == pytest.approx(8 * result["sequential_process_s_per_run"])
     assert "speed-up" in capsys.readouterr().out
+
+
+def test_sweep_killed_midway_resumes_each_run_once(tmp_path):
+    """``python -m jaxpg.sweep`` (cartpole, one run a chunk) killed with SIGKILL once its second
+    chunk is recorded, wherever it then is (training a chunk, writing one, scoring), and run again:
+    every run ends in exactly one chunk, and the chunks recorded before the kill are kept as they
+    were."""
+    import signal
+    import time
+
+    args = [arg.replace("inverted_pendulum", "cartpole") for arg in CLI_ARGS]
+    args[args.index("--runs-per-chunk") + 1] = "1"
+    out = tmp_path / "out"
+    env = {**os.environ, "PYTHONUNBUFFERED": "1"}
+    proc = subprocess.Popen([sys.executable, "-m", "jaxpg.sweep", *args, "--out", str(out)], env=env,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)  # fmt: skip
+    second = out / "chunks" / "chunk-00001.json"
+    deadline = time.monotonic() + 900  # a hang guard, not a speed requirement
+    while not second.exists() and proc.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.02)
+    proc.send_signal(signal.SIGKILL)
+    proc.wait()
+    store = SweepStore(out)
+    kept = {name: (store.chunks / f"{name}.npz").read_bytes() for name in store.chunk_names()}
+    assert len(kept) >= 2
+    assert cli.main([*args, "--out", str(out)]) == 0
+    runs = [run for record in store.records() for run in record["runs"]]
+    assert sorted(runs) == [0, 1, 2, 3]
+    for name, content in kept.items():
+        assert (store.chunks / f"{name}.npz").read_bytes() == content
+    assert len(list(csv_rows(out / "runs.csv"))) == 4

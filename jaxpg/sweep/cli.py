@@ -119,7 +119,11 @@ def spec_from_args(args: argparse.Namespace) -> SweepSpec:
 
 def main(argv: Sequence[str] | None = None) -> int:
     args = parser().parse_args(argv)
-    from jaxpg.run import processes
+    from jaxpg.run import compile_cache, processes, startup
+
+    if argv is None:  # the process is the command's own: GPU memory on demand, as jaxpg.cli takes it
+        startup.allocate_gpu_memory_on_demand()
+    compile_cache.enable()  # a resumed sweep loads its programs instead of compiling them again
 
     try:
         spec = spec_from_args(args)

@@ -116,7 +116,7 @@ def build_program(module: Any, env: Any, config: Any, runs: int, block: int, mes
     states = jax.eval_shape(init, keys, hparams)
     states = jax.tree.map(lambda s: jax.ShapeDtypeStruct(s.shape, s.dtype, sharding=sharding), states)
     compiled = train.lower(states).compile()
-    return Program(init.lower(keys, hparams).compile(), compiled, runs, program_bytes(compiled))
+    return Program(init, compiled, runs, program_bytes(compiled))  # init compiles at its first call
 
 
 def program_bytes(compiled: Any) -> int:

@@ -52,22 +52,33 @@ def interval(
     samples: Sequence[np.ndarray], statistic: Callable[..., np.ndarray], seed: int = 0
 ) -> tuple[float, float, float]:
     """``(point, low, high)``: ``statistic(*samples)`` and its 95 % stratified-bootstrap percentile
-    interval (module docstring). A sample of one run, or of identical runs, gives a zero-width
+    interval (module docstring). Samples of one run each, or of identical runs, give a zero-width
     interval at the point."""
     samples = [np.asarray(s, np.float64).ravel() for s in samples]
     point = float(statistic(*samples, axis=-1))
     if all(s.size < 2 or np.all(s == s[0]) for s in samples):
         return point, point, point
-    result = scipy_stats.bootstrap(
-        tuple(samples),
-        statistic,
-        paired=False,
-        vectorized=True,
-        n_resamples=RESAMPLES,
-        confidence_level=CONFIDENCE,
-        method="percentile",
-        rng=np.random.default_rng(seed),
+    # A sample of one run resamples to itself: SciPy takes only the others, and the statistic
+    # gets the single runs back, broadcast over the resamples.
+    single = {i: s for i, s in enumerate(samples) if s.size < 2}
+    free = [s for s in samples if s.size >= 2]
+
+    def with_single(*resampled: np.ndarray, axis: int = -1) -> np.ndarray:
+        batch = resampled[0].shape[:-1]
+        rest = iter(resampled)
+        full = [
+            np.broadcast_to(single[i], batch + single[i].shape) if i in single else next(rest)
+            for i in range(len(samples))
+        ]
+        return statistic(*full, axis=axis)
+
+    options = dict(
+        paired=False, vectorized=True, n_resamples=RESAMPLES, confidence_level=CONFIDENCE, method="percentile"
     )
+    try:
+        result = scipy_stats.bootstrap(tuple(free), with_single, rng=np.random.default_rng(seed), **options)
+    except TypeError:  # SciPy before 1.15 names the generator random_state
+        result = scipy_stats.bootstrap(tuple(free), with_single, random_state=np.random.default_rng(seed), **options)
     return point, float(result.confidence_interval.low), float(result.confidence_interval.high)
 
 

@@ -125,19 +125,26 @@ def hand_trajectory(obs_size: int, rng: np.random.Generator) -> Trajectory:
 
 
 def test_advantages_are_standardised_over_the_valid_samples_only(cartpole):
-    """``phase_advantages`` of a hand-built episodic batch with padding (``hand_trajectory``): GAE
-    over the value network's predictions (a float64 NumPy forward pass), standardised with the mean
+    """``phase_advantages`` of a hand-built episodic batch with padding (``hand_trajectory``) under
+    observation statistics: GAE over the value network's predictions at the normalised ``obs`` and
+    ``next_obs`` (a float64 NumPy forward pass), standardised with the mean
     and std of the valid samples alone, 0 on the padding; the value targets are the lambda-returns.
     float32 network and recursions over 8 steps: errors ~1e-6 of values of size ~1."""
     ts = npg.init(jax.random.PRNGKey(0), cartpole, npg.Config(**SMALL, sampling="episodic", gamma=GAMMA))
-    traj = hand_trajectory(cartpole.observation_size, np.random.default_rng(1))
+    rng = np.random.default_rng(1)
+    traj = hand_trajectory(cartpole.observation_size, rng)
+    obs_mean, obs_var = rng.normal(size=cartpole.observation_size), rng.uniform(0.2, 4.0, cartpole.observation_size)
+    stats = RunningStats(
+        mean=jnp.asarray(obs_mean, jnp.float32), var=jnp.asarray(obs_var, jnp.float32), count=jnp.asarray(5.0)
+    )
+    ts = ts.replace(obs_stats=stats)
     batch = jax.jit(core.phase_advantages)(ts, traj)
 
     config = ts.config
     value_params = ref.to_numpy(ts.value_params)
 
     def v(x: jax.Array) -> np.ndarray:
-        x = np.asarray(x, np.float64)
+        x = numpy_normalize(np.asarray(x, np.float64), stats)
         return ref.mlp_forward(value_params, x.reshape(-1, x.shape[-1]), config.value_activation)[0].reshape(
             x.shape[:2]
         )
@@ -157,6 +164,8 @@ def test_advantages_are_standardised_over_the_valid_samples_only(cartpole):
         atol=1e-5,
     )
     np.testing.assert_array_equal(np.asarray(batch.weights), env_major(valid).astype(np.float32))
+    obs = numpy_normalize(np.asarray(traj.obs, np.float64), stats)
+    np.testing.assert_allclose(np.asarray(batch.obs), env_major(obs), rtol=1e-5, atol=1e-5)
 
 
 def test_observation_statistics_count_only_the_valid_samples(cartpole):
@@ -213,21 +222,30 @@ def test_every_iteration_samples_with_a_fresh_key(cartpole):
     assert not np.array_equal(np.asarray(traj1.actions), np.asarray(traj2.actions))
 
 
-EVAL = dict(eval_envs=3, eval_horizon=100)
+EVAL_LIMIT = 100  # the time limit of the evaluated CartPole: eval_horizon 0 evaluates up to it
 BALANCE = np.array([0.1, 0.5, 1.0, 1.0])  # CartPole's balancing direction (``_balance`` below)
+OBS_SCALE = np.array([2.0, 0.5, 4.0, 0.25])  # the std of the observation statistics the policies act on
 
 
-def mean_policy_loop(env, params, obs_stats, reset_keys, horizon: int) -> tuple[np.ndarray, np.ndarray]:
+def numpy_normalize(obs: np.ndarray, stats: RunningStats) -> np.ndarray:
+    """``(obs - mean) / sqrt(var + 1e-8)`` clipped to [-10, 10], in float64 (the identity before any update)."""
+    if float(stats.count) == 0:
+        return obs
+    mean, var = np.asarray(stats.mean, np.float64), np.asarray(stats.var, np.float64)
+    return np.clip((obs - mean) / np.sqrt(var + 1e-8), -10.0, 10.0)
+
+
+def mean_policy_loop(env, params, obs_stats, reset_keys) -> tuple[np.ndarray, np.ndarray]:
     """Returns and lengths of single envs started from ``reset_keys`` and stepped one at a time with
-    the mode of a categorical policy of one linear layer (``argmax`` of its logits, in NumPy) until
-    the episode ends or ``horizon`` steps."""
+    the mode of a categorical policy of one linear layer (``argmax`` of its logits, in NumPy, on the
+    observations normalised in NumPy) until the episode ends."""
     reset, step = jax.jit(env.reset), jax.jit(env.step)
     numpy_params = ref.to_numpy(params)
     returns, lengths = [], []
     for key in reset_keys:
         state, total, length = reset(key), 0.0, 0
-        while length < horizon:
-            obs = np.asarray(obs_stats.normalize(state.obs[None]), np.float64)
+        while True:
+            obs = numpy_normalize(np.asarray(state.obs, np.float64)[None], obs_stats)
             logits = ref.policy_forward("categorical", numpy_params, obs, "tanh")["logits"][0]
             state = step(state, jnp.int32(np.argmax(logits)))
             total, length = total + float(state.reward), length + 1
@@ -238,30 +256,35 @@ def mean_policy_loop(env, params, obs_stats, reset_keys, horizon: int) -> tuple[
     return np.array(returns), np.array(lengths)
 
 
-def test_evaluation_plays_the_mode_of_the_policy(cartpole):
+def test_evaluation_plays_the_mode_of_the_policy():
     """``core.evaluate`` (one seed) and ``core.evaluate_seeds_together`` (two seeds in one batch)
     against ``mean_policy_loop``: each seed's episodes, from the reset keys its key gives, played
-    with the policy's mode, have the mean return and length the evaluation reports. The policies are
-    linear: seed 0's mode is a balancing controller, which keeps the pole up to the evaluation's
-    100-step horizon, seed 1's pushes the other way and drops it within a few steps; their logits
-    differ by tenths, so that sampling from them picks the other action often and ends
-    seed 0's episodes early. (A logit gap within float32 rounding of 0 could make the float64 loop
-    pick the other action; the small linear layer keeps the two computations within 1e-6.)"""
-    config = npg.Config(**{**SMALL, "policy_hidden": ()}, **EVAL)
-    ts = train.init_seeds(npg.init, [0, 1], cartpole, config)
-    w = np.stack([np.stack([-BALANCE, BALANCE], axis=1) * sign for sign in (1.0, -1.0)])
-    ts = ts.replace(params=[{"w": jnp.asarray(w, jnp.float32), "b": jnp.zeros((2, 2))}])
+    with the policy's mode on observations normalised by the seed's statistics, to the task's time
+    limit (``eval_horizon`` 0), have the mean return and length the evaluation reports. The policies
+    are linear: on the normalised observations seed 0's mode is a balancing controller, which keeps
+    the pole up to the 100-step limit, seed 1's pushes the other way and drops it within a few
+    steps; their logits differ by tenths, so that sampling from them picks the other action often
+    and ends seed 0's episodes early, and acting on raw observations weighs them otherwise. (A logit
+    gap within float32 rounding of 0 could make the float64 loop pick the other action; the small
+    linear layer keeps the two computations within 1e-6.)"""
+    env = envs.make("cartpole", max_episode_steps=EVAL_LIMIT)
+    config = npg.Config(**{**SMALL, "policy_hidden": ()}, eval_envs=3, eval_horizon=0)
+    ts = train.init_seeds(npg.init, [0, 1], env, config)
+    w = np.stack([np.stack([-BALANCE, BALANCE], axis=1) * OBS_SCALE[:, None] * sign for sign in (1.0, -1.0)])
+    stats = RunningStats(
+        mean=jnp.zeros((2, 4)), var=jnp.asarray(np.tile(OBS_SCALE**2, (2, 1)), jnp.float32), count=jnp.full((2,), 10.0)
+    )
+    ts = ts.replace(params=[{"w": jnp.asarray(w, jnp.float32), "b": jnp.zeros((2, 2))}], obs_stats=stats)
     keys = jax.random.split(jax.random.PRNGKey(5), 2)
     together = jax.jit(core.evaluate_seeds_together)(ts, keys)
     alone = jax.jit(core.evaluate)(jax.tree.map(lambda x: x[0], ts), keys[0])
     expected = []
     for seed in (0, 1):
         params = jax.tree.map(lambda x, s=seed: x[s], ts.params)
-        stats = jax.tree.map(lambda x, s=seed: x[s], ts.obs_stats)
+        seed_stats = jax.tree.map(lambda x, s=seed: x[s], ts.obs_stats)
         reset_key, _ = jax.random.split(keys[seed])
-        reset_keys = jax.random.split(reset_key, config.eval_envs)
-        expected.append(mean_policy_loop(cartpole, params, stats, reset_keys, config.eval_horizon))
-    assert np.all(expected[0][1] == config.eval_horizon) and np.all(expected[1][1] < 20), expected
+        expected.append(mean_policy_loop(env, params, seed_stats, jax.random.split(reset_key, config.eval_envs)))
+    assert np.all(expected[0][1] == EVAL_LIMIT) and np.all(expected[1][1] < 20), expected
     for seed, (returns, lengths) in enumerate(expected):
         np.testing.assert_allclose(float(together["episode_return"][seed]), returns.mean(), rtol=1e-6)
         np.testing.assert_allclose(float(together["episode_length"][seed]), lengths.mean(), rtol=1e-6)

@@ -427,44 +427,6 @@ def _python_loop(reset, step, act, reset_keys, step_keys):
     return {k: np.stack([r[k] for r in rows]) for k in rows[0]}
 
 
-def test_rollout_matches_python_loop(rollout_case):
-    """``rollout`` (continuing, AutoReset) under jit + vmap: finite, deterministic for a key, and its
-    episode statistics are those of a plain loop over single envs with the same keys."""
-    auto, act = rollout_case["auto"], rollout_case["act"]
-    k_reset, k_roll = jax.random.split(jax.random.key(7))
-
-    @jax.jit
-    def sample(k_reset, k_roll):
-        env_state = rollout_lib.reset_batch(auto, k_reset, ROLLOUT_ENVS)
-        return rollout_lib.rollout(auto, act, None, env_state, k_roll, ROLLOUT_STEPS)
-
-    final, traj = sample(k_reset, k_roll)
-    _, again = sample(k_reset, k_roll)
-    assert all(jax.tree.leaves(jax.tree.map(lambda a, b: bool(jnp.array_equal(a, b)), traj, again)))
-    _, other = sample(k_reset, jax.random.key(8))
-    assert not np.array_equal(np.asarray(other.obs), np.asarray(traj.obs))
-    assert bool(jnp.all(jnp.isfinite(traj.obs))) and bool(jnp.all(jnp.isfinite(traj.next_obs)))
-    assert traj.obs.shape == (ROLLOUT_STEPS, ROLLOUT_ENVS, auto.observation_size)
-
-    loop = _python_loop(
-        rollout_case["reset"],
-        rollout_case["step"],
-        act,
-        jax.random.split(k_reset, ROLLOUT_ENVS),
-        jax.random.split(k_roll, ROLLOUT_STEPS),
-    )
-    done = np.asarray(traj.metrics["episode_done"]) > 0
-    np.testing.assert_array_equal(done, loop["done"])
-    np.testing.assert_array_equal(done, np.asarray(traj.dones))
-    assert np.any(np.asarray(traj.terminated)) and np.any(np.asarray(traj.truncated))
-    np.testing.assert_allclose(np.asarray(traj.obs[1:]), loop["obs"][:-1], atol=1e-5)
-    for k in ("episode_return", "episode_length"):
-        np.testing.assert_allclose(np.asarray(traj.metrics[k])[done], loop[k][done], rtol=1e-6)
-    summary = rollout_lib.episode_summary(traj)
-    assert int(summary["episodes"]) == done.sum()
-    np.testing.assert_allclose(float(summary["episode_length"]), loop["episode_length"][done].mean(), rtol=1e-6)
-
-
 def test_rollout_unrolled_gives_the_same_trajectory():
     """``rollout(..., unroll=k)`` runs k env steps per loop iteration (7 does not divide the
     horizon): the same transitions and final state as one step per iteration. On CartPole (time
@@ -740,9 +702,12 @@ def test_wrappers_forward_task_attributes():
 
 
 def test_clip_action_clips_to_the_task_range(pendulum_case):
-    """``ClipAction`` uses the task's range ([-3, 3] for the pendulum, not the default [-1, 1])."""
+    """``ClipAction`` uses the task's range ([-3, 3] for the pendulum, not the default [-1, 1]): the
+    control the task sets (``data.ctrl``, which MuJoCo's own clamp to ``ctrlrange`` leaves as set)
+    is the clipped action."""
     state = pendulum_case["reset"](jax.random.key(0))
     big, edge, inside = (pendulum_case["step"](state, jnp.full((1,), a, jnp.float32)) for a in (100.0, 3.0, 2.0))
+    assert float(big.data.ctrl[0]) == float(edge.data.ctrl[0]) == 3.0 and float(inside.data.ctrl[0]) == 2.0
     np.testing.assert_array_equal(np.asarray(big.obs), np.asarray(edge.obs))
     assert not np.array_equal(np.asarray(inside.obs), np.asarray(edge.obs))
 
@@ -1817,21 +1782,27 @@ def test_planar_observation_keyword_matches_gymnasium(task):
 
 
 def test_hopper_healthy_ranges_match_gymnasium():
-    """Hopper's healthy ranges (Gymnasium's keywords, here narrowed) judge random states as
-    Gymnasium's ``is_healthy`` does."""
-    ranges = {"healthy_z_range": (0.9, 1.4), "healthy_angle_range": (-0.3, 0.1), "healthy_state_range": (-3.0, 3.0)}
-    gym_env = make_gymnasium("hopper", **ranges).unwrapped
-    gym_env.reset(seed=0)
-    env = envs.make_task("hopper", impl="jax", **ranges)
-    rng = np.random.default_rng(0)
-    verdicts = []
-    for _ in range(200):
-        qpos = gym_env.init_qpos + rng.uniform(-0.6, 0.6, gym_env.model.nq)
-        qvel = rng.uniform(-3.5, 3.5, gym_env.model.nv)
-        gym_env.set_state(qpos, qvel)
-        verdicts.append(bool(gym_env.is_healthy))
-        assert bool(env.is_healthy(jnp.asarray(qpos), jnp.asarray(qvel))) == verdicts[-1]
-    assert 0 < sum(verdicts) < len(verdicts)  # both kinds of state were judged
+    """Hopper's healthy ranges, Gymnasium's defaults and narrowed ones (Gymnasium's keywords), judge
+    states as Gymnasium's ``is_healthy`` does: 200 states each, the height and the angle drawn
+    across each range's bounds (half of them), the other coordinates and velocities around them."""
+    narrowed = {"healthy_z_range": (0.9, 1.4), "healthy_angle_range": (-0.3, 0.1), "healthy_state_range": (-3.0, 3.0)}
+    for ranges in ({}, narrowed):
+        gym_env = make_gymnasium("hopper", **ranges).unwrapped
+        gym_env.reset(seed=0)
+        env = envs.make_task("hopper", impl="jax", **ranges)
+        (z_low, z_high), (angle_low, angle_high) = gym_env._healthy_z_range, gym_env._healthy_angle_range
+        rng = np.random.default_rng(0)
+        verdicts = []
+        for i in range(200):
+            qpos = gym_env.init_qpos + rng.uniform(-0.6, 0.6, gym_env.model.nq)
+            qvel = rng.uniform(-3.5, 3.5, gym_env.model.nv)
+            if i % 2:
+                qpos[1] = rng.choice([z_low, min(z_high, 2.0)]) + rng.uniform(-0.1, 0.1)
+                qpos[2] = rng.choice([angle_low, angle_high]) + rng.uniform(-0.05, 0.05)
+            gym_env.set_state(qpos, qvel)
+            verdicts.append(bool(gym_env.is_healthy))
+            assert bool(env.is_healthy(jnp.asarray(qpos), jnp.asarray(qvel))) == verdicts[-1], (ranges, qpos, qvel)
+        assert 0 < sum(verdicts) < len(verdicts), ranges  # both kinds of state were judged
 
 
 # The tasks that end an unhealthy episode, and the index of the torso's height in their qpos.

@@ -629,14 +629,25 @@ def test_pipeline_batched_and_async_same_results_as_gymnasium(cartpole_batched):
 
 def test_gymnasium_keywords_reach_the_task():
     """Gymnasium's keyword arguments of an env, given to ``gymnasium.make`` of a jaxpg id, reach
-    the task with their meaning: the spaces match Gymnasium's own env made with the same ones."""
+    the task with their meaning: the spaces match Gymnasium's own env made with the same ones, and
+    the task holds, for every term Gymnasium's env keeps as ``_<keyword>`` (healthy ranges, reward
+    weights, termination switch ...), the value Gymnasium's holds: the one given, or its default."""
     for gym_id, keywords in (
-        ("Ant-v5", {"include_cfrc_ext_in_observation": False}),
+        ("Ant-v5", {"include_cfrc_ext_in_observation": False, "contact_cost_weight": 1e-3}),
         ("Hopper-v5", {"exclude_current_positions_from_observation": False, "healthy_z_range": (0.5, 2.0)}),
         ("Humanoid-v5", {"include_cinert_in_observation": False, "terminate_when_unhealthy": False}),
     ):
         ours = gymnasium.make(f"jaxpg/{gym_id}", **keywords)
         theirs = gymnasium.make(gym_id, **keywords)
         assert ours.observation_space.shape == theirs.observation_space.shape, gym_id
+        task = ours.unwrapped.env.unwrapped
+        terms = [
+            name[1:]
+            for name in vars(theirs.unwrapped)
+            if name.startswith("_") and hasattr(task, name[1:]) and not callable(getattr(task, name[1:]))
+        ]
+        assert set(keywords) - {k for k in keywords if k.startswith(("include_", "exclude_"))} <= set(terms), gym_id
+        for name in terms:
+            assert getattr(task, name) == getattr(theirs.unwrapped, f"_{name}"), (gym_id, name)
         ours.close()
         theirs.close()

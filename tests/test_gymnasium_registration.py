@@ -33,6 +33,31 @@ def test_the_registration_table_is_jaxpgs():
     assert gymnasium_registration.COUNTERPARTS == envs.GYMNASIUM_COUNTERPARTS
 
 
+def test_installing_jaxpg_installs_the_start_up_file():
+    """``pip install`` of jaxpg, editable (as the README's commands) or not, writes the start-up
+    file into site-packages (setup.py's build hooks), so a fresh process that imports only
+    Gymnasium finds every jaxpg id, having imported neither jaxpg nor JAX."""
+    import sysconfig
+
+    installed = Path(sysconfig.get_paths()["purelib"]) / gymnasium_registration.PTH_NAME
+    assert installed.read_text(encoding="utf-8") == gymnasium_registration.pth_line()
+    done = subprocess.run(
+        [
+            sys.executable,
+            "-c",
+            "import sys, gymnasium; "
+            "assert not any(m == 'jax' or m.startswith('jaxpg') for m in sys.modules), 'imported'; "
+            "print(sorted(i for i in gymnasium.registry if i.startswith('jaxpg/'))[:2])",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        cwd="/",
+    )
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert done.stdout.strip() == "['jaxpg/Ant-v5', 'jaxpg/AntFast-v5']"
+
+
 def test_a_script_that_never_imports_jaxpg_makes_a_jaxpg_id(tmp_path):
     """With the hook installed in a site directory (as ``python -m jaxpg.envs.gymnasium_registration
     install`` writes it into site-packages), ``import gymnasium`` registers every id while

@@ -4,13 +4,14 @@ MuJoCo, and a start-up hook that registers them in every process of a Python env
 Gymnasium 1.x reads no plugin entry points (its 0.26-0.29 did): an id resolves only once code that
 registers it ran in the process. ``import jaxpg.envs.gymnasium_api`` registers them, and so does
 naming that module in the id (``gymnasium.make("jaxpg.envs.gymnasium_api:jaxpg/Hopper-v5")``).
-For scripts that take a bare id, install the hook once per environment::
+For scripts that take a bare id, every ``pip install`` of jaxpg (regular or editable) writes
+``PTH_NAME`` into the environment's site-packages (``setup.py``'s build hooks call ``install``);
+by hand, e.g. where jaxpg is only on ``PYTHONPATH``::
 
     python -m jaxpg.envs.gymnasium_registration install     # uninstall: the same with uninstall
 
-It writes ``PTH_NAME`` into the environment's site-packages. Python runs that file's one line at
-every start: it loads this module on its own (``jaxpg``'s package, with its JAX settings, stays
-unimported) and waits for ``gymnasium`` to be imported; right after, the ids are registered
+Python runs that file's one line at every start: it loads this module on its own (``jaxpg``'s
+package, with its JAX settings, stays unimported) and waits for ``gymnasium`` to be imported; right after, the ids are registered
 (``register_ids``). A process that never imports Gymnasium pays a file lookup; one that does, the
 registration of a few dozen specs. Making an env imports jaxpg then, as the ids' entry points say.
 

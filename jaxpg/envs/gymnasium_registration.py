@@ -12,8 +12,9 @@ by hand, e.g. where jaxpg is only on ``PYTHONPATH``::
 
 Python runs that file's one line at every start: it loads this module on its own (``jaxpg``'s
 package, with its JAX settings, stays unimported) and waits for ``gymnasium`` to be imported;
-right after, the ids are registered (``register_ids``). A process that never imports Gymnasium pays a file lookup; one that does, the
-registration of a few dozen specs. Making an env imports jaxpg then, as the ids' entry points say.
+right after, the ids are registered (``register_ids``). A process that never imports Gymnasium
+pays a file lookup; one that does, the registration of a few dozen specs. Making an env imports
+jaxpg then, as the ids' entry points say.
 
 This module imports nothing of jaxpg and must stay so.
 """

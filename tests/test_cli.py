@@ -25,6 +25,7 @@ from jaxpg.run import (
     command_line,
     config_io,
     console,
+    directory,
     evaluate_cli,
     layout,
     main,
@@ -35,6 +36,8 @@ from jaxpg.run import (
     pre_flags,
     provenance,
     session,
+    sink,
+    sinks,
 )
 from jaxpg.run import startup as startup_module
 from jaxpg.run.flags import UsageError
@@ -156,6 +159,43 @@ def test_overwrite_replaces_only_a_run_directory(trained, runs, capsys):
     assert main.main([*TINY, "--run-dir", str(foreign), "--overwrite"]) == 2
     assert "not a jaxpg run directory" in capsys.readouterr().err
     assert (foreign / "thesis.tex").read_text() == "precious"
+
+
+class BlockFiles(sink.Sink):
+    """A toy sink: each block's records as one JSON file ``blocks/block_<first>.json``."""
+
+    entries = (sink.Entry("blocks", directory=True, inside=(r"blocks/block_\d+\.json",)),)
+
+    def __init__(self, run_dir: Path):
+        self.dir = run_dir / "blocks"
+        self.dir.mkdir(exist_ok=True)
+
+    @classmethod
+    def open(cls, plan, printer):
+        return cls(plan.run_dir)
+
+    def write_block(self, block: sink.Block) -> None:
+        (self.dir / f"block_{block.first}.json").write_text(json.dumps(block.records))
+
+
+def test_a_registered_sink_gets_every_block_and_overwrite_accepts_its_files(runs):
+    """A sink added in one place (``sinks.register``) receives every block's records, the same
+    ``metrics.jsonl`` holds; the run directory with its files is a jaxpg run that ``--overwrite``
+    replaces, and without the sink registered those files are foreign."""
+    run_dir = runs / "toy_sink"
+    sinks.register(BlockFiles)
+    try:
+        assert main.main([*TINY, "--iterations", "2", "--run-dir", str(run_dir)]) == 0
+        written = [r for f in sorted((run_dir / "blocks").iterdir()) for r in json.loads(f.read_text())]
+        assert written and written == metrics_log.read_metrics(run_dir)
+        assert directory.foreign_entries(run_dir) == []
+        assert main.main([*TINY, "--iterations", "2", "--run-dir", str(run_dir), "--overwrite"]) == 0
+        assert [r["iteration"] for r in metrics_log.read_metrics(run_dir)] == [1, 2]
+    finally:
+        sinks.unregister(BlockFiles)
+    assert directory.foreign_entries(run_dir) == ["blocks"]
+    with pytest.raises(layout.RunDirError, match="blocks"):
+        directory.check_replaceable(run_dir)
 
 
 # --------------------------------------------------------------------------- resume

@@ -499,17 +499,17 @@ def test_disk_full_while_writing_metrics_is_one_line_and_keeps_the_checkpoints(e
     import errno
 
     copy = copy_run(existing, tmp_path / "copy")
-    real_write = metrics_log.MetricsWriter.write
+    real_write = metrics_log.JsonlLog.write
 
     def full_after_iteration_2(writer, records):
         if records and records[0]["iteration"] > 4:
             raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(writer.run_dir / layout.METRICS_FILE))
         real_write(writer, records)
 
-    monkeypatch.setattr(metrics_log.MetricsWriter, "write", full_after_iteration_2)
+    monkeypatch.setattr(metrics_log.JsonlLog, "write", full_after_iteration_2)
     assert main.main(["--resume", str(copy), "--iterations", "8"]) == 2
     one_error_line(capsys.readouterr().err, "writing the run directory failed", "disk full")
     assert [r["iteration"] for r in metrics_log.read_metrics(copy)] == [1, 2, 3, 4]
-    monkeypatch.setattr(metrics_log.MetricsWriter, "write", real_write)
+    monkeypatch.setattr(metrics_log.JsonlLog, "write", real_write)
     assert main.main(["--resume", str(copy), "--iterations", "6"]) == 0
     assert [r["iteration"] for r in metrics_log.read_metrics(copy)] == [1, 2, 3, 4, 5, 6]

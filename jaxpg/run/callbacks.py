@@ -8,8 +8,8 @@ the order ``host_callbacks`` lists them, after every block of iterations:
                         block is written; from the first block on, interrupts checkpoint first;
   ``BlockClock.start_block``  the block's duration, wall times and training rate (evaluation,
                         which ran between the block's calls, left out);
-  ``write_metrics``     ``metrics.jsonl``, TensorBoard and the curves' history;
-  ``show_progress``     the progress bar;
+  ``write_sinks``       the block to the run's sinks (``jaxpg.run.sink``): ``metrics.jsonl``,
+                        TensorBoard, the curves' history, any registered sink, the progress bar;
   ``Summaries``         the summary line every ``log_every`` iterations, with its ETA, and the
                         warnings about rolled-back updates and physics overflows;
   ``guard_divergence``  a diverged block (``jaxpg.run.divergence``) stops the run before
@@ -18,7 +18,8 @@ the order ``host_callbacks`` lists them, after every block of iterations:
                         ``curves.png`` (redrawn at most every ``PLOT_EVERY_S`` seconds from the
                         start, and at the end, by a helper process while the checkpoint is
                         written: ``plot_process``);
-  ``Videos``            a video of the mean policy every ``video_every`` iterations and at the end
+  ``write_sinks``       the block to the sinks that come after its checkpoint: videos of the
+                        mean policy every ``video_every`` iterations and at the end
                         (``jaxpg.run.videos``);
   ``TimeLimit``         past ``--minutes``: checkpoint, then ``TimeUp``;
   ``StopOnRequest``     after SIGINT / SIGTERM: checkpoint, then ``Stop``;
@@ -41,7 +42,7 @@ from jaxpg.run.metrics_log import block_length
 from jaxpg.run.output import is_primary
 from jaxpg.run.plan import Plan
 from jaxpg.run.plot_process import CurvePainter
-from jaxpg.run.videos import Videos
+from jaxpg.run.sink import Block, Sink
 
 Callback = Callable[[Any, dict[str, np.ndarray], int], None]
 """``callback(train_state, metrics, first_iteration)``, as ``jaxpg.train.train`` calls it."""
@@ -145,26 +146,19 @@ class BlockClock:
         return eta
 
 
-def write_metrics(
-    writer: metrics_log.MetricsWriter, clock: BlockClock, seeds: list[int], history: plotting.CurveHistory
-) -> Callback:
-    """Write each block's records (``metrics.jsonl``, TensorBoard), with the clock's wall times, and
-    keep its curves for ``curves.png``."""
+def write_sinks(sinks: list[Sink], clock: BlockClock, seeds: list[int]) -> Callback:
+    """Hand each block to ``sinks``, in order: its records (with the clock's wall times, made once
+    for all of them) and its training rate."""
 
     def write(ts: Any, metrics: dict[str, np.ndarray], first: int) -> None:
-        writer.write(metrics_log.block_records(metrics, first, seeds, clock.wall_times))
-        history.add_block(metrics, first)
+        if not sinks:
+            return
+        records = metrics_log.block_records(metrics, first, seeds, clock.wall_times)
+        block = Block(ts, metrics, first, records, clock.steps_per_s)
+        for sink in sinks:
+            sink.write_block(block)
 
     return write
-
-
-def show_progress(progress: console.Progress, clock: BlockClock) -> Callback:
-    """Advance the progress bar by each block, at the block's training rate."""
-
-    def show(ts: Any, metrics: dict[str, np.ndarray], first: int) -> None:
-        progress.update(block_length(metrics), metrics, clock.steps_per_s)
-
-    return show
 
 
 class Summaries:
@@ -355,28 +349,30 @@ class HostCallbacks:
 def host_callbacks(
     plan_: Plan,
     checkpoints: Any,
-    writer: metrics_log.MetricsWriter,
+    sinks: list[Sink],
     progress: console.Progress,
     wall_offset: float,
     interrupts: Any,
 ) -> HostCallbacks:
-    """The callbacks of a run, in the order they must run (module docstring)."""
+    """The callbacks of a run, in the order they must run (module docstring). ``sinks``: the run's
+    opened sinks (``jaxpg.run.sinks.registered``, process 0 alone); ``progress``, the console's, comes last of
+    those before the checkpoint."""
     clock = BlockClock(plan_, wall_offset)
-    # A resumed run's curves start from its metrics.jsonl, read once (truncated to plan_.start).
-    records = metrics_log.read_metrics(plan_.run_dir) if plan_.start and is_primary() else []
-    history = plotting.CurveHistory.from_records(records)
+    # The curves of a resumed run start from its metrics.jsonl (plotting.CurveHistory.open).
+    history = next((s for s in sinks if isinstance(s, plotting.CurveHistory)), plotting.CurveHistory())
+    before = [s for s in sinks if not s.after_checkpoint] + [progress]
+    after = [s for s in sinks if s.after_checkpoint]
     # curves.png is drawn by a helper process (plot_process), started now: matplotlib is ready by the first drawing.
     painter = CurvePainter.start() if is_primary() else CurvePainter()
     saving = Checkpoints(plan_, checkpoints, progress, history=history, last_saved=plan_.start, painter=painter)
     callables: list[Callback] = [
         guard_interrupts(interrupts),
         clock.start_block,
-        write_metrics(writer, clock, plan_.run.seeds, history),
-        show_progress(progress, clock),
+        write_sinks(before, clock, plan_.run.seeds),
         Summaries(plan_, clock, progress),
         guard_divergence(plan_, saving),
         saving,
-        Videos(plan_, progress),
+        write_sinks(after, clock, plan_.run.seeds),
         time_limit(clock, saving),
         stop_on_request(interrupts, saving),
         clock.end_host_work,

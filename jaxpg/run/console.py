@@ -12,6 +12,7 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from jaxpg.run.metrics_log import latest_value
+from jaxpg.run.sink import Block, Sink
 
 # Diagnostics shown in the summary line when the algorithm reports them.
 SUMMARY_DIAGNOSTICS = ("kl", "entropy", "step_length", "value_loss", "grad_norm", "cg_residual", "loss")
@@ -148,16 +149,25 @@ def summary_line(
     return " | ".join(parts)
 
 
-class Progress:
-    """A tqdm bar over iterations (hidden when stderr is not a terminal) plus summary lines.
+class Progress(Sink):
+    """The console's sink: a tqdm bar over iterations (hidden when stderr is not a terminal) plus
+    summary lines; it writes nothing in the run directory.
 
-    ``update`` advances the bar by a block and shows env steps/s and the latest returns;
-    ``write`` prints a line above the bar (to stdout).
+    ``update`` (``write_block``) advances the bar by a block and shows env steps/s and the latest
+    returns; ``write`` prints a line above the bar (to stdout).
     """
 
     def __init__(self, total: int, initial: int = 0, enabled: bool | None = None, desc: str = "train"):
         disable = None if enabled is None else not enabled
         self.bar = tqdm(total=total, initial=initial, desc=desc, unit="it", dynamic_ncols=True, disable=disable)
+
+    @classmethod
+    def open(cls, plan: Any, printer: Any) -> Progress:
+        run = plan.run
+        return cls(run.iterations, initial=plan.start, enabled=plan.progress, desc=f"{run.algo} {run.task}")
+
+    def write_block(self, block: Block) -> None:
+        self.update(len(next(iter(block.metrics.values()))), block.metrics, block.steps_per_s)
 
     def update(self, n: int, metrics: dict[str, np.ndarray], steps_per_s: float) -> None:
         postfix = {"steps/s": _rate(steps_per_s)}

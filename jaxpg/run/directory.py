@@ -1,10 +1,11 @@
 """What a run directory holds: a jaxpg run (``check_replaceable``) or something else.
 
 ``--overwrite`` deletes only what jaxpg wrote, checked entry by entry down the whole tree:
-``layout.RUN_ENTRIES`` at the top, ``layout.RUN_SUBENTRIES`` inside ``tensorboard/`` and
-``videos/``, and inside ``checkpoints/`` only Orbax's step directories (and its temporary ones),
-each holding nothing but the files its own checksum manifest lists (a step written before
-manifests existed: nothing but Orbax's items at its top). A symbolic link inside a run is never
+``sinks.run_entries()`` at the top (the run's own files and what its registered sinks declare),
+``sinks.run_subentries()`` inside the sinks' directories (``tensorboard/``, ``videos/``), and
+inside ``checkpoints/`` only Orbax's step directories (and its temporary ones), each holding
+nothing but the files its own checksum manifest lists (a step written before manifests existed:
+nothing but Orbax's items at its top). A symbolic link inside a run is never
 jaxpg's. The working directory and the directories above it are never replaced.
 """
 
@@ -13,12 +14,22 @@ from __future__ import annotations
 import json
 import os
 import re
+import types
 from pathlib import Path
 
 from jaxpg.run.config_io import RunConfig
-from jaxpg.run.layout import CHECKPOINT_DIR, CONFIG_FILE, RUN_DIRS, RUN_ENTRIES, RUN_SUBENTRIES, RunDirError
+from jaxpg.run.layout import CHECKPOINT_DIR, CONFIG_FILE, RunDirError
 
 MANIFEST = "jaxpg_sha256.json"  # jaxpg.run.checkpoint_format.MANIFEST (that module loads JAX)
+
+
+def _sinks() -> types.ModuleType:
+    """``jaxpg.run.sinks``, imported when a directory is checked: it imports the sinks (and JAX)."""
+    from jaxpg.run import sinks
+
+    return sinks
+
+
 STEP_TOP = frozenset({"state", "policy", "meta", "_CHECKPOINT_METADATA", "commit_success.txt"})
 """What Orbax writes at the top of a checkpoint step (its three items, metadata, commit marker)."""
 
@@ -67,8 +78,8 @@ def _checkpoints_foreign(ckpt_dir: Path) -> list[str]:
 
 def _tree_foreign(top: Path, name: str) -> list[str]:
     """The entries under the run's directory ``name`` (``tensorboard``, ``videos``) that match
-    none of ``RUN_SUBENTRIES[name]``; a foreign directory is named once, not its contents."""
-    patterns = RUN_SUBENTRIES[name]
+    none of ``sinks.run_subentries()[name]``; a foreign directory is named once, not its contents."""
+    patterns = _sinks().run_subentries()[name]
     found = []
     for root, dirs, files in os.walk(top / name):
         rel_root = Path(root).relative_to(top)
@@ -86,18 +97,20 @@ def foreign_entries(run_dir: str | os.PathLike) -> list[str]:
     """The paths (relative to ``run_dir``, sorted) that a jaxpg run does not write, checked down
     the whole tree (module docstring)."""
     top = Path(run_dir)
+    sinks = _sinks()
+    known, dirs, inside = sinks.run_entries(), sinks.run_dirs(), sinks.run_subentries()
     found = []
     for entry in sorted(os.scandir(top), key=lambda e: e.name):
         name = entry.name
-        if name not in RUN_ENTRIES:
+        if name not in known:
             found.append(name)
         elif entry.is_symlink():
             found.append(name)
-        elif entry.is_dir() != (name in RUN_DIRS):
+        elif entry.is_dir() != (name in dirs):
             found.append(name)  # a file where a run writes a directory, or the other way round
         elif name == CHECKPOINT_DIR:
             found.extend(_checkpoints_foreign(top / name))
-        elif name in RUN_SUBENTRIES:
+        elif name in inside:
             found.extend(_tree_foreign(top, name))
     return sorted(found)
 
@@ -106,12 +119,14 @@ def check_entry_types(run_dir: str | os.PathLike) -> None:
     """``RunDirError`` (one line) when an entry of ``run_dir`` that a run writes is of the wrong
     type: a directory where a run writes a file (``metrics.jsonl``, ``.jaxpg.lock``) or the other
     way round (``checkpoints``), which jaxpg will not read, write or delete."""
-    for name in sorted(RUN_ENTRIES):
+    sinks = _sinks()
+    dirs = sinks.run_dirs()
+    for name in sorted(sinks.run_entries()):
         path = Path(run_dir) / name
         if not (path.exists() or path.is_symlink()):
             continue
         is_dir = path.is_dir()
-        if is_dir != (name in RUN_DIRS):
+        if is_dir != (name in dirs):
             what, wanted = ("a directory", "a file") if is_dir else ("not a directory", "a directory")
             raise RunDirError(
                 f"{str(path)!r} is {what}, where a run writes {wanted}; move it out of the run directory "

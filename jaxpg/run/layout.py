@@ -14,10 +14,10 @@ Layout of a run directory (``jaxpg.cli`` writes it, ``jaxpg.load_policy`` and
     profile.json     phase timings, only with --profile
     .jaxpg.lock      the process writing the directory, while it runs
 
-A directory holding only these (``RUN_ENTRIES``, with their temporary ``*.tmp`` files; inside
-them only ``RUN_SUBENTRIES`` and Orbax's checkpoint steps) whose ``config.json`` reads as a
-``RunConfig`` is a jaxpg run (``jaxpg.run.directory.check_replaceable``): ``--overwrite`` replaces
-nothing else.
+A directory holding only these (``jaxpg.run.sinks.run_entries``: the run's own files and what
+its registered sinks declare, with their temporary ``*.tmp`` files; inside them only what the
+sinks declare and Orbax's checkpoint steps) whose ``config.json`` reads as a ``RunConfig`` is a
+jaxpg run (``jaxpg.run.directory.check_replaceable``): ``--overwrite`` replaces nothing else.
 
 Iterations are counted from 1: the record with ``iteration == n`` describes the n-th update, and
 the checkpoint of step ``n`` holds the state after it.
@@ -60,26 +60,6 @@ FORMAT_VERSION = 1
 
 
 MAX_SEED = 2**32 - 1  # PRNG seeds are 32 bits (JAX without x64): larger ones would collide with smaller ones
-
-
-# Everything a run writes at the top of its directory, temporary files of atomic writes included.
-RUN_ENTRIES = frozenset(
-    {CONFIG_FILE, METRICS_FILE, TENSORBOARD_DIR, CHECKPOINT_DIR, VIDEO_DIR, CURVES_FILE, PROFILE_FILE, LOCK_FILE}
-    | {CONFIG_FILE + ".tmp", METRICS_FILE + ".tmp", PROFILE_FILE + ".tmp", "curves.tmp.png"}
-)
-
-
-# The entries of RUN_ENTRIES that are directories; every other one is a file.
-RUN_DIRS = frozenset({TENSORBOARD_DIR, CHECKPOINT_DIR, VIDEO_DIR})
-
-
-# What a run writes inside its directories, as regular expressions of whole paths relative to the
-# run directory. Checkpoint steps are checked against their own list of files
-# (``jaxpg.run.directory``): Orbax's layout inside a step is Orbax's.
-RUN_SUBENTRIES = {
-    TENSORBOARD_DIR: (rf"{TENSORBOARD_DIR}/seed_\d+", rf"{TENSORBOARD_DIR}/seed_\d+/events\.out\.tfevents\.[^/]+"),
-    VIDEO_DIR: (rf"{VIDEO_DIR}/[^/]+\.(mp4|gif)",),
-}
 
 
 class RunDirError(ValueError):

@@ -1,21 +1,19 @@
-"""``metrics.jsonl`` and TensorBoard: one record per iteration and seed, written, read back and
-truncated on resume; the score a checkpoint is ranked by."""
+"""``metrics.jsonl``: one record per iteration and seed, written (the sink ``JsonlLog``), read back
+and truncated on resume; the score a checkpoint is ranked by."""
 
 from __future__ import annotations
 
 import json
 import math
 import os
-import time
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from jaxpg.run import tensorboard
-from jaxpg.run.layout import METRICS_FILE, TENSORBOARD_DIR
-from jaxpg.run.tensorboard import EventWriter
+from jaxpg.run.layout import METRICS_FILE
+from jaxpg.run.sink import Block, Entry, Sink
 
 # Keys every record starts with, in this order; the algorithm's diagnostics follow sorted.
 LEADING_KEYS = (
@@ -165,58 +163,30 @@ def truncate_metrics(run_dir: str | os.PathLike, last_iteration: int) -> float:
     return max((r.get("wall_time_s") or 0.0 for r in records), default=0.0)
 
 
-class MetricsWriter:
-    """Appends records to ``metrics.jsonl`` and the same scalars to TensorBoard event files
-    (``jaxpg.run.tensorboard``).
+class JsonlLog(Sink):
+    """The sink of ``metrics.jsonl``: appends each block's records, one JSON object a line."""
 
-    TensorBoard gets one sub-directory per seed (``tensorboard/seed_<s>``), scalars keyed by the
-    metric name against the iteration; NaN (not measured) is skipped. ``start_iteration`` > 0
-    (a resumed run) purges events the interrupted run wrote after that iteration.
-    """
+    entries = (Entry(METRICS_FILE, temporary=(METRICS_FILE + ".tmp",)),)  # the temporary: truncate_metrics
 
-    def __init__(
-        self,
-        run_dir: str | os.PathLike,
-        seeds: Sequence[int],
-        start_iteration: int = 0,
-        tensorboard: bool = True,
-    ):
+    def __init__(self, run_dir: str | os.PathLike):
         self.run_dir = Path(run_dir)
-        self.seeds = list(seeds)
         self._file = (self.run_dir / METRICS_FILE).open("a")
-        self._writers: dict[int, EventWriter] = {}
-        if tensorboard:
-            purge = start_iteration + 1 if start_iteration > 0 else None
-            for seed in self.seeds:
-                logdir = self.run_dir / TENSORBOARD_DIR / f"seed_{seed}"
-                self._writers[seed] = EventWriter(logdir, purge_step=purge)
+
+    @classmethod
+    def open(cls, plan: Any, printer: Any) -> JsonlLog:
+        return cls(plan.run_dir)
+
+    def write_block(self, block: Block) -> None:
+        self.write(block.records)
 
     def write(self, records: Sequence[dict[str, Any]]) -> None:
-        """Append ``records`` (``block_records``); TensorBoard gets one event per record holding
-        its scalars, the events of all seeds framed together (``tensorboard.records``)."""
-        seeds, events, now = [], [], time.time()
+        """Append ``records`` (``block_records``) and flush."""
         for record in records:
             self._file.write(json.dumps(record) + "\n")
-            if record["seed"] not in self._writers:
-                continue
-            # A non-finite value ("nan", "inf" in the record) is a float for TensorBoard.
-            scalars = {k: float(v) for k, v in record.items() if k not in ("iteration", "seed") and v is not None}
-            seeds.append(record["seed"])
-            events.append(tensorboard.event(now, record["iteration"], summary=tensorboard.scalars_summary(scalars)))
-        for seed, framed in zip(seeds, tensorboard.records(events), strict=True):
-            self._writers[seed].write_records([framed])
         self._file.flush()
-        for writer in self._writers.values():
-            writer.flush()
-
-    def add_text(self, tag: str, text: str) -> None:
-        for writer in self._writers.values():
-            writer.add_text(tag, text, step=0)
 
     def close(self) -> None:
         self._file.close()
-        for writer in self._writers.values():
-            writer.close()
 
 
 def latest_value(values: np.ndarray) -> float:

@@ -8,6 +8,7 @@ from typing import Any
 import jax
 
 from jaxpg.run import processes
+from jaxpg.run.sink import Block, Sink
 
 
 def seed_slice(tree: Any, index: int, vmap_seeds: bool) -> Any:
@@ -24,8 +25,11 @@ def show(line: str) -> None:
         print(line, flush=True)
 
 
-class Silent:
-    """Metrics writer and progress of the processes other than 0, which write nothing."""
+class Silent(Sink):
+    """The progress of the processes other than 0, which print nothing (and have no other sink)."""
+
+    def write_block(self, block: Block) -> None:
+        pass
 
     def write(self, *args: Any) -> None:
         pass

@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 
 from jaxpg.run import config_io, console, layout, metrics_log
+from jaxpg.run.sink import Block, Entry, Sink
 
 CURVES = (("return_stochastic", "stochastic policy", "-"), ("return_mean_policy", "mean policy", "--"))
 TASK_SCORE_CURVES = (("task_score", "stochastic policy", "-"), ("task_score_mean_policy", "mean policy", "--"))
@@ -45,14 +46,17 @@ def seed_curves(records: Sequence[dict[str, Any]], key: str) -> tuple[np.ndarray
     return iterations, values
 
 
-class CurveHistory:
+class CurveHistory(Sink):
     """The plotted metrics of a run (``CURVE_KEYS``), kept by the training process block by block
     so that redrawing ``curves.png`` never re-reads ``metrics.jsonl`` (hundreds of MB for a long
-    run of many seeds).
+    run of many seeds). The sink of the curves: ``jaxpg.run.callbacks.Checkpoints`` draws them
+    (``plot_process``) when it writes a checkpoint.
 
     ``curve(key)`` is ``(iterations [n], values [n, num_seeds])``, NaN where not measured, as
     ``seed_curves`` reads it from records.
     """
+
+    entries = (Entry(layout.CURVES_FILE, temporary=("curves.tmp.png",)),)
 
     def __init__(self) -> None:
         self._iterations: list[np.ndarray] = []
@@ -69,6 +73,15 @@ class CurveHistory:
                 history._values[key].append(values)
             history._iterations.append(iterations)
         return history
+
+    @classmethod
+    def open(cls, plan: Any, printer: Any) -> CurveHistory:
+        """A run's history: a resumed run's starts from its ``metrics.jsonl``, read once (truncated
+        to ``plan.start`` already)."""
+        return cls.from_records(metrics_log.read_metrics(plan.run_dir) if plan.start else [])
+
+    def write_block(self, block: Block) -> None:
+        self.add_block(block.metrics, block.first)
 
     def add_block(self, metrics: dict[str, np.ndarray], first_iteration: int) -> None:
         """Append a block of ``update`` metrics (``[n]`` or ``[n, num_seeds]`` arrays) whose first

@@ -40,11 +40,11 @@ from jaxpg.run import (
     checkpointer,
     console,
     layout,
-    metrics_log,
     processes,
     profiling,
     replay,
     run_lock,
+    sinks,
 )
 from jaxpg.run.callbacks import BlockClock, HostCallbacks, host_callbacks
 from jaxpg.run.interrupts import Interrupts, Stop, TimeUp, exit_status
@@ -166,7 +166,8 @@ def _train(plan_: Plan, ts: Any, wall_offset: float, interrupts: Interrupts) -> 
     # not overlap a program that launches them: the initial state's is finished first.
     jax.block_until_ready(ts)
     first_block = FirstBlock(KernelBuild.start(plan_.env))
-    checkpoints = writer = progress = None
+    checkpoints = progress = None
+    opened: list = []
     status = 0
     failure: str | None = None  # the error line, once the run directory is put in order
     kept = ""  # what the error line adds when the run keeps its checkpoints
@@ -177,17 +178,15 @@ def _train(plan_: Plan, ts: Any, wall_offset: float, interrupts: Interrupts) -> 
             checkpoints = checkpointer.Checkpointer(
                 run_dir / layout.CHECKPOINT_DIR, keep=run.keep_checkpoints, create=True
             )
-            writer = metrics_log.MetricsWriter(run_dir, run.seeds, start_iteration=plan_.start) if primary else Silent()
+            progress = console.Progress.open(plan_, None) if primary else Silent()
+            # Process 0 alone writes. Opened one by one: a failure closes those opened before it.
+            for sink_type in sinks.registered() if primary else ():
+                if (sink := sink_type.open(plan_, progress)) is not None:
+                    opened.append(sink)
             if plan_.start == 0:
-                writer.add_text("config", "```\n" + json.dumps(run.to_json(), indent=2) + "\n```")
-            progress = (
-                console.Progress(
-                    run.iterations, initial=plan_.start, enabled=plan_.progress, desc=f"{run.algo} {run.task}"
-                )
-                if primary
-                else Silent()
-            )
-            callbacks = host_callbacks(plan_, checkpoints, writer, progress, wall_offset, interrupts)
+                for sink in opened:
+                    sink.add_text("config", "```\n" + json.dumps(run.to_json(), indent=2) + "\n```")
+            callbacks = host_callbacks(plan_, checkpoints, opened, progress, wall_offset, interrupts)
             block = run.block_size
             # Blocks start at multiples of block_size, as in an uninterrupted run.
             segments = []
@@ -244,7 +243,7 @@ def _train(plan_: Plan, ts: Any, wall_offset: float, interrupts: Interrupts) -> 
         failure, kept = f"writing the run directory failed: {what}{hint}", ""
         status = 2
     finally:
-        for closable in (progress, writer, checkpoints):
+        for closable in (progress, *opened, checkpoints):
             if closable is not None:
                 try:
                     closable.close()

@@ -12,6 +12,7 @@ masked CRC-32C; each record's data is a serialized ``tensorflow.Event`` protocol
 event names the format (``file_version: "brain.Event:2"``); scalars are an event whose
 ``Summary`` holds one ``Value`` (a ``simple_value``) per tag, text one with a string tensor for the
 ``text`` plugin.
+``TensorBoardLog`` is the run's sink of them (``jaxpg.run.sink``).
 ``purge_step`` (a resumed run) adds a ``SessionLog`` START event at that step, from which
 TensorBoard drops the earlier events of higher steps.
 
@@ -29,8 +30,12 @@ import struct
 import time
 from collections.abc import Mapping, Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
+
+from jaxpg.run.layout import TENSORBOARD_DIR
+from jaxpg.run.sink import Block, Entry, Sink
 
 FILE_VERSION = "brain.Event:2"
 
@@ -223,3 +228,55 @@ class EventWriter:
 
     def close(self) -> None:
         self._file.close()
+
+
+class TensorBoardLog(Sink):
+    """The sink of TensorBoard: each block's scalars in event files (``EventWriter``), one
+    sub-directory per seed (``tensorboard/seed_<s>``), keyed by the metric name against the
+    iteration; a metric not measured (``null`` in the record) is skipped. ``start_iteration`` > 0
+    (a resumed run) purges the events the interrupted run wrote after that iteration."""
+
+    entries = (
+        Entry(
+            TENSORBOARD_DIR,
+            directory=True,
+            inside=(rf"{TENSORBOARD_DIR}/seed_\d+", rf"{TENSORBOARD_DIR}/seed_\d+/events\.out\.tfevents\.[^/]+"),
+        ),
+    )
+
+    def __init__(self, run_dir: str | os.PathLike, seeds: Sequence[int], start_iteration: int = 0):
+        purge = start_iteration + 1 if start_iteration > 0 else None
+        self._writers = {
+            seed: EventWriter(Path(run_dir) / TENSORBOARD_DIR / f"seed_{seed}", purge_step=purge) for seed in seeds
+        }
+
+    @classmethod
+    def open(cls, plan: Any, printer: Any) -> TensorBoardLog:
+        return cls(plan.run_dir, plan.run.seeds, start_iteration=plan.start)
+
+    def write_block(self, block: Block) -> None:
+        self.write(block.records)
+
+    def write(self, rows: Sequence[dict[str, Any]]) -> None:
+        """One event per record (``metrics_log.block_records``) holding its scalars, the events of
+        all seeds framed together (``records``)."""
+        seeds, events, now = [], [], time.time()
+        for row in rows:
+            if row["seed"] not in self._writers:
+                continue
+            # A non-finite value ("nan", "inf" in the record) is a float for TensorBoard.
+            scalars = {k: float(v) for k, v in row.items() if k not in ("iteration", "seed") and v is not None}
+            seeds.append(row["seed"])
+            events.append(event(now, row["iteration"], summary=scalars_summary(scalars)))
+        for seed, framed in zip(seeds, records(events), strict=True):
+            self._writers[seed].write_records([framed])
+        for writer in self._writers.values():
+            writer.flush()
+
+    def add_text(self, tag: str, text: str) -> None:
+        for writer in self._writers.values():
+            writer.add_text(tag, text, step=0)
+
+    def close(self) -> None:
+        for writer in self._writers.values():
+            writer.close()

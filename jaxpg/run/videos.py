@@ -12,11 +12,24 @@ from jaxpg.run import layout, policy_episodes
 from jaxpg.run.metrics_log import block_length
 from jaxpg.run.output import is_primary, seed_slice
 from jaxpg.run.plan import Plan
+from jaxpg.run.sink import Block, Entry, Sink
 
 
-class Videos:
-    """A video of the mean policy (the first seed's) every ``video_every`` iterations and at the
-    end, by process 0; the first failure disables videos with one warning line."""
+class Videos(Sink):
+    """The sink of videos: one of the mean policy (the first seed's) every ``video_every``
+    iterations and at the end (after that block's checkpoint), by process 0; the first failure
+    disables videos with one warning line."""
+
+    entries = (Entry(layout.VIDEO_DIR, directory=True, inside=(rf"{layout.VIDEO_DIR}/[^/]+\.(mp4|gif)",)),)
+    after_checkpoint = True
+
+    @classmethod
+    def open(cls, plan: Plan, printer: Any) -> Videos | None:
+        """Only for a run with ``--video-every``."""
+        return cls(plan, printer) if plan.run.video_every > 0 else None
+
+    def write_block(self, block: Block) -> None:
+        self(block.state, block.metrics, block.first)
 
     def __init__(self, plan_: Plan, progress: Any):
         self.plan, self.progress = plan_, progress

@@ -953,7 +953,7 @@ def policy_to_evaluate(run_dir: str | None, task: str) -> tuple[str, dict[str, A
     """``(task, env_kwargs, policy, params, obs_stats)`` of ``run_dir``'s latest checkpoint, or of
     a fresh NPG policy for ``task`` (its ``hopper`` preset's networks for Hopper)."""
     if run_dir:
-        from jaxpg.run import policy_io
+        from jaxpg.run.checkpoints import policy_io
 
         loaded = policy_io.load_policy(run_dir)
         return loaded.run.task, dict(loaded.run.env_kwargs), loaded.policy, loaded.params, loaded.obs_stats
@@ -1095,7 +1095,8 @@ def host_main(argv: Sequence[str]) -> None:
     import tempfile
     from pathlib import Path
 
-    from jaxpg.run import checkpointer, metrics_log, plotting, tensorboard
+    from jaxpg.run.checkpoints import checkpointer
+    from jaxpg.run.outputs import metrics_log, plotting, tensorboard
 
     parser = argparse.ArgumentParser(prog="throughput.py host", description=HOST_DOC, formatter_class=RAW)
     parser.add_argument("--seeds", type=int, default=32)

@@ -26,7 +26,10 @@ import test_cli
 
 from jaxpg import envs
 from jaxpg.algos import npg, ppo
-from jaxpg.run import command_line, layout, main, metrics_log, planning, replacing, run_lock, session
+from jaxpg.run.command import command_line, main, planning
+from jaxpg.run.outputs import metrics_log
+from jaxpg.run.rundir import layout, replacing, run_lock
+from jaxpg.run.training import session
 
 ROOT = Path(__file__).resolve().parent.parent
 TINY = test_cli.TINY  # the same tiny run as tests/test_cli.py: the two share its compiled programs

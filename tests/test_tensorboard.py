@@ -1,4 +1,4 @@
-"""``jaxpg.run.tensorboard`` against tensorboardX, an independent writer of the same format: its
+"""``jaxpg.run.outputs.tensorboard`` against tensorboardX, an independent writer of the same format: its
 CRC-32C, its record framing, its protocol buffers byte for byte, and a run's event files read back
 through its ``Event`` message."""
 
@@ -9,7 +9,7 @@ import struct
 import numpy as np
 import pytest
 
-from jaxpg.run import metrics_log, tensorboard
+from jaxpg.run.outputs import metrics_log, tensorboard
 
 tbx = pytest.importorskip("tensorboardX")
 from tensorboardX.crc32c import crc32c as reference_crc32c  # noqa: E402

@@ -15,9 +15,9 @@ from typing import Any
 
 import jax
 
-from jaxpg import algos, envs
+from jaxpg import envs
 from jaxpg.run.checkpoints import checkpointer, policy_io
-from jaxpg.run.command import task_options
+from jaxpg.run.command import preset_choice, task_options
 from jaxpg.run.command.command_line import (
     CONFIG_PREFIX,
     ENV_PREFIX,
@@ -29,6 +29,7 @@ from jaxpg.run.command.command_line import (
 from jaxpg.run.command.flags import UsageError
 from jaxpg.run.command.plan import Plan
 from jaxpg.run.command.pre_flags import PreFlags, parse_pre_flags
+from jaxpg.run.command.preset_choice import ResolvedPreset
 from jaxpg.run.command.startup_times import StartupTimes
 from jaxpg.run.host.memory import check_memory
 from jaxpg.run.outputs import metrics_log
@@ -145,16 +146,16 @@ def _check_sharding(config: Any, explicit: bool | None) -> bool:
     return shard and count > 1
 
 
-def _with_preset_hint(message: str, preset: str | None, algo: str, explicit: dict[str, Any]) -> str:
+def _with_preset_hint(message: str, preset: ResolvedPreset, explicit: dict[str, Any]) -> str:
     """``message`` (a ``Config.validate`` error) with the preset's part in it: the fields it names
     that ``--preset`` set and no flag changed, e.g. ``(--preset hopper_1m sets --log-std-final 1.0)``."""
-    if preset is None:
+    if preset.name is None:
         return message
-    values = algos.preset(algo, preset)
+    values = preset.config
     named = [k for k in values if k not in explicit and re.search(rf"\b{k}\b", message)]
     if not named:
         return message
-    return f"{message} (--preset {preset} sets " + ", ".join(f"{flag_name(k)} {values[k]}" for k in named) + ")"
+    return f"{message} (--preset {preset.name} sets " + ", ".join(f"{flag_name(k)} {values[k]}" for k in named) + ")"
 
 
 def plan_fresh(args: argparse.Namespace, experiment: Experiment, module: Any, algo: str) -> Plan:
@@ -163,16 +164,12 @@ def plan_fresh(args: argparse.Namespace, experiment: Experiment, module: Any, al
     args = argparse.Namespace(**{**vars(args), "preset": experiment.preset_name(algo, args.preset)})
     config_cls = module.Config
     values = experiment.config_defaults(algo, config_cls)
-    if args.preset is not None:
-        try:
-            values.update(algos.preset(algo, args.preset, task))
-        except ValueError as e:
-            known = ", ".join(algos.preset_names(algo, task)) or "none"
-            raise UsageError(f"{e}; presets of {algo} for {task}: {known}") from None
+    preset = preset_choice.resolve(algo, args.preset, task)  # the preset table, read once for the run
+    values.update(preset.config)
     values.update(_explicit_config(args))
     types = config_io.field_types(config_cls)
     config = config_cls(**{k: config_io.coerce(types[k], v) for k, v in values.items()})
-    preset_env = algos.preset_env_kwargs(algo, args.preset) if args.preset is not None else {}
+    preset_env = preset.env_kwargs
     env_kwargs = {**experiment.env_kwargs, **_task_options(args, task, preset_env), **_explicit_env(args)}
     env_kwargs.update(_wrapper_settings(args, preset_env))
     for key in ("fidelity", "impl", "max_episode_steps"):
@@ -193,7 +190,7 @@ def plan_fresh(args: argparse.Namespace, experiment: Experiment, module: Any, al
     try:
         config.validate(env)
     except ValueError as e:
-        raise ValueError(_with_preset_hint(str(e), args.preset, algo, _explicit_config(args))) from None
+        raise ValueError(_with_preset_hint(str(e), preset, _explicit_config(args))) from None
     check_memory(config, env, num_seeds, shares)
     seeds = list(args.seeds) if args.seeds else [experiment.seed if args.seed is None else args.seed]
     if len(set(seeds)) != len(seeds):
@@ -205,8 +202,7 @@ def plan_fresh(args: argparse.Namespace, experiment: Experiment, module: Any, al
         raise UsageError(f"--log-every must be >= 1, got {log_every}")
     iterations = args.iterations
     if iterations is None:
-        by_preset = algos.preset_iterations(algo, args.preset) if args.preset is not None else None
-        iterations = experiment.iterations if by_preset is None else by_preset
+        iterations = experiment.iterations if preset.iterations is None else preset.iterations
     if iterations < 1:
         # It would leave a run directory without a checkpoint: nothing to resume or evaluate.
         raise UsageError(f"--iterations must be >= 1 for a new run, got {iterations}")
@@ -369,9 +365,8 @@ def plan(argv: Sequence[str], experiment: Experiment, pre: PreFlags | None = Non
     config_cls = module.Config
     defaults = {f.name: _field_default(f) for f in dataclasses.fields(config_cls)}
     defaults.update(experiment.config_defaults(algo, config_cls))
-    preset = experiment.preset_name(algo, pre.preset)
-    if resume_run is None and preset in algos.preset_names(algo):
-        defaults.update(algos.preset(algo, preset))  # plan_fresh checks it against the task
+    if resume_run is None:  # plan_fresh checks the preset against the task
+        defaults.update(preset_choice.defaults_of(algo, experiment.preset_name(algo, pre.preset)))
     if resume_run is not None:
         defaults.update(config_io.current_field_names(config_cls, resume_run.config))
     parser = build_parser(experiment, algo, config_cls, defaults)

@@ -20,8 +20,8 @@ the Atari ROM):
            experiment's settings, e.g. PPO's Atari recipe on the ROM, which learns there in
            minutes where MinPy's A2C needs tens of minutes per setting).
 
-Every A2C run is a standard run of the command line (``jaxpg.run.planning.plan`` of ``experiments/pong.py``
-with ``--minutes``, run by ``jaxpg.run.session.execute``) in ``RUN_DIR/envs<N>-tmax<T>-lr<LR>-seed<S>``,
+Every A2C run is a standard run of the command line (``jaxpg.run.command.planning.plan`` of ``experiments/pong.py``
+with ``--minutes``, run by ``jaxpg.run.training.session.execute``) in ``RUN_DIR/envs<N>-tmax<T>-lr<LR>-seed<S>``,
 so ``python -m jaxpg.evaluate``, ``jaxpg.load_policy`` and ``--resume`` work on each. The running
 reward is the seed's, computed from its ``metrics.jsonl``: an exponential moving average of the
 final score difference of the games, ``running = 0.99 running + 0.01 game`` at every finished
@@ -62,8 +62,12 @@ import numpy as np
 
 from jaxpg import algos, envs
 from jaxpg.envs import atari
-from jaxpg.run import command_line, compile_cache, config_io, flags, layout, metrics_log, planning, session
-from jaxpg.run import plan as plan_lib
+from jaxpg.run.command import command_line, flags, planning
+from jaxpg.run.command import plan as plan_lib
+from jaxpg.run.host import compile_cache
+from jaxpg.run.outputs import metrics_log
+from jaxpg.run.rundir import config_io, layout
+from jaxpg.run.training import session
 
 ROOT = Path(__file__).resolve().parents[1]
 RUNNING_DECAY = 0.99  # running reward: EMA over games, as in the seed
@@ -181,7 +185,7 @@ def run_argv(
 
 
 def train_run(plan: plan_lib.Plan) -> None:
-    """Run one planned command line (``jaxpg.run.session.execute``); ``RuntimeError`` if it does not
+    """Run one planned command line (``jaxpg.run.training.session.execute``); ``RuntimeError`` if it does not
     finish with status 0."""
     status = session.execute(plan)
     if status != 0:

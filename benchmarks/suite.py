@@ -615,7 +615,7 @@ def play_physics(job: tuple[str, int, str, str, int]) -> dict[str, Any]:
     --gymnasium`` (``replay.evaluate_gymnasium``) under ``variant``'s physics, the policy acting by
     ``action`` (``ACTIONS``); their returns and how many ended before the time limit (a fall)."""
     import jaxpg
-    from jaxpg.run import replay
+    from jaxpg.run.evaluation import replay
 
     run_dir, seed, variant, action, episodes = job
     policy = jaxpg.load_policy(run_dir, seed=seed, clipped_mean=None if action == "run" else action == "clipped_mean")
@@ -652,7 +652,7 @@ def physics_main(argv: Sequence[str]) -> None:
     parser.add_argument("--json", default=None)
     args = parser.parse_args(argv)
     os.environ["JAX_PLATFORMS"] = "cpu"  # inherited by the workers: the policies run on the CPU
-    from jaxpg.run import policy_io
+    from jaxpg.run.checkpoints import policy_io
 
     seeds = {run_dir: policy_io.load_run_config(run_dir).seeds for run_dir in args.run_dirs}
     plays = [(v, a) for v in args.variants for a in args.actions]

@@ -953,7 +953,7 @@ def policy_to_evaluate(run_dir: str | None, task: str) -> tuple[str, dict[str, A
     """``(task, env_kwargs, policy, params, obs_stats)`` of ``run_dir``'s latest checkpoint, or of
     a fresh NPG policy for ``task`` (its ``hopper`` preset's networks for Hopper)."""
     if run_dir:
-        from jaxpg.run import policy_io
+        from jaxpg.run.checkpoints import policy_io
 
         loaded = policy_io.load_policy(run_dir)
         return loaded.run.task, dict(loaded.run.env_kwargs), loaded.policy, loaded.params, loaded.obs_stats
@@ -1077,7 +1077,7 @@ record per iteration and seed and the same scalars to TensorBoard, redraws ``cur
 checkpoints and writes checkpoints. From synthetic metrics of ``--seeds`` seeds (``--keys``
 scalars each, a block of ``--block`` iterations) this times, median of ``--repeats``:
 
-  records   ``metrics_log.block_records`` and ``MetricsWriter.write`` (JSON and TensorBoard: one
+  records   ``metrics_log.block_records`` to the sinks ``JsonlLog`` and ``TensorBoardLog`` (one
             event per iteration and seed, the block's checksums computed together);
   per_scalar  the same TensorBoard scalars as one event each, checksummed one by one (the writer
             before 2026-11-29), JSON included;
@@ -1095,7 +1095,8 @@ def host_main(argv: Sequence[str]) -> None:
     import tempfile
     from pathlib import Path
 
-    from jaxpg.run import checkpointer, metrics_log, plotting, tensorboard
+    from jaxpg.run.checkpoints import checkpointer
+    from jaxpg.run.outputs import metrics_log, plotting, tensorboard
 
     parser = argparse.ArgumentParser(prog="throughput.py host", description=HOST_DOC, formatter_class=RAW)
     parser.add_argument("--seeds", type=int, default=32)
@@ -1115,12 +1116,14 @@ def host_main(argv: Sequence[str]) -> None:
 
     work = Path(tempfile.mkdtemp(prefix="jaxpg-host-"))
     (work / "run").mkdir()
-    writer = metrics_log.MetricsWriter(work / "run", seeds)
+    writers = [metrics_log.JsonlLog(work / "run"), tensorboard.TensorBoardLog(work / "run", seeds)]
     per_scalar = [tensorboard.EventWriter(work / "old" / f"seed_{s}") for s in seeds]
     metrics = block(args.block)
 
     def write_records() -> None:
-        writer.write(metrics_log.block_records(metrics, 0, seeds, [0.0] * args.block))
+        records = metrics_log.block_records(metrics, 0, seeds, [0.0] * args.block)
+        for writer in writers:
+            writer.write(records)
 
     def write_per_scalar() -> None:
         for r in metrics_log.block_records(metrics, 0, seeds, [0.0] * args.block):
@@ -1171,7 +1174,8 @@ def host_main(argv: Sequence[str]) -> None:
             times.append(time.perf_counter() - t0)
         rows.append({"work": name, "seconds": statistics.median(times), "repeats": len(times)})
         print(f"# {json.dumps(rows[-1])}", flush=True)
-    writer.close()
+    for writer in writers:
+        writer.close()
     for old in per_scalar:
         old.close()
     shutil.rmtree(work, ignore_errors=True)

@@ -84,7 +84,7 @@ def run_one(args: argparse.Namespace, seed: int) -> dict:
     start = time.perf_counter()
     import jax
 
-    from jaxpg.run import compile_cache
+    from jaxpg.run.host import compile_cache
 
     cache = None if args.no_compilation_cache else compile_cache.enable()
     from jaxpg.envs import mjx_import
@@ -391,7 +391,7 @@ def sweep_main(argv: Sequence[str]) -> None:
     parser.add_argument("--json", default=None)
     args = parser.parse_args(argv)
 
-    from jaxpg.run import compile_cache
+    from jaxpg.run.host import compile_cache
 
     compile_cache.enable()
     rows = []

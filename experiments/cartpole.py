@@ -30,7 +30,7 @@ examples:
 on a GPU (headline: MinPy's comparison, A2C with more envs learns faster in wall-clock time):
   for n in 1 2 4 16 256; do python experiments/cartpole.py --algo a2c --preset minpy --num-envs $n \\
       --iterations 2000 --seeds 1 2 3 5 8 --run-dir runs/cartpole-a2c-$n; done
-  python -m jaxpg.run.plotting runs/cartpole-a2c-* --out cartpole-a2c.png
+  python -m jaxpg.run.outputs.plotting runs/cartpole-a2c-* --out cartpole-a2c.png
 
 videos: CartPole is drawn with NumPy (--video-every N, or python -m jaxpg.evaluate RUN --video out.mp4)
 """,

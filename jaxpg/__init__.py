@@ -18,7 +18,7 @@ __all__ = ["load_policy"]
 def __getattr__(name: str) -> Any:
     # ``jaxpg.load_policy`` imports JAX only when first used, so that ``import jaxpg`` stays cheap.
     if name == "load_policy":
-        from jaxpg.run.policy_io import load_policy
+        from jaxpg.run.checkpoints.policy_io import load_policy
 
         return load_policy
     raise AttributeError(f"module 'jaxpg' has no attribute {name!r}")

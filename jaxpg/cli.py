@@ -1,4 +1,4 @@
-"""``python -m jaxpg.cli``: the command line of jaxpg (``jaxpg.run.main``).
+"""``python -m jaxpg.cli``: the command line of jaxpg (``jaxpg.run.command.main``).
 
     python -m jaxpg.cli --env inverted_pendulum --algo npg --iterations 50
     python -m jaxpg.cli --env hopper --preset lyceum --seeds 1 2 3 5 8 --run-dir runs/hopper
@@ -11,9 +11,9 @@ The experiment scripts (``experiments/*.py``) are this command with other defaul
 
 from __future__ import annotations
 
-from jaxpg.run.command_line import Experiment
-from jaxpg.run.flags import UsageError
-from jaxpg.run.main import exit_process, main
+from jaxpg.run.command.command_line import Experiment
+from jaxpg.run.command.flags import UsageError
+from jaxpg.run.command.main import exit_process, main
 
 __all__ = ["Experiment", "UsageError", "exit_process", "main"]
 

@@ -1,12 +1,12 @@
-"""``python -m jaxpg.evaluate RUN_DIR ...``: evaluate a trained policy (``jaxpg.run.evaluate_cli``).
+"""``python -m jaxpg.evaluate RUN_DIR ...``: evaluate a trained policy (``jaxpg.run.evaluation.evaluate_cli``).
 
-Episodes in jaxpg's env: ``jaxpg.run.policy_episodes``; in Gymnasium's or ALE's:
-``jaxpg.run.replay``.
+Episodes in jaxpg's env: ``jaxpg.run.evaluation.policy_episodes``; in Gymnasium's or ALE's:
+``jaxpg.run.evaluation.replay``.
 """
 
 from __future__ import annotations
 
-from jaxpg.run.evaluate_cli import main
+from jaxpg.run.evaluation.evaluate_cli import main
 
 __all__ = ["main"]
 

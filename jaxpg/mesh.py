@@ -11,7 +11,7 @@ which makes every reduction over the batch global.
 
 Arrays are placed on the global mesh from identical host values (``put_global``) and fetched back
 with ``host_copy``; ``jaxpg.algos.core.shard_state`` places a whole ``TrainState``. Joining several
-processes is the host's business: ``jaxpg.run.processes``.
+processes is the host's business: ``jaxpg.run.host.processes``.
 """
 
 from __future__ import annotations

@@ -12,8 +12,8 @@ import jax
 import pytest
 
 from jaxpg import algos, video, xla_flags
-from jaxpg.run import config_io, layout
-from jaxpg.run.checkpointer import Checkpointer
+from jaxpg.run.checkpoints.checkpointer import Checkpointer
+from jaxpg.run.rundir import config_io, layout
 
 # Two XLA:CPU options for every test process and every process a test starts (they inherit the
 # environment; the notebooks' kernels too). The tests are compilation-bound on the CPU, and both make
@@ -57,7 +57,7 @@ if os.environ.get("JAXPG_TEST_XLA_OPTIONS_SET") != "1":
 # without either, so that `import mujoco` still works there and the rendering tests skip.
 video.configure_gl()
 
-# jaxpg's command lines keep compiled programs in a persistent cache (jaxpg.run.compile_cache): give the
+# jaxpg's command lines keep compiled programs in a persistent cache (jaxpg.run.host.compile_cache): give the
 # test session a fresh one, so tests never read programs compiled by an older checkout.
 if "JAXPG_COMPILATION_CACHE" not in os.environ:
     import tempfile
@@ -96,7 +96,7 @@ _CACHE_DIR_AT_START: list = []  # JAX's jax_compilation_cache_dir when the first
 
 @pytest.fixture(autouse=True)
 def _persistent_compilation_cache_left_as_found():
-    """``jaxpg.run.main.main`` turns JAX's persistent compilation cache on for the rest of its process
+    """``jaxpg.run.command.main.main`` turns JAX's persistent compilation cache on for the rest of its process
     (so that a second run loads its programs). Tests that run the command line in this process
     (module fixtures too) would leave it on for every later test, which then writes each program it
     compiles to disk: after each test the cache is set back to how the session found it, so that

@@ -9,8 +9,8 @@ from typing import Any
 import jax
 
 from jaxpg.algos import npg
-from jaxpg.run import config_io, layout
-from jaxpg.run.checkpointer import Checkpointer
+from jaxpg.run.checkpoints.checkpointer import Checkpointer
+from jaxpg.run.rundir import config_io, layout
 
 
 def write_pendulum_run(path: Path, config: npg.Config, env_kwargs: dict[str, Any] | None = None) -> Path:

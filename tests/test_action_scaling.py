@@ -17,7 +17,8 @@ from jaxpg import distributions as D
 from jaxpg import envs
 from jaxpg.algos import npg
 from jaxpg.envs.base import Env
-from jaxpg.run import evaluate_cli, task_options
+from jaxpg.run.command import task_options
+from jaxpg.run.evaluation import evaluate_cli
 
 
 class EchoAction(Env):
@@ -66,7 +67,7 @@ def test_make_rescales_on_request_and_refuses_a_discrete_task():
 def test_the_flag_and_the_preset_reach_the_env_and_the_run(tmp_path, monkeypatch):
     """``--action-scaling`` (or a preset that sets it) wraps the planned env and is saved in the
     run's ``env_kwargs``; ``--no-action-scaling`` turns a preset's off (and leaves no key)."""
-    from jaxpg.run import command_line, planning
+    from jaxpg.run.command import command_line, planning
 
     monkeypatch.chdir(tmp_path)
     experiment = command_line.Experiment()

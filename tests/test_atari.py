@@ -16,7 +16,7 @@ import pytest
 
 from jaxpg import rollout
 from jaxpg.envs import AutoReset, EpisodeStats
-from jaxpg.run import evaluate_cli, replay
+from jaxpg.run.evaluation import evaluate_cli, replay
 
 ROOT = Path(__file__).resolve().parents[1]
 ale_py = pytest.importorskip("ale_py")
@@ -186,7 +186,7 @@ def load_experiment():
 )
 def test_short_training_run_and_evaluation_on_ale(algo, flags, tmp_path, capsys):
     """Two iterations of a tiny network on 2 games, then its policy plays ALE/Pong-v5."""
-    from jaxpg.run.main import main
+    from jaxpg.run.command.main import main
 
     run_dir = tmp_path / algo
     argv = ["--algo", algo, "--num-envs", "2", "--iterations", "2", "--log-every", "1", "--policy-hidden", "8"]
@@ -209,15 +209,15 @@ def test_short_training_run_and_evaluation_on_ale(algo, flags, tmp_path, capsys)
 
 
 def test_several_seeds_in_one_program_are_refused():
-    from jaxpg.run import planning
-    from jaxpg.run.flags import UsageError
+    from jaxpg.run.command import planning
+    from jaxpg.run.command.flags import UsageError
 
     with pytest.raises(UsageError, match="one seed per command"):
         planning.plan(["--seeds", "0", "1", "--num-envs", "2"], load_experiment().EXPERIMENT)
 
 
 def test_evaluate_ale_refuses_other_tasks(tmp_path, capsys):
-    from jaxpg.run.main import main
+    from jaxpg.run.command.main import main
 
     run_dir = tmp_path / "cartpole"
     argv = ["--task", "cartpole", "--algo", "a2c", "--iterations", "1", "--num-envs", "2", "--horizon", "4"]

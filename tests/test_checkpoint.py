@@ -1,4 +1,4 @@
-"""jaxpg.run.checkpointer: exact round trips, retention (latest k + best), and one clear error for
+"""jaxpg.run.checkpoints.checkpointer: exact round trips, retention (latest k + best), and one clear error for
 missing, corrupt, interrupted or incompatible checkpoints. Synthetic pytrees: nothing compiles."""
 
 import errno
@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 from flax import struct
 
-from jaxpg.run.checkpoint_errors import CheckpointError
-from jaxpg.run.checkpoint_format import find_tmp_dirs, policy_part
-from jaxpg.run.checkpointer import Checkpointer
+from jaxpg.run.checkpoints.checkpoint_errors import CheckpointError
+from jaxpg.run.checkpoints.checkpoint_format import find_tmp_dirs, policy_part
+from jaxpg.run.checkpoints.checkpointer import Checkpointer
 
 
 @struct.dataclass

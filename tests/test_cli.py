@@ -21,24 +21,16 @@ import pytest
 from script_loader import load_script
 
 import jaxpg
-from jaxpg.run import (
-    command_line,
-    config_io,
-    console,
-    evaluate_cli,
-    layout,
-    main,
-    metrics_log,
-    planning,
-    plotting,
-    policy_io,
-    pre_flags,
-    provenance,
-    session,
-)
-from jaxpg.run import startup as startup_module
-from jaxpg.run.flags import UsageError
-from jaxpg.run.plan import Plan
+from jaxpg.run.checkpoints import policy_io
+from jaxpg.run.command import command_line, main, planning, pre_flags
+from jaxpg.run.command import startup as startup_module
+from jaxpg.run.command.flags import UsageError
+from jaxpg.run.command.plan import Plan
+from jaxpg.run.evaluation import evaluate_cli
+from jaxpg.run.host import provenance
+from jaxpg.run.outputs import console, metrics_log, plotting, sink, sinks
+from jaxpg.run.rundir import config_io, directory, layout
+from jaxpg.run.training import session
 
 ROOT = Path(__file__).resolve().parent.parent
 TINY = [
@@ -156,6 +148,43 @@ def test_overwrite_replaces_only_a_run_directory(trained, runs, capsys):
     assert main.main([*TINY, "--run-dir", str(foreign), "--overwrite"]) == 2
     assert "not a jaxpg run directory" in capsys.readouterr().err
     assert (foreign / "thesis.tex").read_text() == "precious"
+
+
+class BlockFiles(sink.Sink):
+    """A toy sink: each block's records as one JSON file ``blocks/block_<first>.json``."""
+
+    entries = (sink.Entry("blocks", directory=True, inside=(r"blocks/block_\d+\.json",)),)
+
+    def __init__(self, run_dir: Path):
+        self.dir = run_dir / "blocks"
+        self.dir.mkdir(exist_ok=True)
+
+    @classmethod
+    def open(cls, plan, printer):
+        return cls(plan.run_dir)
+
+    def write_block(self, block: sink.Block) -> None:
+        (self.dir / f"block_{block.first}.json").write_text(json.dumps(block.records))
+
+
+def test_a_registered_sink_gets_every_block_and_overwrite_accepts_its_files(runs):
+    """A sink added in one place (``sinks.register``) receives every block's records, the same
+    ``metrics.jsonl`` holds; the run directory with its files is a jaxpg run that ``--overwrite``
+    replaces, and without the sink registered those files are foreign."""
+    run_dir = runs / "toy_sink"
+    sinks.register(BlockFiles)
+    try:
+        assert main.main([*TINY, "--iterations", "2", "--run-dir", str(run_dir)]) == 0
+        written = [r for f in sorted((run_dir / "blocks").iterdir()) for r in json.loads(f.read_text())]
+        assert written and written == metrics_log.read_metrics(run_dir)
+        assert directory.foreign_entries(run_dir) == []
+        assert main.main([*TINY, "--iterations", "2", "--run-dir", str(run_dir), "--overwrite"]) == 0
+        assert [r["iteration"] for r in metrics_log.read_metrics(run_dir)] == [1, 2]
+    finally:
+        sinks.unregister(BlockFiles)
+    assert directory.foreign_entries(run_dir) == ["blocks"]
+    with pytest.raises(layout.RunDirError, match="blocks"):
+        directory.check_replaceable(run_dir)
 
 
 # --------------------------------------------------------------------------- resume
@@ -302,7 +331,7 @@ def test_resume_with_incompatible_checkpoint(trained, runs, capsys):
 
 def driver_calls(argv: list[str]) -> tuple[int, list[str]]:
     """Run the command ``argv``; returns its exit status and, in order, every call that the
-    command's driver (the code of ``jaxpg/run/main.py``) makes into a function of another jaxpg
+    command's driver (the code of ``jaxpg/run/command/main.py``) makes into a function of another jaxpg
     module, as ``module.function``. Between two such calls control has come back up to the
     driver: a command climbs back up ``len(calls) - 1`` times."""
     driver, package = main.__file__, str(Path(jaxpg.__file__).parent)
@@ -331,7 +360,7 @@ def test_a_run_climbs_back_up_to_its_driver_at_most_twice(trained, runs):
     status, calls = driver_calls([*TINY, "--iterations", "2", "--run-dir", str(runs / "traced")])
     assert status == 0
     assert len(calls) - 1 <= 2, calls
-    assert calls[-1] == "jaxpg.run.session.execute"
+    assert calls[-1] == "jaxpg.run.training.session.execute"
 
 
 # --------------------------------------------------------------------------- bad input
@@ -429,7 +458,7 @@ def test_env_kwargs_reach_the_task_the_run_and_gymnasium(runs, tmp_path, monkeyp
     run (a list comes back as the tuple the task takes) and are given to Gymnasium's env by the
     replay; an option Gymnasium's env lacks is refused there rather than dropped."""
     pytest.importorskip("gymnasium")
-    from jaxpg.run import replay
+    from jaxpg.run.evaluation import replay
 
     monkeypatch.chdir(runs)
     experiment = command_line.Experiment()
@@ -487,7 +516,8 @@ def test_task_options_are_gymnasiums_keywords_but_the_listed_ones():
     import inspect
 
     from jaxpg import envs
-    from jaxpg.run import replay, task_options
+    from jaxpg.run.command import task_options
+    from jaxpg.run.evaluation import replay
 
     lacking = {}
     for task, (gym_id, _) in envs.GYMNASIUM_COUNTERPARTS.items():
@@ -548,7 +578,7 @@ def test_an_experiment_scripts_default_preset_is_replaced_by_a_given_one(runs, m
 
 def test_profile(runs, capsys):
     from jaxpg.algos import ppo
-    from jaxpg.run import profiling
+    from jaxpg.run.host import profiling
 
     run = config_io.RunConfig("t", "ppo", {}, [0], 1)
     plan = Plan(run=run, run_dir=runs, module=ppo, env=None, config=None)
@@ -780,7 +810,7 @@ def test_exit_process_finishes_what_the_interpreter_exit_would(tmp_path):
     handlers run, and output still buffered in ``sys.stdout`` is written."""
     script = f"""
 import atexit, pathlib, sys, threading, time
-from jaxpg.run.main import exit_process
+from jaxpg.run.command.main import exit_process
 out = pathlib.Path({str(tmp_path)!r})
 threading.Thread(target=lambda: (time.sleep(0.5), (out / "thread").write_text("done"))).start()
 atexit.register(lambda: (out / "atexit").write_text("ran"))
@@ -801,7 +831,8 @@ def test_a_command_that_owns_its_process_takes_gpu_memory_on_demand(tmp_path):
     variable alone. Each command here stops with a usage error after its start."""
     script = f"""
 import os
-from jaxpg.run import evaluate_cli, main, startup
+from jaxpg.run.evaluation import evaluate_cli
+from jaxpg.run.command import main, startup
 VARIABLE, seen = startup.PREALLOCATE_VARIABLE, []
 check_backend = startup.check_backend
 startup.check_backend = lambda: (seen.append(os.environ.get(VARIABLE)), check_backend())[1]
@@ -857,7 +888,7 @@ def test_startup_counts_the_process_age_only_for_a_process_started_for_the_comma
     when the process was started for this command; pytest's own launcher is not."""
     import types
 
-    from jaxpg.run import startup_times
+    from jaxpg.run.command import startup_times
 
     entry = types.ModuleType("__main__")
     if main_file is not None:
@@ -875,7 +906,7 @@ def test_startup_counts_the_process_age_only_for_a_process_started_for_the_comma
 def test_startup_report_splits_the_seconds_to_the_first_block():
     """``StartupTimes.report``: the process's seconds before planning, then planning (with the MJX
     import inside it when it happened there), the initial state and the rest, summing to the total."""
-    from jaxpg.run import startup_times
+    from jaxpg.run.command import startup_times
 
     times = startup_times.StartupTimes(before_planning=2.0, planning=100.0, planned=104.0, state_ready=104.5)
     assert times.report(105.5) is not None

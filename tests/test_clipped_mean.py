@@ -22,7 +22,8 @@ from script_loader import load_script
 import jaxpg
 from jaxpg import distributions as D
 from jaxpg.algos import npg
-from jaxpg.run import config_io, evaluate_cli
+from jaxpg.run.evaluation import evaluate_cli
+from jaxpg.run.rundir import config_io
 
 
 def integrated_clipped_mean(mu: float, sigma: float, low: float, high: float) -> float:
@@ -165,7 +166,7 @@ def test_suite_physics_replays_either_action(pendulum_run, clipped_mean_run):
     """``benchmarks/suite.py physics --actions``: each job plays the policy acting as asked (``run``:
     as the run's evaluations did), the same episodes as ``replay.evaluate_gymnasium`` of
     ``load_policy`` with that action."""
-    from jaxpg.run import replay
+    from jaxpg.run.evaluation import replay
 
     suite = load_script("benchmarks/suite.py")
     for run_dir, action, clipped_mean in (

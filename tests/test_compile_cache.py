@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from jaxpg.run import compile_cache
+from jaxpg.run.host import compile_cache
 
 
 def test_cache_dir_from_environment(tmp_path):
@@ -25,7 +25,7 @@ SCRIPT = textwrap.dedent(
     """
     import collections, json, sys
     import jax, jax.numpy as jnp
-    from jaxpg.run import compile_cache
+    from jaxpg.run.host import compile_cache
     events = collections.Counter()
     jax.monitoring.register_event_listener(lambda event, **kwargs: events.update([event]))
     compile_cache.enable(sys.argv[1], min_compile_seconds=0.0)

@@ -109,10 +109,10 @@ def jaxpg_imports(module_name: str) -> set[str]:
 
 
 def test_videos_draw_and_evaluation_rolls_out_with_no_import_cycle():
-    """``video`` draws and writes frames; ``run.policy_episodes`` rolls policies out (and records a
+    """``video`` draws and writes frames; ``run.evaluation.policy_episodes`` rolls policies out (and records a
     policy's video through ``video``). The dependency goes one way only."""
     assert not {"evaluate", "run"} & jaxpg_imports("jaxpg.video")
-    assert "video" in jaxpg_imports("jaxpg.run.policy_episodes")
+    assert "video" in jaxpg_imports("jaxpg.run.evaluation.policy_episodes")
 
 
 # -- Sampling ----------------------------------------------------------------------------------

@@ -49,7 +49,7 @@ import numpy as np
 import pytest
 
 from jaxpg import train as train_lib
-from jaxpg.run.processes import DistributedConfig, DistributedError
+from jaxpg.run.host.processes import DistributedConfig, DistributedError
 
 ROOT = Path(__file__).resolve().parents[1]
 README_ADDRESS, README_RUN_DIR = "127.0.0.1:7777", "runs/cartpole-2p"

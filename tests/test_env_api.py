@@ -27,7 +27,7 @@ import script_loader
 import jaxpg.envs as envs
 from jaxpg import video
 from jaxpg.envs.base import check_action
-from jaxpg.run import evaluate_cli, replay
+from jaxpg.run.evaluation import evaluate_cli, replay
 
 ROOT = Path(__file__).parent.parent
 

@@ -561,10 +561,10 @@ def test_episode_totals_match_the_full_rollout_and_stop_early(rollout_case, chec
 
 
 def test_evaluate_rollout_matches_a_python_loop_of_the_mean_policy(pendulum_case):
-    """``jaxpg.run.policy_episodes.play_episodes`` (mean-policy episodes with their physics states, through
+    """``jaxpg.run.evaluation.policy_episodes.play_episodes`` (mean-policy episodes with their physics states, through
     ``jaxpg.rollout``) against single envs stepped one at a time with the policy's mode."""
     from jaxpg.algos import npg
-    from jaxpg.run import policy_episodes
+    from jaxpg.run.evaluation import policy_episodes
 
     env = pendulum_case["env"]
     ts = npg.init(jax.random.key(0), env, npg.Config(num_envs=4, horizon=16, value_batch_size=64, eval_envs=0))
@@ -615,7 +615,7 @@ def check_gymnasium_id(task: str) -> None:
     """``task``'s Gymnasium id is the one jaxpg registers for it, with Gymnasium's time limit, and
     ``jaxpg.evaluate --gymnasium`` replays its policies in Gymnasium's env of that id."""
     from jaxpg.envs import gymnasium_api
-    from jaxpg.run import replay
+    from jaxpg.run.evaluation import replay
 
     assert replay.gymnasium_counterpart(task) == GYM_IDS[task]
     gym_id = gymnasium_api.gymnasium_id(task)
@@ -632,7 +632,7 @@ def test_training_smoke_run_from_the_command_line(task, tmp_path):
     episodes that ended in each, finite returns and task scores, no non-finite step and no
     rejected update. The task is also the Gymnasium id jaxpg registers, with Gymnasium's limit
     (``check_gymnasium_id``)."""
-    from jaxpg.run import main
+    from jaxpg.run.command import main
 
     check_gymnasium_id(task)
     run_dir = tmp_path / "run"
@@ -652,7 +652,7 @@ def test_command_line_plans_a_task_run(task, tmp_path, monkeypatch):
     """The tasks left out of the smoke run, from the command line up to the compilation: ``--env``
     and the physics flags plan a run of the task (nothing compiled, nothing written); the task is
     also the Gymnasium id jaxpg registers, with Gymnasium's limit (``check_gymnasium_id``)."""
-    from jaxpg.run import command_line, planning
+    from jaxpg.run.command import command_line, planning
 
     check_gymnasium_id(task)
     monkeypatch.chdir(tmp_path)

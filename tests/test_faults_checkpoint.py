@@ -20,9 +20,13 @@ import pytest
 from test_checkpoint import make_state
 
 import jaxpg
-from jaxpg.run import checkpoint_format, command_line, config_io, main, metrics_log, planning, session
-from jaxpg.run.checkpoint_errors import CheckpointError
-from jaxpg.run.checkpointer import Checkpointer
+from jaxpg.run.checkpoints import checkpoint_format
+from jaxpg.run.checkpoints.checkpoint_errors import CheckpointError
+from jaxpg.run.checkpoints.checkpointer import Checkpointer
+from jaxpg.run.command import command_line, main, planning
+from jaxpg.run.outputs import metrics_log
+from jaxpg.run.rundir import config_io
+from jaxpg.run.training import session
 
 
 def listing(path: Path) -> dict:

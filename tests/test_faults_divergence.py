@@ -1,5 +1,5 @@
 """Divergence: a block whose state or metrics no healthy run has stops the run before it is
-checkpointed (``jaxpg.run.divergence``), and ``--from-step N`` resumes from an earlier
+checkpointed (``jaxpg.run.training.divergence``), and ``--from-step N`` resumes from an earlier
 checkpoint. The checks are fed hand-made metrics and states (nothing compiled)."""
 
 from __future__ import annotations
@@ -13,7 +13,10 @@ import numpy as np
 import pytest
 
 from jaxpg import train
-from jaxpg.run import command_line, divergence, layout, main, metrics_log, planning, replacing, run_lock
+from jaxpg.run.command import command_line, main, planning
+from jaxpg.run.outputs import metrics_log
+from jaxpg.run.rundir import layout, replacing, run_lock
+from jaxpg.run.training import divergence
 
 SAMPLES = 128  # samples one seed draws per iteration in these blocks
 
@@ -132,7 +135,7 @@ def test_the_guard_comes_before_the_checkpoint_in_the_host_callbacks():
     """Order matters: a diverged block must raise before ``Checkpoints`` runs."""
     import inspect
 
-    from jaxpg.run import callbacks
+    from jaxpg.run.training import callbacks
 
     source = inspect.getsource(callbacks.host_callbacks)
     assert source.index("guard_divergence(plan_, saving)") < source.index("        saving,")
@@ -198,7 +201,7 @@ def test_a_measured_nan_is_not_written_as_not_measured():
     assert first["return_stochastic"] is None and second["return_stochastic"] == 5.0
     line = json.loads(json.dumps(first))  # a JSON line as metrics.jsonl holds it
     assert math.isnan(float(line["kl"])) and float(line["entropy"]) == -math.inf
-    from jaxpg.run import plotting
+    from jaxpg.run.outputs import plotting
 
     _, values = plotting.seed_curves([first, second], "return_mean_policy")
     assert np.isnan(values).all()
@@ -215,7 +218,7 @@ def test_a_resume_that_diverges_keeps_every_good_checkpoint(tmp_path, capsys):
     does the same."""
     import test_cli
 
-    from jaxpg.run.checkpointer import Checkpointer
+    from jaxpg.run.checkpoints.checkpointer import Checkpointer
 
     run_dir = tmp_path / "run"
     assert main.main([*test_cli.TINY, "--iterations", "2", "--keep-checkpoints", "1", "--run-dir", str(run_dir)]) == 0

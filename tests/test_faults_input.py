@@ -26,8 +26,11 @@ import script_loader
 import jaxpg
 from jaxpg import algos, envs
 from jaxpg.algos import core
-from jaxpg.run import command_line, compile_cache, config_io, evaluate_cli, layout, main, planning
-from jaxpg.run.flags import UsageError
+from jaxpg.run.command import command_line, main, planning
+from jaxpg.run.command.flags import UsageError
+from jaxpg.run.evaluation import evaluate_cli
+from jaxpg.run.host import compile_cache
+from jaxpg.run.rundir import config_io, layout
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -233,8 +236,8 @@ def test_unusable_compilation_cache_is_one_warning_line(tmp_path, capsys):
 PLATFORM_SCRIPT = textwrap.dedent(
     """
     import sys
-    from jaxpg.run import evaluate_cli
-    from jaxpg.run import command_line, main, planning
+    from jaxpg.run.evaluation import evaluate_cli
+    from jaxpg.run.command import command_line, main, planning
     print(main.main(["--iterations", "1", "--run-dir", sys.argv[1] + "/new"]))
     print(evaluate_cli.main([sys.argv[1] + "/run", "--episodes", "1"]))
     """
@@ -268,8 +271,8 @@ STUCK_SCRIPT = textwrap.dedent(
     """
     import sys
     import jax
-    from jaxpg.run import command_line, main, planning
-    from jaxpg.run import session
+    from jaxpg.run.command import command_line, main, planning
+    from jaxpg.run.training import session
 
     def stuck(*args, **kwargs):
         # float32 x stops growing at 2**24 and stays >= 0: a compiled call that never returns.
@@ -330,7 +333,7 @@ def test_a_task_whose_simulator_is_not_installed_is_one_line(tmp_path, monkeypat
 def test_an_invalid_mujoco_gl_is_one_line(tmp_path, monkeypatch, capsys):
     """MuJoCo refuses an unknown ``MUJOCO_GL`` with a traceback at its first import, video or not:
     checked first, one ``error:`` line; the values MuJoCo takes pass, in any case."""
-    from jaxpg.run import startup
+    from jaxpg.run.command import startup
 
     for good in ("egl", " OSMesa ", "off", ""):
         startup.check_mujoco_gl({"MUJOCO_GL": good}, system="Linux")

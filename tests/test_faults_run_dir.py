@@ -19,9 +19,10 @@ from pathlib import Path
 import pytest
 import test_cli
 
-from jaxpg.run import directory, layout, main, replacing
-from jaxpg.run.layout import RunDirError
-from jaxpg.run.plan import Plan
+from jaxpg.run.command import main
+from jaxpg.run.command.plan import Plan
+from jaxpg.run.rundir import directory, layout, replacing
+from jaxpg.run.rundir.layout import RunDirError
 
 TINY = test_cli.TINY  # the command line's tiny pendulum run, whose programs the suite compiles anyway
 
@@ -185,7 +186,7 @@ def test_an_empty_run_dir_is_refused(tmp_path, monkeypatch, capsys):
 RACE = textwrap.dedent(
     """
     import json, os, sys, tempfile
-    from jaxpg.run import run_lock
+    from jaxpg.run.rundir import run_lock
     trials, both = int(sys.argv[1]), 0
     for trial in range(trials):
         run_dir = tempfile.mkdtemp()
@@ -242,7 +243,7 @@ def test_two_writers_racing_for_a_stale_lock_never_both_take_it(tmp_path):
 
 
 def test_the_lock_record_names_this_process(tmp_path):
-    from jaxpg.run import run_lock
+    from jaxpg.run.rundir import run_lock
 
     lock = run_lock.RunLock(tmp_path)
     assert lock.acquire() is None

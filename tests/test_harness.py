@@ -103,11 +103,14 @@ def test_a_stack_sample_is_an_import_or_its_innermost_jaxpg_frame():
     first): an import in progress, else the innermost frame of jaxpg, else the innermost frame."""
     activity = load_script("benchmarks/card_command.py").sampled_activity
     jaxpg_frames = (
-        "/x/site-packages/jax/_src/api.py:device_put;/repo/jaxpg/envs/mjx_env.py:__init__;/repo/jaxpg/run/main.py:main"
+        "/x/site-packages/jax/_src/api.py:device_put;/repo/jaxpg/envs/mjx_env.py:__init__;"
+        "/repo/jaxpg/run/command/main.py:main"
     )
     assert activity(jaxpg_frames) == "mjx_env.py:__init__"
     assert (
-        activity("/x/mjx/io.py:<module>;<frozen importlib._bootstrap>:_find_and_load;/repo/jaxpg/run/main.py:main")
+        activity(
+            "/x/mjx/io.py:<module>;<frozen importlib._bootstrap>:_find_and_load;/repo/jaxpg/run/command/main.py:main"
+        )
         == "import"
     )
     assert activity("/usr/lib/python3.12/threading.py:wait;<string>:<module>") == "threading.py:wait"
@@ -139,7 +142,7 @@ def test_suite_physics_variants_change_only_the_integrator_and_the_solver_iterat
     import mujoco
 
     from jaxpg.envs import mjx_env
-    from jaxpg.run import replay
+    from jaxpg.run.evaluation import replay
 
     suite = load_script("benchmarks/suite.py")
     settings = {}

@@ -11,8 +11,9 @@ import types
 import numpy as np
 import pytest
 
-from jaxpg.run import callbacks, metrics_log, plotting
-from jaxpg.run.planning import default_checkpoint_every
+from jaxpg.run.command.planning import default_checkpoint_every
+from jaxpg.run.outputs import metrics_log, plotting
+from jaxpg.run.training import callbacks
 
 
 @pytest.mark.parametrize(

@@ -89,7 +89,7 @@ def test_find_cycle_finds_one():
 def test_the_graph_sees_function_level_imports():
     graph = import_graph()
     assert "jaxpg.algos.core" in graph["jaxpg.algos.npg"]
-    assert "jaxpg.run.policy_io" in graph["jaxpg"]  # ``jaxpg.load_policy`` imports it when first used
+    assert "jaxpg.run.checkpoints.policy_io" in graph["jaxpg"]  # ``jaxpg.load_policy`` imports it when first used
 
 
 def test_no_import_circle():
@@ -97,7 +97,7 @@ def test_no_import_circle():
 
 
 def test_the_device_mesh_knows_nothing_of_the_host():
-    """``jaxpg.mesh`` is used inside jit; launching processes is ``jaxpg.run.processes``'s job."""
+    """``jaxpg.mesh`` is used inside jit; launching processes is ``jaxpg.run.host.processes``'s job."""
     assert import_graph()["jaxpg.mesh"] == set()
     assert not any(name.startswith("jaxpg.run") for name in import_graph()["jaxpg.algos.core.sampling"])
 
@@ -141,7 +141,7 @@ def test_the_command_lines_import_no_simulator_plots_or_checkpoints_and_touch_no
     started = "jax._src.xla_bridge.backends_are_initialized()"  # JAX's own test of it
     modules = "jaxpg.cli, jaxpg.evaluate, jax._src.xla_bridge"
     assert imported_in_a_fresh_interpreter(modules, f"{heavy}, {started}") == "[] False"
-    assert imported_in_a_fresh_interpreter("jaxpg.run.plotting", "'jax' in sys.modules") == "False"
+    assert imported_in_a_fresh_interpreter("jaxpg.run.outputs.plotting", "'jax' in sys.modules") == "False"
 
 
 def test_tasks_without_mujoco_import_none():

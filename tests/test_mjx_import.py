@@ -1,5 +1,5 @@
 """MJX imported without MuJoCo Warp where a command will not use it (``jaxpg.envs.mjx_import``,
-``jaxpg.run.startup.steps_mjx_on_jax_only``). Which modules a process imported is process state, so
+``jaxpg.run.command.startup.steps_mjx_on_jax_only``). Which modules a process imported is process state, so
 the checks that import MJX run in fresh interpreters."""
 
 import os
@@ -10,9 +10,9 @@ import sys
 import pytest
 
 from jaxpg.envs import mjx_import
-from jaxpg.run import startup
-from jaxpg.run.command_line import Experiment
-from jaxpg.run.pre_flags import PreFlags
+from jaxpg.run.command import startup
+from jaxpg.run.command.command_line import Experiment
+from jaxpg.run.command.pre_flags import PreFlags
 
 
 def test_the_variable_says_off_in_the_usual_ways():
@@ -36,7 +36,7 @@ def test_a_command_leaves_warp_out_only_when_it_will_step_mjx_on_jax():
 def test_a_resumed_run_leaves_warp_out_when_its_saved_impl_steps_on_jax(tmp_path):
     """``--resume RUN`` without ``--impl``: the ``impl`` RUN's ``config.json`` saved decides; a
     directory whose configuration cannot be read keeps Warp (planning reports it)."""
-    from jaxpg.run import config_io
+    from jaxpg.run.rundir import config_io
 
     def saved(name: str, impl: str | None) -> PreFlags:
         run_dir = tmp_path / name
@@ -127,8 +127,8 @@ def test_evaluating_a_run_on_the_cpu_leaves_warp_out(tmp_path):
     import jax
 
     from jaxpg import algos
-    from jaxpg.run import config_io, layout
-    from jaxpg.run.checkpointer import Checkpointer
+    from jaxpg.run.checkpoints.checkpointer import Checkpointer
+    from jaxpg.run.rundir import config_io, layout
 
     module = algos.get("npg")
     config = module.Config(num_envs=4, horizon=8, policy_hidden=(8,), value_hidden=(8,), value_batch_size=8)

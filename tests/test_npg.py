@@ -19,7 +19,7 @@ import jaxpg.envs as envs
 from jaxpg import train as train_lib
 from jaxpg import value as value_lib
 from jaxpg.algos import core, natural_gradient, npg, trpo
-from jaxpg.run import profiling
+from jaxpg.run.host import profiling
 
 SMALL = dict(num_envs=8, horizon=32, eval_envs=2, eval_horizon=32, value_batch_size=64, cg_damping=1e-2)
 

@@ -1,4 +1,4 @@
-"""``curves.png`` drawn by a helper process (``jaxpg.run.plot_process``): the helper draws what the
+"""``curves.png`` drawn by a helper process (``jaxpg.run.outputs.plot_process``): the helper draws what the
 training process would have drawn, reports its failures as warning lines, skips a periodic drawing
 while it is busy, and where it dies the drawings go on in the training process. No JAX program is
 compiled here."""
@@ -13,7 +13,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from jaxpg.run import config_io, layout, plot_process, plotting
+from jaxpg.run.outputs import plot_process, plotting
+from jaxpg.run.rundir import config_io, layout
 
 
 def history_of(num_iterations: int, num_seeds: int = 2) -> plotting.CurveHistory:
@@ -132,7 +133,7 @@ def test_a_training_run_draws_its_curves_without_importing_matplotlib(tmp_path):
     run_dir = tmp_path / "run"
     script = f"""
 import sys
-from jaxpg.run import main
+from jaxpg.run.command import main
 argv = ["--env", "inverted_pendulum", "--num-envs", "8", "--horizon", "32", "--eval-envs", "2",
         "--eval-horizon", "32", "--max-episode-steps", "50", "--iterations", "2", "--no-progress",
         "--run-dir", {str(run_dir)!r}]

@@ -12,8 +12,11 @@ import numpy as np
 import pytest
 
 import jaxpg
-from jaxpg.run import command_line, evaluate_cli, layout, main, planning, policy_io
-from jaxpg.run.checkpoint_errors import CheckpointError
+from jaxpg.run.checkpoints import policy_io
+from jaxpg.run.checkpoints.checkpoint_errors import CheckpointError
+from jaxpg.run.command import command_line, main, planning
+from jaxpg.run.evaluation import evaluate_cli
+from jaxpg.run.rundir import layout
 
 
 def listing(path: Path) -> dict:

@@ -26,7 +26,9 @@ from jaxpg import train as train_lib
 from jaxpg.algos import a2c, reinforce_points
 from jaxpg.envs import AutoReset, EpisodeStats
 from jaxpg.envs.pong import FrameDifference, Pong, PongData
-from jaxpg.run import config_io, layout, main, metrics_log, planning
+from jaxpg.run.command import main, planning
+from jaxpg.run.outputs import metrics_log
+from jaxpg.run.rundir import config_io, layout
 
 ROOT = Path(__file__).resolve().parents[1]
 SMALL = 16  # frame size for the physics tests: the physics does not depend on it

@@ -15,8 +15,8 @@ import pytest
 
 from jaxpg import algos, envs
 from jaxpg.algos import presets
-from jaxpg.run import task_options
-from jaxpg.run.config_io import RunConfig
+from jaxpg.run.command import task_options
+from jaxpg.run.rundir.config_io import RunConfig
 
 LYCEUM = dict(
     sampling="episodic",

@@ -38,8 +38,8 @@ from pathlib import Path
 import pytest
 from script_loader import load_script
 
-from jaxpg.run import command_line, planning
-from jaxpg.run.plan import Plan
+from jaxpg.run.command import command_line, planning
+from jaxpg.run.command.plan import Plan
 
 ROOT = Path(__file__).resolve().parents[1]
 MAIN_JOB = "python experiments/pendulum.py --run-dir runs/pendulum"

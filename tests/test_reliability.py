@@ -26,7 +26,10 @@ import test_cli
 
 from jaxpg import envs
 from jaxpg.algos import npg, ppo
-from jaxpg.run import command_line, layout, main, metrics_log, planning, replacing, run_lock, session
+from jaxpg.run.command import command_line, main, planning
+from jaxpg.run.outputs import metrics_log
+from jaxpg.run.rundir import layout, replacing, run_lock
+from jaxpg.run.training import session
 
 ROOT = Path(__file__).resolve().parent.parent
 TINY = test_cli.TINY  # the same tiny run as tests/test_cli.py: the two share its compiled programs
@@ -499,17 +502,17 @@ def test_disk_full_while_writing_metrics_is_one_line_and_keeps_the_checkpoints(e
     import errno
 
     copy = copy_run(existing, tmp_path / "copy")
-    real_write = metrics_log.MetricsWriter.write
+    real_write = metrics_log.JsonlLog.write
 
     def full_after_iteration_2(writer, records):
         if records and records[0]["iteration"] > 4:
             raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(writer.run_dir / layout.METRICS_FILE))
         real_write(writer, records)
 
-    monkeypatch.setattr(metrics_log.MetricsWriter, "write", full_after_iteration_2)
+    monkeypatch.setattr(metrics_log.JsonlLog, "write", full_after_iteration_2)
     assert main.main(["--resume", str(copy), "--iterations", "8"]) == 2
     one_error_line(capsys.readouterr().err, "writing the run directory failed", "disk full")
     assert [r["iteration"] for r in metrics_log.read_metrics(copy)] == [1, 2, 3, 4]
-    monkeypatch.setattr(metrics_log.MetricsWriter, "write", real_write)
+    monkeypatch.setattr(metrics_log.JsonlLog, "write", real_write)
     assert main.main(["--resume", str(copy), "--iterations", "6"]) == 0
     assert [r["iteration"] for r in metrics_log.read_metrics(copy)] == [1, 2, 3, 4, 5, 6]

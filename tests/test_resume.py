@@ -17,7 +17,9 @@ import numpy as np
 import pytest
 import test_cli
 
-from jaxpg.run import main, metrics_log, policy_io
+from jaxpg.run.checkpoints import policy_io
+from jaxpg.run.command import main
+from jaxpg.run.outputs import metrics_log
 
 COMMON = [
     "--env", "inverted_pendulum", "--num-envs", "8", "--horizon", "32", "--eval-envs", "2", "--eval-horizon", "32",

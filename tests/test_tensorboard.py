@@ -1,4 +1,4 @@
-"""``jaxpg.run.tensorboard`` against tensorboardX, an independent writer of the same format: its
+"""``jaxpg.run.outputs.tensorboard`` against tensorboardX, an independent writer of the same format: its
 CRC-32C, its record framing, its protocol buffers byte for byte, and a run's event files read back
 through its ``Event`` message."""
 
@@ -9,7 +9,7 @@ import struct
 import numpy as np
 import pytest
 
-from jaxpg.run import metrics_log, tensorboard
+from jaxpg.run.outputs import metrics_log, tensorboard
 
 tbx = pytest.importorskip("tensorboardX")
 from tensorboardX.crc32c import crc32c as reference_crc32c  # noqa: E402
@@ -100,7 +100,7 @@ def test_text_file_version_and_session_start_events_are_tensorboardxs_bytes():
 
 
 def test_a_runs_event_files_hold_its_metrics(tmp_path):
-    """``MetricsWriter``'s event files, read back with tensorboardX's ``Event``: every non-NaN
+    """``TensorBoardLog``'s event files, read back with tensorboardX's ``Event``: every non-NaN
     metric of every iteration and seed, as float32, and the config text; a resumed writer starts
     its own file with a purge at its first step."""
     seeds = [3, 5]
@@ -108,7 +108,7 @@ def test_a_runs_event_files_hold_its_metrics(tmp_path):
         "return_mean_policy": np.array([[1.0, np.nan], [2.5, 4.0]], np.float32),
         "kl": np.array([[0.01, 0.02], [0.03, 0.04]], np.float32),
     }
-    writer = metrics_log.MetricsWriter(tmp_path, seeds)
+    writer = tensorboard.TensorBoardLog(tmp_path, seeds)
     writer.add_text("config", "gamma 0.995")
     writer.write(metrics_log.block_records(metrics, 0, seeds, [1.0, 2.0]))
     writer.close()
@@ -132,7 +132,7 @@ def test_a_runs_event_files_hold_its_metrics(tmp_path):
         }
         assert {k: v for k, v in scalars.items() if k[0] in metrics} == expected
         assert ("wall_time_s", 2) in scalars
-    resumed = metrics_log.MetricsWriter(tmp_path, seeds, start_iteration=1)
+    resumed = tensorboard.TensorBoardLog(tmp_path, seeds, start_iteration=1)
     resumed.close()
     files = sorted((tmp_path / "tensorboard" / "seed_3").glob("events.out.tfevents.*"))
     assert len(files) == 2

@@ -15,7 +15,7 @@ from script_loader import load_script
 import jaxpg.envs as envs
 from jaxpg import train as train_lib
 from jaxpg.algos import npg
-from jaxpg.run import planning
+from jaxpg.run.command import planning
 
 ROOT = Path(__file__).resolve().parent.parent
 # cg_damping 1.0 bounds the condition number of the Fisher solve, 1 + lambda_max(F) / damping, by ~8

@@ -18,7 +18,7 @@ One iteration:
 What NPG adds to the core and to the natural-gradient pieces it shares with TRPO is the
 normalised step of 4 and the back-off of 5.
 The iteration is written once, ``iteration(ts, run_phase)``, as the named ``PHASES`` that
-``jaxpg.run.profiling`` times. ``make_update(advantage_fn)`` is ``update`` with another advantage
+``jaxpg.run.host.profiling`` times. ``make_update(advantage_fn)`` is ``update`` with another advantage
 estimator in step 2, and
 ``update_with_kl_delta(ts, kl_delta)`` is ``update`` with a (possibly traced) ``kl_delta``, so that
 one program can ``vmap`` over it.
@@ -205,7 +205,7 @@ def step_within_kl(
 
 
 PHASES = ("sampling", "advantages", "gradient", "natural_step", "kl_backoff", "value_fit", "finish")
-"""The phases of ``iteration``, in order (``core.run_inline``; ``jaxpg.run.profiling`` times them)."""
+"""The phases of ``iteration``, in order (``core.run_inline``; ``jaxpg.run.host.profiling`` times them)."""
 
 
 def update(ts: TrainState) -> tuple[TrainState, dict[str, jax.Array]]:

@@ -88,7 +88,7 @@ def line_search(
 
 
 PHASES = ("sampling", "advantages", "gradient", "natural_direction", "line_search", "value_fit", "finish")
-"""The phases of ``iteration``, in order (``core.run_inline``; ``jaxpg.run.profiling`` times them)."""
+"""The phases of ``iteration``, in order (``core.run_inline``; ``jaxpg.run.host.profiling`` times them)."""
 
 
 def update(ts: TrainState) -> tuple[TrainState, dict[str, jax.Array]]:

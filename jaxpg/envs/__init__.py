@@ -41,7 +41,7 @@ REGISTRY: dict[str, str] = {
 
 # task -> (the id of the Gymnasium env it reproduces, Gymnasium's step limit for that env), known
 # without importing Gymnasium: ``python -m jaxpg.evaluate --gymnasium`` replays a policy in that
-# env (``jaxpg.run.replay``), and ``jaxpg.envs.gymnasium_api`` registers the task as ``jaxpg/<id>``.
+# env (``jaxpg.run.evaluation.replay``), and ``jaxpg.envs.gymnasium_api`` registers the task as ``jaxpg/<id>``.
 GYMNASIUM_COUNTERPARTS: dict[str, tuple[str, int]] = {
     "hopper": ("Hopper-v5", 1000),
     "inverted_pendulum": ("InvertedPendulum-v5", 1000),

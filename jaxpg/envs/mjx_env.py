@@ -48,7 +48,7 @@ INTEGRATION_STATE = (
 
 _mjx_import_started = time.perf_counter()
 mjx, _MJX_HAS_WARP = mjx_import.import_mjx()
-# ``time.perf_counter()`` around the import, for the end-of-run report (``jaxpg.run.startup_times``).
+# ``time.perf_counter()`` around the import, for the end-of-run report (``jaxpg.run.command.startup_times``).
 MJX_IMPORT_SPAN = (_mjx_import_started, time.perf_counter())
 
 

@@ -5,7 +5,7 @@ the process will use it: on two CPU cores that is most of what ``import mujoco.m
 (BENCHMARKS.md, "CPU": start-up without MuJoCo Warp; ``benchmarks/card_command.py startup``). A process
 that will only step MJX's JAX implementation (a command on a machine without a GPU, or
 ``--impl jax``) can leave it out by setting the environment variable ``JAXPG_MJX_WARP=off`` before
-MJX is first imported; jaxpg's command lines do so themselves (``jaxpg.run.startup``). MJX then
+MJX is first imported; jaxpg's command lines do so themselves (``jaxpg.run.command.startup``). MJX then
 runs as it does without ``warp-lang``, and asking that process for ``impl="warp"`` is a
 ``ValueError`` that says why.
 

@@ -10,7 +10,7 @@ Two class attributes describe a ``Config`` to the command line and to saved runs
 ``UNUSED_FIELDS`` names the fields the algorithm ignores (no flag; ``validate`` refuses a value
 other than the default), and ``OLD_FIELD_NAMES`` maps the names that configs saved by earlier
 versions used to the current ones (``None``: a field that is gone and changed no result), so that
-old run directories still load (``jaxpg.run.config_io.config_from_dict``).
+old run directories still load (``jaxpg.run.rundir.config_io.config_from_dict``).
 """
 
 from __future__ import annotations

@@ -5,7 +5,7 @@ iteration count and the metrics.
 An algorithm writes its iteration once, as ``iteration(ts, run_phase=run_inline)``, calling each
 phase through ``run_phase(name, fn, *args)`` and listing the names in its ``PHASES``; its
 ``update(ts)`` is ``iteration(ts)``. Inside jit the phases run inline (``run_inline``); the
-profiler (``jaxpg.run.profiling``) hands a ``run_phase`` that jits and times each phase, and the
+profiler (``jaxpg.run.host.profiling``) hands a ``run_phase`` that jits and times each phase, and the
 benchmarks one that stops after a given phase. ``fn``'s array inputs are all in ``args``, so that
 ``fn`` may be jitted on its own.
 """

@@ -1,0 +1,1 @@
+"""The host process: several processes, profiling, the compilation cache, memory, provenance."""

@@ -15,7 +15,7 @@ marks (each mark ``--mark-ratio`` past the previous one): a time to a score is t
 that ratio plus one chunk. Each evaluation is the same function for both trainers: the deterministic
 policy's mean return over ``--eval-episodes`` fresh episodes (fixed reset keys) of the env with its
 time limit (jaxpg's ``episode_totals_from``). The final policy of a jaxpg task is replayed in
-Gymnasium too (``jaxpg.run.replay``).
+Gymnasium too (``jaxpg.run.evaluation.replay``).
 
     python benchmarks/brax_race.py --suite jaxpg --env ant --trainer brax jaxpg --seeds 0 1 2 --budget 240 \\
         --json runs/race-ant.json
@@ -224,7 +224,7 @@ def gymnasium_score(race: Race, policy: Any, episodes: int) -> float | None:
     if race.suite != "jaxpg":
         return None
     try:
-        from jaxpg.run import replay
+        from jaxpg.run.evaluation import replay
     except ImportError:
         return None
     task = envs.make_task(race.env)

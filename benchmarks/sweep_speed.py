@@ -233,7 +233,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--single", default=None, help=argparse.SUPPRESS)
     p.add_argument("--config-index", type=int, default=0, help=argparse.SUPPRESS)
     args = p.parse_args(argv)
-    from jaxpg.run import startup
+    from jaxpg.run.command import startup
 
     # Memory on demand, here and in the sequential processes (which inherit it): a process that
     # reserved 75 % of the GPU would leave the others too little, and the peaks stay comparable.

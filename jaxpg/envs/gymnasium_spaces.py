@@ -87,9 +87,9 @@ NO_LIMIT = 2**31 - 1
 @functools.cache
 def enable_compile_cache() -> Any:
     """Turn on jaxpg's persistent compilation cache in this process, once, before a Gymnasium env
-    compiles (``jaxpg.run.compile_cache.enable_unless_chosen``: a second process making the same
+    compiles (``jaxpg.run.host.compile_cache.enable_unless_chosen``: a second process making the same
     env loads its programs; ``JAXPG_COMPILATION_CACHE=off`` leaves the cache off)."""
-    from jaxpg.run import compile_cache
+    from jaxpg.run.host import compile_cache
 
     return compile_cache.enable_unless_chosen()
 

@@ -7,7 +7,7 @@ the runs no finished chunk holds (``jaxpg.sweep.runner``), saving each chunk as 
 its final policies to the scoring workers (``jaxpg.sweep.scoring``) while the next chunk trains;
 last, the tables, statistics and figures (``jaxpg.sweep.report``).
 
-With several processes (``jaxpg.run.processes.initialize`` first, then the same call in every
+With several processes (``jaxpg.run.host.processes.initialize`` first, then the same call in every
 process) the runs are split over the devices of all of them; process 0 alone writes and scores.
 """
 
@@ -22,7 +22,8 @@ import jax
 import numpy as np
 from jax.experimental import multihost_utils
 
-from jaxpg.run import config_io, processes
+from jaxpg.run.host import processes
+from jaxpg.run.rundir import config_io
 from jaxpg.sweep import report, runner, scoring
 from jaxpg.sweep.spec import SweepSpec
 from jaxpg.sweep.store import SweepStore, leaves

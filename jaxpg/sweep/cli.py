@@ -119,7 +119,8 @@ def spec_from_args(args: argparse.Namespace) -> SweepSpec:
 
 def main(argv: Sequence[str] | None = None) -> int:
     args = parser().parse_args(argv)
-    from jaxpg.run import compile_cache, processes, startup
+    from jaxpg.run.command import startup
+    from jaxpg.run.host import compile_cache, processes
 
     if argv is None:  # the process is the command's own: GPU memory on demand, as jaxpg.cli takes it
         startup.allocate_gpu_memory_on_demand()

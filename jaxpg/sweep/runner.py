@@ -5,13 +5,13 @@ Runs whose configs share ``core.program_key`` train in one program: ``vmap`` ove
 algorithm's ``update``, each run reading its numbers from ``TrainState.hparams``
 (``core.with_hyperparameters``), scanned over a block of iterations. The runs axis is split over
 a 1-D mesh of ``jax.devices()`` (every device of every process after
-``jaxpg.run.processes.initialize``); jit's partitioner (GSPMD, ``jaxpg.mesh.use_gspmd_partitioner``)
+``jaxpg.run.host.processes.initialize``); jit's partitioner (GSPMD, ``jaxpg.mesh.use_gspmd_partitioner``)
 runs each device's runs there, and ``jaxpg.mesh.put_global`` / ``host_copy`` move the arrays.
 
 Chunk size (runs per program call): the program's runs, rounded up to a multiple of the devices,
 halved until XLA's own memory analysis of the compiled training block (arguments + outputs +
 temporaries, per device) fits in ``MEMORY_SHARE`` of the free memory of the smallest device
-(``jaxpg.run.memory.available_memory``; on the CPU the host's, shared by its devices); or the
+(``jaxpg.run.host.memory.available_memory``; on the CPU the host's, shared by its devices); or the
 number given. Padding runs repeat the chunk's last run and are dropped.
 
 What a chunk leaves in the sweep directory (``SweepStore``) is written after it trained, so an
@@ -138,7 +138,7 @@ def fitting_program(
 ) -> Program:
     """The program for a chunk: ``runs_per_chunk`` runs when given (rounded up to the devices),
     else ``wanted`` runs halved until its memory analysis fits (module docstring)."""
-    from jaxpg.run.memory import available_memory
+    from jaxpg.run.host.memory import available_memory
 
     devices = mesh.devices.size
     if runs_per_chunk:

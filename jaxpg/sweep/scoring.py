@@ -1,9 +1,9 @@
 """Scores of a sweep's runs: each run's final mean policy played in Gymnasium's own env of the task
-(``jaxpg.run.replay.evaluate_gymnasium``, as ``python -m jaxpg.evaluate RUN --gymnasium`` plays it),
+(``jaxpg.run.evaluation.replay.evaluate_gymnasium``, as ``python -m jaxpg.evaluate RUN --gymnasium`` plays it),
 by a pool of CPU worker processes, while the devices train the next chunk.
 
 A task without a Gymnasium counterpart is scored in jaxpg's env instead
-(``jaxpg.run.policy_episodes.play_episodes``), in the same workers. A run's score is the mean
+(``jaxpg.run.evaluation.policy_episodes.play_episodes``), in the same workers. A run's score is the mean
 return of ``episodes`` episodes from the seeds ``seed, seed + 1, ...``, acting as the config's
 ``eval_action`` says (the mode, or the clipped mean).
 """
@@ -49,7 +49,9 @@ def score_job(job: ScoreJob) -> tuple[int, float]:
 
     from jaxpg import envs
     from jaxpg.algos import core
-    from jaxpg.run import config_io, policy_episodes, policy_io, replay
+    from jaxpg.run.checkpoints import policy_io
+    from jaxpg.run.evaluation import policy_episodes, replay
+    from jaxpg.run.rundir import config_io
 
     env = envs.make_shared(job.task, **job.env_kwargs)
     run = config_io.RunConfig(

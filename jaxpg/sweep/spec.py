@@ -219,10 +219,10 @@ def _switches(name: str, configurations: list[Configuration]) -> bool:
 
 
 def _typed(config_cls: type, name: str, value: Any) -> Any:
-    """``value`` in the type of ``config_cls``'s field ``name`` (``jaxpg.run.config_io.coerce``: a
+    """``value`` in the type of ``config_cls``'s field ``name`` (``jaxpg.run.rundir.coercion.coerce``: a
     whole float for an int field becomes an int, an int for a float field a float); ``SpecError``
     otherwise."""
-    from jaxpg.run import config_io
+    from jaxpg.run.rundir import config_io
 
     try:
         return config_io.coerce(config_io.field_types(config_cls)[name], value)

@@ -23,7 +23,7 @@ Gymnasium too (``jaxpg.run.evaluation.replay``).
     python benchmarks/brax_race.py --quick                            # CPU smoke test, tiny sizes
 
 Brax 0.14.2 needs ``jaxpg.envs.brax_compat.brax_jax_shim`` on JAX >= 0.10: it is entered around
-Brax's trainer here, nowhere else. Results: BENCHMARKS.md ("Brax's PPO on the same env").
+Brax's trainer here, nowhere else. GPU results go to BENCHMARKS.md.
 """
 
 from __future__ import annotations

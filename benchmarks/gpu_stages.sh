@@ -30,6 +30,12 @@
 #                                              # 2500 iterations or 8 minutes) scored in ALE/Pong-v5
 #   bash benchmarks/gpu_stages.sh atari_envs SECONDS N ...  # PPO on the ROM with N games, SECONDS each
 #                                              # (needs ale-py: pip install -e ".[atari]")
+#   bash benchmarks/gpu_stages.sh latency  # benchmarks/step_latency.py: a physics step per Warp graph mode and
+#                                              # XLA command-buffer setting; latency_profile: its trace
+#   CASE=npg bash benchmarks/gpu_stages.sh sweep_speed   # 64 configurations x 4 seeds as one sweep against
+#                                              # sequential runs (CASE=ppo ITER=100 for the PPO case)
+#   SUITE=jaxpg ENV=ant TRAINER=brax bash benchmarks/gpu_stages.sh brax_race  # one slice of the race
+#                                              # (needs Brax's wheels: brax jaxopt ml_collections)
 #
 # Logs and JSON go to $OUT (default: benchmarks/results/latest). Every stage caps its parts with
 # `timeout`, so that a slow part costs its own figures, not the whole call.
@@ -175,8 +181,30 @@ suite_fast)
     --episodes 10 --bare-first --gpus ${GPUS:-0 1 2 3} --out /tmp/suite_fast --json "$OUT/suite_fast.json" 2>&1 \
     | tee "$OUT/suite_fast.log" | grep -v "^WARN"
   ;;
+latency)
+  # A physics step's latency per Warp graph mode and XLA command-buffer setting (BUDGET seconds), then a
+  # jax.profiler trace of Hopper at 256 envs under MJX's default mode.
+  timeout 560 $py benchmarks/step_latency.py --budget ${BUDGET:-400} --json "$OUT/step_latency.json" 2>&1 \
+    | grep -v "^WARN" | tee "$OUT/step_latency.log"
+  ;;
+latency_profile)
+  timeout 300 $py benchmarks/step_latency.py --tasks hopper --envs 256 --modes ${MODES:-WARP} --command-buffers default \
+    --steps 10 --profile /tmp/trace --json "$OUT/profile.json" 2>&1 | grep -v "^WARN" | tee "$OUT/profile.log"
+  ;;
+sweep_speed)  # CASE npg|ppo; ITER: iterations of every run (default: the preset's); SEQ: sequential sample
+  timeout ${LIMIT:-560} $py benchmarks/sweep_speed.py --case ${CASE:-npg} --sequential ${SEQ:-2} \
+    ${ITER:+--iterations $ITER} --out /tmp/sweep_speed_${CASE:-npg} 2>&1 | grep -v "^WARN" \
+    | tee "$OUT/sweep_speed_${CASE:-npg}.log"
+  cp /tmp/sweep_speed_${CASE:-npg}/sweep_speed.json "$OUT/sweep_speed_${CASE:-npg}.json"
+  ;;
+brax_race)  # one slice per call: SUITE jaxpg|brax, ENV ant|humanoid, TRAINER jaxpg|brax, SEEDS, BUDGET seconds
+  timeout ${LIMIT:-570} $py benchmarks/brax_race.py --suite ${SUITE:-jaxpg} --env ${ENV:-ant} \
+    --trainer ${TRAINER:-brax} --seeds ${SEEDS:-0} --budget ${BUDGET:-300} \
+    --json "$OUT/race-${SUITE:-jaxpg}-${ENV:-ant}-${TRAINER:-brax}.json" 2>&1 | grep -v "^WARN" \
+    | tee "$OUT/race-${SUITE:-jaxpg}-${ENV:-ant}-${TRAINER:-brax}.log"
+  ;;
 *)
-  echo "usage: bash benchmarks/gpu_stages.sh card|sweep|sweep8|sweep1m|ratio|ablation|ablation_check|order_check|trace|ttr|env|suite_env|suite_fast|gym|scaling|extra|atari|atari_envs" >&2
+  echo "usage: bash benchmarks/gpu_stages.sh card|sweep|sweep8|sweep1m|ratio|ablation|ablation_check|order_check|trace|ttr|env|suite_env|suite_fast|gym|scaling|extra|atari|atari_envs|latency|latency_profile|sweep_speed|brax_race" >&2
   exit 2
   ;;
 esac

@@ -1,5 +1,5 @@
 """One sweep against the same runs one process after another: GPU-seconds per run, runs per
-GPU-hour, peak memory (docs/sweeps.md; results in BENCHMARKS.md, "Sweeps").
+GPU-hour, peak memory (docs/sweeps.md; GPU results go to BENCHMARKS.md).
 
     python benchmarks/sweep_speed.py --case npg --out results/sweep-speed
     python benchmarks/sweep_speed.py --case ppo --iterations 100 --out results/sweep-speed

@@ -12,7 +12,7 @@ set_single_thread_cpu_pool()
 
 __version__ = "0.1.0"
 
-__all__ = ["load_policy"]
+__all__ = ["load_policy", "sweep"]
 
 
 def __getattr__(name: str) -> Any:
@@ -21,4 +21,8 @@ def __getattr__(name: str) -> Any:
         from jaxpg.run.checkpoints.policy_io import load_policy
 
         return load_policy
+    if name == "sweep":  # ``jaxpg.sweep(spec, out_dir)``, the callable module (docs/sweeps.md)
+        import importlib
+
+        return importlib.import_module("jaxpg.sweep")
     raise AttributeError(f"module 'jaxpg' has no attribute {name!r}")

@@ -11,6 +11,11 @@ import numpy as np
 
 from jaxpg.sweep import stats
 
+# The learning-curve figures: at most this many configurations (the best by IQM), each drawn at
+# this many evenly spaced iterations.
+MAX_CURVES = 8
+CURVE_POINTS = 25
+
 
 def _pyplot() -> Any:
     import matplotlib
@@ -31,8 +36,7 @@ def curve_band(curves: list[np.ndarray], points: np.ndarray) -> tuple[np.ndarray
 
 def learning_curves(report: Any, x_name: str, path: Path) -> None:
     """Training return against ``x_name`` (``"env_steps"`` or ``"wall_s"``) of the best
-    configurations (``report.MAX_CURVES`` by IQM score), IQM over seeds with a 95 % band."""
-    from jaxpg.sweep.report import CURVE_POINTS, MAX_CURVES
+    configurations (``MAX_CURVES`` by IQM score), IQM over seeds with a 95 % band."""
 
     plt = _pyplot()
     best = sorted(report.configurations, key=lambda r: -r["iqm"] if math.isfinite(r["iqm"]) else math.inf)

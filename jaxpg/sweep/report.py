@@ -11,7 +11,7 @@ A run's wall clock is its chunk's (all runs of a chunk train together), measured
 each block of iterations and interpolated linearly within a block.
 
 Figures (``figures/``): training return against env steps and against wall-clock seconds per
-configuration (IQM over seeds, 95 % interval band; the ``MAX_CURVES`` best configurations by IQM
+configuration (IQM over seeds, 95 % interval band; the ``plots.MAX_CURVES`` best configurations by IQM
 score), and one sensitivity plot per swept field (each configuration's IQM score and interval
 against the field's value).
 """
@@ -31,9 +31,6 @@ from jaxpg.sweep import stats
 from jaxpg.sweep.runner import Run
 from jaxpg.sweep.spec import Configuration, SweepSpec
 from jaxpg.sweep.store import SweepStore
-
-MAX_CURVES = 8
-CURVE_POINTS = 25
 
 
 @dataclasses.dataclass

@@ -93,6 +93,8 @@ def gae(
     gamma: ArrayLike,
     lam: ArrayLike,
     parallel: bool = False,
+    *,
+    gamma_lambda: ArrayLike | None = None,
 ) -> tuple[jax.Array, jax.Array]:
     """Generalised advantage estimation (Schulman et al., 2016, eq. 16).
 
@@ -106,13 +108,18 @@ def gae(
       terminated, truncated: ``[T, B]`` bool.
       gamma, lam: discount and GAE lambda.
       parallel: static; ``reverse_linear_recurrence`` instead of the sequential ``lax.scan``.
+      gamma_lambda: ``gamma * lam`` computed elsewhere (a sweep's traced hyperparameters take the
+        host's product, as a constant program folds it); default: the product here.
     Returns ``(advantages [T, B], value_targets [T, B])`` with ``value_targets = advantages + values``
     (the TD(lambda) returns).
     """
     terminated = jnp.asarray(terminated, bool)
     done = terminated | jnp.asarray(truncated, bool)
-    deltas = rewards + gamma * jnp.where(terminated, 0.0, next_values) - values
-    carry_on = gamma * lam * (1.0 - done.astype(deltas.dtype))
+    # gamma multiplies before the select that zeroes terminated steps (the same numbers): with a
+    # traced gamma this order keeps XLA from fusing its product and sum into one rounding where a
+    # constant gamma's program rounds twice, so both compute the same bits.
+    deltas = rewards + jnp.where(terminated, 0.0, gamma * next_values) - values
+    carry_on = (gamma * lam if gamma_lambda is None else gamma_lambda) * (1.0 - done.astype(deltas.dtype))
     if parallel:
         advantages = reverse_linear_recurrence(deltas, carry_on)
         return advantages, advantages + values

@@ -7,7 +7,6 @@ import functools
 from collections.abc import Callable
 
 import jax
-import jax.numpy as jnp
 
 from jaxpg import returns
 from jaxpg.algos.core.batch import Batch, flatten_batch
@@ -44,7 +43,7 @@ def gae_advantages(
     config = run_config(ts)
     gae = returns.gae
     if is_traced(ts):
-        gae = functools.partial(traced_gae, gamma_lambda=derived(ts, "gamma*gae_lambda"))
+        gae = functools.partial(returns.gae, gamma_lambda=derived(ts, "gamma*gae_lambda"))
     advantages, targets = gae(
         traj.rewards,
         values,
@@ -65,42 +64,6 @@ def gae_advantages(
             parallel=parallel,
         )
     return advantages, targets
-
-
-def traced_gae(
-    rewards: jax.Array,
-    values: jax.Array,
-    next_values: jax.Array,
-    terminated: jax.Array,
-    truncated: jax.Array,
-    gamma: jax.Array,
-    lam: jax.Array,
-    parallel: bool = False,
-    *,
-    gamma_lambda: jax.Array,
-) -> tuple[jax.Array, jax.Array]:
-    """``returns.gae`` with traced ``gamma`` and ``lam`` (``[]``), whose product ``gamma_lambda``
-    the host computed as the static program does (``core.derived``); same shapes and results.
-
-    ``gamma`` multiplies before the select that zeroes terminated steps: XLA moves a constant
-    factor there in the static program, and the order keeps the compiler from fusing a traced
-    ``gamma``'s product and sum into one rounding where the static program rounds twice."""
-    del lam
-    terminated = jnp.asarray(terminated, bool)
-    done = terminated | jnp.asarray(truncated, bool)
-    deltas = rewards + jnp.where(terminated, 0.0, gamma * next_values) - values
-    carry_on = gamma_lambda * (1.0 - done.astype(deltas.dtype))
-    if parallel:
-        advantages = returns.reverse_linear_recurrence(deltas, carry_on)
-        return advantages, advantages + values
-
-    def step(next_adv: jax.Array, xs: tuple[jax.Array, jax.Array]) -> tuple[jax.Array, jax.Array]:
-        delta, c = xs
-        adv = delta + c * next_adv
-        return adv, adv
-
-    _, advantages = jax.lax.scan(step, jnp.zeros_like(deltas[-1]), (deltas, carry_on), reverse=True)
-    return advantages, advantages + values
 
 
 def phase_advantages(ts: TrainState, traj: Trajectory, advantage_fn: AdvantageFn = gae_advantages) -> Batch:

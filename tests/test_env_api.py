@@ -26,10 +26,45 @@ import script_loader
 
 import jaxpg.envs as envs
 from jaxpg import video
+from jaxpg.envs import tasks
 from jaxpg.envs.base import check_action
+from jaxpg.envs.cartpole import CartPole
 from jaxpg.run.evaluation import evaluate_cli, replay
 
 ROOT = Path(__file__).parent.parent
+
+
+class ToyCartPole(CartPole):
+    """A task that only this test declares: the cart-pole's equations under a name of its own."""
+
+
+def test_a_task_declared_in_one_place_resolves_by_name():
+    """One ``envs.register`` call (``jaxpg.envs.tasks``) makes a task: ``make`` builds it by name,
+    its Gymnasium counterpart and ``info`` keys are known, and it is gone once unregistered."""
+    envs.register("toy_cartpole", envs.Task(f"{__name__}:ToyCartPole", "CartPole-v1", 500))
+    try:
+        assert "toy_cartpole" in envs.names()
+        assert type(envs.make("toy_cartpole").unwrapped) is ToyCartPole
+        assert replay.gymnasium_counterpart("toy_cartpole") == "CartPole-v1"
+        assert envs.GYMNASIUM_COUNTERPARTS["toy_cartpole"] == ("CartPole-v1", 500)
+        assert tasks.INFO_KEYS["toy_cartpole"] == ((), ())
+    finally:
+        envs.unregister("toy_cartpole")
+    assert "toy_cartpole" not in envs.names() and "toy_cartpole" not in tasks.INFO_KEYS
+    with pytest.raises(ValueError, match="unknown environment 'toy_cartpole'"):
+        envs.make("toy_cartpole")
+
+
+def test_the_task_table_is_read_without_importing_a_task():
+    """``jaxpg.envs`` knows every task's name and Gymnasium id before importing any task module
+    (MuJoCo and MJX stay unimported)."""
+    code = (
+        "import sys, jaxpg.envs as e; "
+        "print(len(e.names()), e.GYMNASIUM_COUNTERPARTS['hopper'], "
+        "[m for m in ('mujoco', 'jaxpg.envs.hopper', 'jaxpg.envs.mjx_env') if m in sys.modules])"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.split() == [str(len(tasks.TASKS)), "('Hopper-v5',", "1000)", "[]"]
 
 
 @pytest.fixture(scope="module")

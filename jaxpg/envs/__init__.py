@@ -17,45 +17,12 @@ import sys
 from typing import Any
 
 from jaxpg.envs.base import Env, State
+from jaxpg.envs.tasks import GYMNASIUM_COUNTERPARTS, REGISTRY, Task, register, unregister
 from jaxpg.envs.wrappers import AutoReset, ClipAction, EpisodeStats, RescaleAction, Wrapper
 
-# name -> "module:Class", imported on first use so that `import jaxpg` stays cheap.
-REGISTRY: dict[str, str] = {
-    "hopper": "jaxpg.envs.hopper:Hopper",
-    "inverted_pendulum": "jaxpg.envs.inverted_pendulum:InvertedPendulum",
-    "inverted_double_pendulum": "jaxpg.envs.inverted_double_pendulum:InvertedDoublePendulum",
-    "half_cheetah": "jaxpg.envs.half_cheetah:HalfCheetah",
-    "swimmer": "jaxpg.envs.swimmer:Swimmer",
-    "pusher": "jaxpg.envs.pusher:Pusher",
-    "walker2d": "jaxpg.envs.walker2d:Walker2d",
-    "humanoid": "jaxpg.envs.humanoid:Humanoid",
-    "humanoid_standup": "jaxpg.envs.humanoid_standup:HumanoidStandup",
-    "reacher": "jaxpg.envs.reacher:Reacher",
-    "ant": "jaxpg.envs.ant:Ant",
-    "cartpole": "jaxpg.envs.cartpole:CartPole",
-    # jaxpg's own Pong, observed as frame differences (jaxpg.envs.pong.DifferencePong).
-    "pong": "jaxpg.envs.pong:DifferencePong",
-    # The Atari ROM through the Arcade Learning Environment (needs `pip install 'jaxpg[atari]'`).
-    "atari_pong": "jaxpg.envs.atari:AtariPong",
-}
-
-# task -> (the id of the Gymnasium env it reproduces, Gymnasium's step limit for that env), known
-# without importing Gymnasium: ``python -m jaxpg.evaluate --gymnasium`` replays a policy in that
-# env (``jaxpg.run.evaluation.replay``), and ``jaxpg.envs.gymnasium_api`` registers the task as ``jaxpg/<id>``.
-GYMNASIUM_COUNTERPARTS: dict[str, tuple[str, int]] = {
-    "hopper": ("Hopper-v5", 1000),
-    "inverted_pendulum": ("InvertedPendulum-v5", 1000),
-    "inverted_double_pendulum": ("InvertedDoublePendulum-v5", 1000),
-    "half_cheetah": ("HalfCheetah-v5", 1000),
-    "swimmer": ("Swimmer-v5", 1000),
-    "pusher": ("Pusher-v5", 100),
-    "walker2d": ("Walker2d-v5", 1000),
-    "humanoid": ("Humanoid-v5", 1000),
-    "humanoid_standup": ("HumanoidStandup-v5", 1000),
-    "reacher": ("Reacher-v5", 50),
-    "ant": ("Ant-v5", 1000),
-    "cartpole": ("CartPole-v1", 500),
-}
+# The tasks (jaxpg.envs.tasks, one ``Task`` each): REGISTRY (name -> "module:Class", imported on
+# first use so that `import jaxpg` stays cheap) and GYMNASIUM_COUNTERPARTS (task -> Gymnasium's id
+# and step limit) are views of that table.
 
 
 def names() -> list[str]:
@@ -161,12 +128,15 @@ def make_shared(name: str, batch: int | None = None, **kwargs: Any) -> Env:
 
 
 __all__ = [
+    "GYMNASIUM_COUNTERPARTS",
+    "REGISTRY",
     "AutoReset",
     "ClipAction",
     "Env",
     "EpisodeStats",
     "RescaleAction",
     "State",
+    "Task",
     "Wrapper",
     "gymnasium_env",
     "gymnasium_vector_env",
@@ -175,5 +145,7 @@ __all__ = [
     "make_shared",
     "make_task",
     "names",
+    "register",
+    "unregister",
     "warp_capacity",
 ]

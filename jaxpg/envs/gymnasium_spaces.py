@@ -38,6 +38,7 @@ from gymnasium import spaces  # noqa: E402
 
 from jaxpg import envs as envs_lib  # noqa: E402
 from jaxpg.envs.gymnasium_registration import NO_FIDELITY, fast_id  # noqa: E402, F401 - part of this module's API
+from jaxpg.envs.tasks import INFO_KEYS  # noqa: E402 - task -> Gymnasium's info keys after reset and step
 
 # jaxpg's Gymnasium id -> (jaxpg task, Gymnasium's step limit for it): ``jaxpg/<id>`` for each of
 # ``envs.GYMNASIUM_COUNTERPARTS``.
@@ -45,37 +46,6 @@ GYMNASIUM_IDS: dict[str, tuple[str, int]] = {
     f"jaxpg/{gym_id}": (task, limit) for task, (gym_id, limit) in envs_lib.GYMNASIUM_COUNTERPARTS.items()
 }
 
-
-_POSITION = ("x_position", "z_distance_from_origin")
-_PLANAR = ("x_position", "y_position", "distance_from_origin")
-_TENDONS = ("tendon_length", "tendon_velocity")
-_STANDUP = ("x_position", "y_position", "z_distance_from_origin")
-
-# task -> (keys of ``info`` after ``reset``, keys of ``info`` after ``step``): Gymnasium v5's
-INFO_KEYS: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {
-    "hopper": (_POSITION, (*_POSITION, "x_velocity", "reward_forward", "reward_ctrl", "reward_survive")),
-    "walker2d": (_POSITION, (*_POSITION, "x_velocity", "reward_forward", "reward_ctrl", "reward_survive")),
-    "half_cheetah": (("x_position",), ("x_position", "x_velocity", "reward_forward", "reward_ctrl")),
-    "swimmer": (_PLANAR, (*_PLANAR, "x_velocity", "y_velocity", "reward_forward", "reward_ctrl")),
-    "ant": (
-        _PLANAR,
-        (*_PLANAR, "x_velocity", "y_velocity", "reward_forward", "reward_ctrl", "reward_contact", "reward_survive"),
-    ),
-    "humanoid": (
-        (*_PLANAR, *_TENDONS),
-        (*_PLANAR, *_TENDONS, "x_velocity", "y_velocity")
-        + ("reward_forward", "reward_ctrl", "reward_contact", "reward_survive"),
-    ),
-    "humanoid_standup": (
-        (*_STANDUP, *_TENDONS),
-        (*_STANDUP, *_TENDONS, "reward_linup", "reward_quadctrl", "reward_impact"),
-    ),
-    "inverted_pendulum": ((), ("reward_survive",)),
-    "inverted_double_pendulum": ((), ("reward_survive", "distance_penalty", "velocity_penalty")),
-    "reacher": ((), ("reward_dist", "reward_ctrl")),
-    "pusher": ((), ("reward_dist", "reward_ctrl", "reward_near")),
-    "cartpole": ((), ()),
-}
 
 # info keys read from the physics state (``mjx.Data`` field) rather than the task's metrics.
 DATA_INFO = {"tendon_length": "ten_length", "tendon_velocity": "ten_velocity"}

@@ -397,3 +397,19 @@ def test_suite_json_has_no_nan_and_failed_runs_are_named():
     failed = suite.failures(rows, episodes=10)
     assert len(failed) == 2 and "seed 0: exit status 2" in failed[0] and "seed 1: no Gymnasium score" in failed[1]
     assert suite.failures(rows[1:], episodes=0) == []
+
+
+def test_options_a_task_forwards_to_another_class_are_checked_as_that_class_takes_them():
+    """``pong`` is ``DifferencePong``, whose ``**pong_kwargs`` build ``Pong``: a ``config.json`` or
+    ``--env-kwargs`` option of ``Pong``'s is accepted with its type, a wrong type or an unknown name
+    is one line naming it (found when a run directory of the Pong experiment was resumed)."""
+    from jaxpg.envs.pong import Pong
+    from jaxpg.run.command import task_options
+
+    assert task_options.check_options("pong", {"size": 40, "first": "zeros"}) == {"size": 40, "first": "zeros"}
+    assert set(task_options.option_types("pong")) >= {"first", "size", "stay_action", "winning_score"}
+    assert "size" in Pong.__init__.__code__.co_varnames
+    with pytest.raises(ValueError, match="^task option size must be an integer, got 'big'$"):
+        task_options.check_options("pong", {"size": "big"})
+    with pytest.raises(ValueError, match="^task 'pong' has no option 'sizes'; its options: first, size,"):
+        task_options.check_options("pong", {"sizes": 40})

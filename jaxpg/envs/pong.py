@@ -334,5 +334,9 @@ class DifferencePong(FrameDifference):
     seed's agents learn from (``jaxpg.envs.make("pong", size=40)``). ``pong_kwargs`` go to ``Pong``;
     ``first`` to ``FrameDifference``. ``unwrapped`` is the ``Pong`` that draws the frames."""
 
+    # The class that ``**pong_kwargs`` construct: its options are this task's too
+    # (``jaxpg.run.command.task_options.option_types``).
+    OPTIONS_FORWARDED_TO = Pong
+
     def __init__(self, first: str = "zeros", **pong_kwargs: Any):
         super().__init__(Pong(**pong_kwargs), first=first)

@@ -50,10 +50,17 @@ def parse_assignment(text: str) -> tuple[str, Any]:
 def option_types(task: str) -> dict[str, Any]:
     """Name -> type of each option of ``task``'s constructor (``jaxpg.envs.task_class``), in
     order; ``ValueError`` for an unknown task."""
-    cls = envs.task_class(task)
+    return _constructor_options(envs.task_class(task))
+
+
+def _constructor_options(cls: type) -> dict[str, Any]:
+    """Name -> type of each named parameter of ``cls``'s constructor, and, where its ``**kwargs``
+    construct another class (``cls.OPTIONS_FORWARDED_TO``), that class's too."""
     hints = typing.get_type_hints(cls.__init__)
     out: dict[str, Any] = {}
     for name, param in inspect.signature(cls.__init__).parameters.items():
+        if param.kind == param.VAR_KEYWORD and getattr(cls, "OPTIONS_FORWARDED_TO", None) is not None:
+            out.update({k: v for k, v in _constructor_options(cls.OPTIONS_FORWARDED_TO).items() if k not in out})
         if name in SIMULATION_SETTINGS + BUFFER_SIZES or param.kind in (param.VAR_KEYWORD, param.VAR_POSITIONAL):
             continue
         out[name] = hints.get(name, Any)

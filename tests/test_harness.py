@@ -50,7 +50,7 @@ def test_a_run_is_split_by_the_arrival_of_its_output_lines():
     first progress line, less the compilation and the kernel wait that its ``first block:`` line
     reports; the other iterations to ``done in``, less the evaluation its ``evaluation:`` line
     reports; then the exit. A part whose line never came is ``None``."""
-    split = load_script("benchmarks/card_command.py").split
+    split = load_script("benchmarks/card_command.py").card.split
     lines = [(9.8, "training: npg on hopper"), (10.0, "warning: x"), (34.2, "[ 10/120] | steps"), (36.0, "[ 20/120]")]
     lines += [(60.0, "done in 39.7 s: 0.129 s per iteration, 127,000 env steps/s after compilation")]
     lines += [(60.1, "first block: compiled in 9.5 s, then 2.5 s waiting for MuJoCo Warp's kernels (41 modules built")]
@@ -81,7 +81,7 @@ def test_a_run_is_split_by_the_arrival_of_its_output_lines():
 def test_the_startup_line_splits_into_imports_env_state_and_run_dir():
     """card_command.py reads the run's ``start-up:`` line: imports are the seconds before planning
     plus the MJX import inside planning, the env is the rest of planning."""
-    parts = load_script("benchmarks/card_command.py").startup_parts
+    parts = load_script("benchmarks/card_command.py").card.startup_parts
     line = (
         "start-up: 7.4 s to the first block: 2.1 s before planning, 4.1 s planning and building the env "
         "(2.8 s of it importing mujoco.mjx), 0.4 s the initial state, 0.8 s the run directory and the rest"
@@ -101,7 +101,7 @@ def test_the_startup_line_splits_into_imports_env_state_and_run_dir():
 def test_a_stack_sample_is_an_import_or_its_innermost_jaxpg_frame():
     """card_command.py startup --sample names each sample of the main thread (innermost frame
     first): an import in progress, else the innermost frame of jaxpg, else the innermost frame."""
-    activity = load_script("benchmarks/card_command.py").sampled_activity
+    activity = load_script("benchmarks/card_command.py").startup.sampled_activity
     jaxpg_frames = (
         "/x/site-packages/jax/_src/api.py:device_put;/repo/jaxpg/envs/mjx_env.py:__init__;"
         "/repo/jaxpg/run/command/main.py:main"
@@ -336,7 +336,7 @@ def test_bytecode_finds_a_package_without_its_compiled_sources_and_with_them(har
 def parts():
     """``card_command.py parts``: the card's command in this process, its programs' compile log and
     MuJoCo Warp's callbacks timed."""
-    return load_script("benchmarks/card_command.py")
+    return load_script("benchmarks/card_command.py").parts
 
 
 def test_card_parts_reads_jax_compile_log_lines(parts):

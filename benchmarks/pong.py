@@ -7,18 +7,18 @@ the Atari ROM):
            ``lax.scan`` of ``--horizon`` steps, timed after compilation; and of A2C training
            (sampling with the seed's 6400 -> 200 -> 2 network plus the update) at the same batch;
   beat     A2C runs of ``experiments/pong.py`` with ``--train-envs`` games and each of ``--seeds``,
-           ``--lr`` (default 2e-3: at 1024 envs on an H200 it did better than 4e-3, and at 2048
-           envs better than 1e-3) and ``--t-max``, each trained for ``--seconds`` of wall clock
-           (compilation excluded) or exactly ``--iterations``: when the seed's running reward
-           first exceeds each of ``--thresholds`` (0: the agent beats the scripted opponent on
-           average; 10: by 10 points of 21);
+           ``--lr`` (default 2e-3: the learning-rate sweep of BENCHMARKS.md, "jaxpg's Pong") and
+           ``--t-max``, each trained for ``--seconds`` of wall clock (compilation excluded) or
+           exactly ``--iterations``: when the seed's running reward first exceeds each of
+           ``--thresholds`` (0: the agent beats the scripted opponent on average; 10: by 10 points
+           of 21);
   compare  MinPy's comparison, ``--compare-envs 1 2 4 16 ...``: the same A2C runs with each number
            of envs (the experiment's learning rate unless ``--lr`` is given, no fps measurement),
            and their running reward against wall clock in ``RUN_DIR/pong_envs.png``: more envs
-           learn faster in wall-clock time (on one H200 it held from 1 to 1024 envs:
-           docs/benchmarks_archive.md, section J). ``--algo ppo`` runs the same comparison with PPO (the
-           experiment's settings, e.g. PPO's Atari recipe on the ROM, which learns there in
-           minutes where MinPy's A2C needs tens of minutes per setting).
+           learn faster in wall-clock time (docs/benchmarks_archive.md, section J). ``--algo ppo``
+           runs the same comparison with PPO (the experiment's settings, e.g. PPO's Atari recipe
+           on the ROM, which learns there faster than MinPy's A2C: BENCHMARKS.md, "Atari Pong on
+           the ROM").
 
 Every A2C run is a standard run of the command line (``jaxpg.run.command.planning.plan`` of ``experiments/pong.py``
 with ``--minutes``, run by ``jaxpg.run.training.session.execute``) in ``RUN_DIR/envs<N>-tmax<T>-lr<LR>-seed<S>``,

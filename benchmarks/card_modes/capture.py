@@ -20,9 +20,9 @@ env steps per call; the last 200 outputs are kept alive, so later calls get new 
 captures again) for ``--seconds``, first alone, then with a thread compiling XLA programs beside
 it, and prints whether the stepping survived.
 
-On one H200 (2026-11-27) stepping with a compiling thread failed after 74 calls (3 s) with
-``Warp CUDA error 904: capturing stream has unjoined work``; alone, 899 calls in 30 s passed.
-Training runs sharing a GPU failed the same way (CUDA error 901) while their evaluation program
+On the GPU, stepping with a compiling thread failed with ``Warp CUDA error 904: capturing stream
+has unjoined work`` while stepping alone passed (``docs/benchmarks_archive.md``, "The suite within
+1 M env steps"). Training runs sharing a GPU failed the same way (CUDA error 901) while their evaluation program
 compiled on a background thread; ``jaxpg.train.train`` now compiles nothing while a MuJoCo Warp
 program runs. Needs a GPU: on the CPU Warp captures no graphs.
 

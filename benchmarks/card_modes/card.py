@@ -39,8 +39,8 @@ kernel build alone), and the start-up's own parts from the run's ``start-up:`` l
 
 ``--cold`` gives every run empty caches, as on a bare machine: its own XLA
 compilation cache, MuJoCo Warp kernel cache and CUDA driver compute cache (``CUDA_CACHE_PATH``:
-the driver compiles the PTX it is handed for the GPU and keeps the result there; 34 MB after one
-run on an H100, and with it kept a run with the other two caches empty took 26-35 s less);
+the driver compiles the PTX it is handed for the GPU and keeps the result there; what keeping it
+saves: ``docs/benchmarks_archive.md``, "The card command");
 ``--warm`` runs again with the caches that a first run filled. A bare machine still has the
 Python bytecode that ``pip install`` compiles; where MuJoCo, MJX or Warp was installed without it
 (``--no-compile``), a first line says so, since each run (or the first, where Python may write

@@ -34,7 +34,7 @@ For each device count ``k`` (in a fresh process; the env mesh over the first ``k
   eff.      scaling efficiency ``steps_k / (k * steps_1)`` of train (and of raw);
   compile   seconds of the first training call (compilation included).
 
-On the GPU machine (MuJoCo Warp is the default there), e.g. two H200s:
+On the GPU machine (MuJoCo Warp is the default there), e.g. two GPUs:
 
     python benchmarks/throughput.py scaling --task hopper --envs-per-device 16384 --horizon 32 --json scaling.json
 

@@ -28,7 +28,7 @@ For each (impl, num_envs) this measures, in a fresh process (so that peak memory
          included), batch and horizon, random actions, ``lax.scan`` over the horizon, each timed
          call continuing from the previous call's env states as training does ("raw from reset":
          every call from the same reset states, this benchmark's baseline before the benchmark record's
-         section AK, where the two agreed within 1 %), timed before anything else is compiled,
+         section AK, where the two agreed), timed before anything else is compiled,
          and again after training ("raw after training": with the training programs and states
          resident too) and in the rounds that time training, one raw call after each scan and
          each group of single calls ("raw in the training rounds": both sides timed in the same
@@ -155,7 +155,7 @@ def train_measure(
     ts_single = ts2
     # Raw simulation is timed a third way in the same rounds (its chain continued), so that raw
     # and training are also compared in the same state of the process and the GPU: timed alone
-    # before anything else, raw ran 5-8 % faster than after training (the benchmark record, section AS).
+    # before anything else, raw ran faster than after training (the benchmark record, section AS).
     scan_times, single_times, raw_round_times = [], [], []
     for _ in range(repeats):
         start = time.perf_counter()

@@ -175,11 +175,11 @@ def test_suite_physics_replays_either_action(pendulum_run, clipped_mean_run):
         (clipped_mean_run, "run", True),
         (clipped_mean_run, "mode", False),
     ):
-        played = suite.play_physics((str(run_dir), 0, "gymnasium", action, 2))
+        played = suite.physics.play_physics((str(run_dir), 0, "gymnasium", action, 2))
         policy = jaxpg.load_policy(run_dir, clipped_mean=clipped_mean)
         returns, _, _ = replay.evaluate_gymnasium(policy, "inverted_pendulum", {}, 2)
         assert played["action"] == action and played["returns"] == returns.tolist()
     # The progress line printed as each job finishes names the job and its result.
     job = f"{Path(clipped_mean_run).name} seed 0, gymnasium, mode"
-    mean = suite.score_text(played["mean"])  # two decimals under 100 (tests/test_harness.py)
-    assert suite.played_line(played, 3, 4) == f"[3/4] {job}: {mean} ({played['early']} early)"
+    mean = suite.verdicts.score_text(played["mean"])  # two decimals under 100 (tests/test_harness.py)
+    assert suite.physics.played_line(played, 3, 4) == f"[3/4] {job}: {mean} ({played['early']} early)"

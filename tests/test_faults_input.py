@@ -370,7 +370,7 @@ def test_suite_help_and_unknown_runs(tmp_path):
 def test_suite_json_has_no_nan_and_failed_runs_are_named():
     """A run that never scored: its NaN figures are written as null (JSON has no NaN), and the
     failures (exit status, no Gymnasium score) are listed for the ``error:`` lines and exit 1."""
-    suite = script_loader.load_script("benchmarks/suite.py")
+    verdicts = script_loader.load_script("benchmarks/suite.py").verdicts
     rows = [
         {"task": "hopper", "algo": "npg", "preset": "p", "seed": 0, "status": 2, "run_dir": "r0", "env_steps": np.nan},
         {
@@ -392,11 +392,11 @@ def test_suite_json_has_no_nan_and_failed_runs_are_named():
             "gymnasium_return": 0.0,
         },
     ]
-    text = json.dumps(suite.finite_or_none({"rows": rows, "summary": [{"median": float("nan"), "scores": []}]}))
+    text = json.dumps(verdicts.finite_or_none({"rows": rows, "summary": [{"median": float("nan"), "scores": []}]}))
     assert "NaN" not in text and json.loads(text)["rows"][0]["env_steps"] is None
-    failed = suite.failures(rows, episodes=10)
+    failed = verdicts.failures(rows, episodes=10)
     assert len(failed) == 2 and "seed 0: exit status 2" in failed[0] and "seed 1: no Gymnasium score" in failed[1]
-    assert suite.failures(rows[1:], episodes=0) == []
+    assert verdicts.failures(rows[1:], episodes=0) == []
 
 
 def test_options_a_task_forwards_to_another_class_are_checked_as_that_class_takes_them():

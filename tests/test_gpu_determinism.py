@@ -14,7 +14,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 @pytest.fixture(scope="module")
 def determinism():
-    return load_script("benchmarks/card_command.py")
+    return load_script("benchmarks/card_command.py").determinism
 
 
 def rows(**changes):

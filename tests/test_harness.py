@@ -50,7 +50,7 @@ def test_a_run_is_split_by_the_arrival_of_its_output_lines():
     first progress line, less the compilation and the kernel wait that its ``first block:`` line
     reports; the other iterations to ``done in``, less the evaluation its ``evaluation:`` line
     reports; then the exit. A part whose line never came is ``None``."""
-    split = load_script("benchmarks/card_command.py").split
+    split = load_script("benchmarks/card_command.py").card.split
     lines = [(9.8, "training: npg on hopper"), (10.0, "warning: x"), (34.2, "[ 10/120] | steps"), (36.0, "[ 20/120]")]
     lines += [(60.0, "done in 39.7 s: 0.129 s per iteration, 127,000 env steps/s after compilation")]
     lines += [(60.1, "first block: compiled in 9.5 s, then 2.5 s waiting for MuJoCo Warp's kernels (41 modules built")]
@@ -81,7 +81,7 @@ def test_a_run_is_split_by_the_arrival_of_its_output_lines():
 def test_the_startup_line_splits_into_imports_env_state_and_run_dir():
     """card_command.py reads the run's ``start-up:`` line: imports are the seconds before planning
     plus the MJX import inside planning, the env is the rest of planning."""
-    parts = load_script("benchmarks/card_command.py").startup_parts
+    parts = load_script("benchmarks/card_command.py").card.startup_parts
     line = (
         "start-up: 7.4 s to the first block: 2.1 s before planning, 4.1 s planning and building the env "
         "(2.8 s of it importing mujoco.mjx), 0.4 s the initial state, 0.8 s the run directory and the rest"
@@ -101,7 +101,7 @@ def test_the_startup_line_splits_into_imports_env_state_and_run_dir():
 def test_a_stack_sample_is_an_import_or_its_innermost_jaxpg_frame():
     """card_command.py startup --sample names each sample of the main thread (innermost frame
     first): an import in progress, else the innermost frame of jaxpg, else the innermost frame."""
-    activity = load_script("benchmarks/card_command.py").sampled_activity
+    activity = load_script("benchmarks/card_command.py").startup.sampled_activity
     jaxpg_frames = (
         "/x/site-packages/jax/_src/api.py:device_put;/repo/jaxpg/envs/mjx_env.py:__init__;"
         "/repo/jaxpg/run/command/main.py:main"
@@ -117,23 +117,23 @@ def test_a_stack_sample_is_an_import_or_its_innermost_jaxpg_frame():
 
 
 def test_suite_judges_each_preset_against_its_target():
-    suite = load_script("benchmarks/suite.py")
-    assert suite.judge("walker2d", "walker2d_1m", [3900.0, 3800.0, 4000.0], [90.0] * 3, [1e6] * 3).startswith("met")
-    assert suite.judge("walker2d", "walker2d_1m", [3000.0], [90.0], [1e6]).startswith("missed by 827")
-    assert "over 1 M steps" in suite.judge("hopper", "hopper_1m", [3000.0], [90.0], [2e6])
-    assert suite.judge("ant", "ant_fast", [4100.0, 4200.0, 3900.0], [200.0] * 3, [5e7] * 3).startswith("met")
-    assert "too slow" in suite.judge("ant", "ant_fast", [4100.0], [400.0], [5e7])
-    assert suite.judge("humanoid", "humanoid_fast", [4000.0], [500.0], [5e7]).startswith("missed by 1000")
-    assert suite.judge("swimmer", "swimmer_fast", [300.0], [60.0], [1e7]).startswith("missed by 65.70")
-    assert suite.judge("reacher", "reacher_fast", [-2.5, -2.4, -3.0], [60.0] * 3, [1e7] * 3).startswith("met")
-    assert suite.judge("humanoid_standup", "humanoid_standup_fast", [1e5], [60.0], [1e7]) == "no target"
-    assert suite.judge("ant", "ant_fast", [], [60.0], [1e7]) == "no score"
+    verdicts = load_script("benchmarks/suite.py").verdicts
+    assert verdicts.judge("walker2d", "walker2d_1m", [3900.0, 3800.0, 4000.0], [90.0] * 3, [1e6] * 3).startswith("met")
+    assert verdicts.judge("walker2d", "walker2d_1m", [3000.0], [90.0], [1e6]).startswith("missed by 827")
+    assert "over 1 M steps" in verdicts.judge("hopper", "hopper_1m", [3000.0], [90.0], [2e6])
+    assert verdicts.judge("ant", "ant_fast", [4100.0, 4200.0, 3900.0], [200.0] * 3, [5e7] * 3).startswith("met")
+    assert "too slow" in verdicts.judge("ant", "ant_fast", [4100.0], [400.0], [5e7])
+    assert verdicts.judge("humanoid", "humanoid_fast", [4000.0], [500.0], [5e7]).startswith("missed by 1000")
+    assert verdicts.judge("swimmer", "swimmer_fast", [300.0], [60.0], [1e7]).startswith("missed by 65.70")
+    assert verdicts.judge("reacher", "reacher_fast", [-2.5, -2.4, -3.0], [60.0] * 3, [1e7] * 3).startswith("met")
+    assert verdicts.judge("humanoid_standup", "humanoid_standup_fast", [1e5], [60.0], [1e7]) == "no target"
+    assert verdicts.judge("ant", "ant_fast", [], [60.0], [1e7]) == "no score"
 
 
 def test_suite_prints_returns_under_100_with_two_decimals():
     """Reacher's and Pusher's returns differ in their decimals, the other tasks' in their hundreds."""
-    suite = load_script("benchmarks/suite.py")
-    assert [suite.score_text(x) for x in (3346.4, -150.2, -28.744, -3.4823)] == ["3346", "-150", "-28.74", "-3.48"]
+    verdicts = load_script("benchmarks/suite.py").verdicts
+    assert [verdicts.score_text(x) for x in (3346.4, -150.2, -28.744, -3.4823)] == ["3346", "-150", "-28.74", "-3.48"]
 
 
 def test_suite_physics_variants_change_only_the_integrator_and_the_solver_iterations():
@@ -146,11 +146,11 @@ def test_suite_physics_variants_change_only_the_integrator_and_the_solver_iterat
 
     suite = load_script("benchmarks/suite.py")
     settings = {}
-    for variant in suite.PHYSICS_VARIANTS:
+    for variant in suite.physics.PHYSICS_VARIANTS:
         env = replay.gymnasium_reference_env("hopper", {})
-        suite.set_physics(env.unwrapped.model, variant)
+        suite.physics.set_physics(env.unwrapped.model, variant)
         opt = env.unwrapped.model.opt
-        settings[variant] = (suite.mujoco_name(opt.integrator), opt.iterations, opt.ls_iterations, opt.timestep)
+        settings[variant] = (suite.physics.mujoco_name(opt.integrator), opt.iterations, opt.ls_iterations, opt.timestep)
         env.close()
     fast = (mjx_env.FAST_SOLVER_ITERATIONS, mjx_env.FAST_LS_ITERATIONS)
     assert settings == {
@@ -165,11 +165,11 @@ def test_suite_physics_variants_change_only_the_integrator_and_the_solver_iterat
 
 def test_suite_names_a_block_of_many_seeds_within_a_file_name():
     suite = load_script("benchmarks/suite.py")
-    assert suite.seeds_label([3]) == "seed3"
-    assert suite.seeds_label([0, 2, 5]) == "seed0-2-5"
-    assert suite.seeds_label([4, 5]) == "seed4-5"
-    assert suite.seeds_label(list(range(1000, 1064))) == "seeds1000to1063"
-    assert suite.seeds_label([1, 2, 3, 5]) == "seed1-2-3-5"
+    assert suite.verdicts.seeds_label([3]) == "seed3"
+    assert suite.verdicts.seeds_label([0, 2, 5]) == "seed0-2-5"
+    assert suite.verdicts.seeds_label([4, 5]) == "seed4-5"
+    assert suite.verdicts.seeds_label(list(range(1000, 1064))) == "seeds1000to1063"
+    assert suite.verdicts.seeds_label([1, 2, 3, 5]) == "seed1-2-3-5"
 
 
 def test_suite_counts_each_setting_s_seeds_below_the_bar_once():
@@ -193,7 +193,7 @@ def test_suite_counts_each_setting_s_seeds_below_the_bar_once():
         row(3, None, []),
         row(0, 2000.0, ["--kl-delta", "0.1"]),
     ]
-    base, kl = suite.tally(rows, 3000.0)
+    base, kl = suite.count.tally(rows, 3000.0)
     assert (base["run"], base["extra"], base["seeds"], base["reached"]) == ("hopper:npg:hopper_1m", "", 3, 1)
     assert base["below"] == [(2, 900.0), (1, 2600.0)]  # seed 1 once, at its later score; seed 3 unscored
     assert (base["lowest"], base["median"]) == (900.0, 2600.0)
@@ -203,7 +203,7 @@ def test_suite_counts_each_setting_s_seeds_below_the_bar_once():
 def test_suite_runs_one_job_at_a_time_on_each_gpu():
     """``suite.py run --gpus``: every job runs once, on one GPU at a time, the GPUs side by side; a
     failed job is raised after the others ended."""
-    on_gpus = load_script("benchmarks/suite.py").on_gpus
+    on_gpus = load_script("benchmarks/suite.py").run.on_gpus
     busy, seen, overlaps, lock = set(), [], [], threading.Lock()
 
     def work(job, gpu):
@@ -233,7 +233,7 @@ def test_suite_runs_one_job_at_a_time_on_each_gpu():
 def test_suite_gpus_take_the_first_ready_job_and_wait_when_none_is():
     """``on_gpus`` with ``ready``: a free GPU skips jobs that are not ready (a warm run whose bare
     run has not ended) for the next that is, and waits while none is, until a job ends."""
-    on_gpus = load_script("benchmarks/suite.py").on_gpus
+    on_gpus = load_script("benchmarks/suite.py").run.on_gpus
     ended, order, lock = set(), [], threading.Lock()
 
     def work(job, gpu):
@@ -264,10 +264,10 @@ def test_suite_bare_first_times_one_bare_run_then_every_seed_with_its_caches(tmp
         row = {"task": task, "algo": algo, "preset": preset, "seed": seeds[0], "wall_s": 1.0, "env_steps": 10.0}
         return [{**row, "in_run_mean_policy": 5.0, "status": 0, "run_dir": str(place / "run")}]
 
-    monkeypatch.setattr(suite, "train_and_time", fake_train)
+    monkeypatch.setattr(suite.run, "train_and_time", fake_train)
     (tmp_path / "caches-hopper-hopper-0").mkdir()  # a stale cache the bare run must not find
     args = ["--runs", "hopper:npg:hopper", "--seeds", "0", "1", "--episodes", "0", "--out", str(tmp_path)]
-    suite.run_main([*args, "--bare-first", "--json", str(tmp_path / "out.json")])
+    suite.run.run_main([*args, "--bare-first", "--json", str(tmp_path / "out.json")])
     assert calls == [
         ([0], "bare", "caches-hopper-hopper-0", False),
         ([0], tmp_path.name, "caches-hopper-hopper-0", True),
@@ -286,9 +286,9 @@ def test_suite_bare_first_times_one_bare_run_then_every_seed_with_its_caches(tmp
         saved.append(len(json.loads(path.read_text())["rows"]) if path.exists() else 0)
         return fake_train(task, algo, preset, seeds, place, caches, extra, gpu)
 
-    monkeypatch.setattr(suite, "train_and_time", fake_train_reading_json)
+    monkeypatch.setattr(suite.run, "train_and_time", fake_train_reading_json)
     two = ["--runs", "hopper:npg:hopper", "walker2d:npg:walker2d_1m", *args[2:]]
-    suite.run_main([*two, "--bare-first", "--json", str(tmp_path / "two.json")])
+    suite.run.run_main([*two, "--bare-first", "--json", str(tmp_path / "two.json")])
     assert [(seeds, caches) for seeds, _, caches, _ in calls] == [
         ([0], "caches-hopper-hopper-0"),
         ([0], "caches-hopper-hopper-0"),
@@ -300,13 +300,13 @@ def test_suite_bare_first_times_one_bare_run_then_every_seed_with_its_caches(tmp
     assert saved == [0, 1, 2, 3, 4, 5]
     for other in ("--cold", "--warmup"):
         with pytest.raises(SystemExit) as error:
-            suite.run_main([*args, "--bare-first", other])
+            suite.run.run_main([*args, "--bare-first", other])
         assert error.value.code == 2
     assert "choose one" in capsys.readouterr().err
 
 
 def test_suite_band_holds_each_seed_last_value():
-    band = load_script("benchmarks/suite.py").band
+    band = load_script("benchmarks/suite.py").plot.band
     curves = [[(1.0, 10.0), (3.0, 30.0)], [(2.0, 20.0)], []]
     low, mid, high = band(curves, [0.0, 1.0, 2.5, 3.0])
     assert low[0] != low[0] and mid[0] != mid[0]  # NaN before any curve starts
@@ -336,7 +336,7 @@ def test_bytecode_finds_a_package_without_its_compiled_sources_and_with_them(har
 def parts():
     """``card_command.py parts``: the card's command in this process, its programs' compile log and
     MuJoCo Warp's callbacks timed."""
-    return load_script("benchmarks/card_command.py")
+    return load_script("benchmarks/card_command.py").parts
 
 
 def test_card_parts_reads_jax_compile_log_lines(parts):

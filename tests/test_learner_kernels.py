@@ -20,7 +20,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 @pytest.fixture(scope="module")
 def kernels():
-    return load_script("benchmarks/throughput.py")
+    return load_script("benchmarks/throughput.py").learner
 
 
 def test_gae_forms_agree(kernels):

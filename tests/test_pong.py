@@ -512,7 +512,7 @@ def test_benchmark_running_reward():
         {"iteration": 4, "wall_time_s": 8.5, "env_steps": 32, "episodes": 2, "return_stochastic": -11.0},
     ]
     records = [{**r, "mean_reward": -0.01} for r in records]
-    rows = bench.running_reward(records, block=2, decay=0.9)
+    rows = bench.runs.running_reward(records, block=2, decay=0.9)
     assert [r["iteration"] for r in rows] == [3, 4]
     assert [r["wall_s"] for r in rows] == [1.0, 2.5]
     assert [r["games"] for r in rows] == [1, 3]
@@ -564,11 +564,11 @@ def test_benchmark_run_argv_per_algorithm(tmp_path):
     """``--algo ppo`` plans PPO runs with the experiment's own horizon (128 on the ROM), named
     apart from A2C's; A2C keeps the experiment's t_max."""
     bench = load_script("benchmarks/pong.py")
-    assert bench.experiment_horizon("atari_pong", "ppo") == 128
-    assert bench.experiment_horizon("pong", "a2c") == 8
-    ppo = bench.run_argv(tmp_path / "r", "atari_pong", 16, seconds=60.0, call_steps=4096, algo="ppo")
+    assert bench.runs.experiment_horizon("atari_pong", "ppo") == 128
+    assert bench.runs.experiment_horizon("pong", "a2c") == 8
+    ppo = bench.runs.run_argv(tmp_path / "r", "atari_pong", 16, seconds=60.0, call_steps=4096, algo="ppo")
     assert ppo[:2] == ["--algo", "ppo"] and ppo[ppo.index("--log-every") + 1] == "2"
-    a2c = bench.run_argv(tmp_path / "r", "pong", 16, seconds=60.0, call_steps=4096)
+    a2c = bench.runs.run_argv(tmp_path / "r", "pong", 16, seconds=60.0, call_steps=4096)
     assert a2c[:2] == ["--algo", "a2c"] and a2c[a2c.index("--log-every") + 1] == "32"
-    assert bench.run_name(16, None, None, 0, "ppo") == "ppo-envs16-seed0"
-    assert bench.run_name(16, None, None, 0) == "envs16-seed0"
+    assert bench.runs.run_name(16, None, None, 0, "ppo") == "ppo-envs16-seed0"
+    assert bench.runs.run_name(16, None, None, 0) == "envs16-seed0"

@@ -397,9 +397,11 @@ def test_relative_links_resolve():
     assert not broken, broken
 
 
-def test_benchmarks_are_at_most_fourteen_scripts_and_the_docs_name_them_as_they_are():
+def test_benchmarks_are_at_most_sixteen_scripts_and_the_docs_name_them_as_they_are():
+    """One script a topic, its modes in ``benchmarks/<script>_modes/``; sixteen since the sweeps'
+    speed, the race against Brax's PPO and the physics step's latency each got one."""
     scripts = sorted(p.name for p in (ROOT / "benchmarks").iterdir() if p.suffix in (".py", ".sh"))
-    assert len(scripts) <= 14, scripts
+    assert len(scripts) <= 16, scripts
     current = [ROOT / "README.md", ROOT / "BENCHMARKS.md", *(ROOT / "docs").glob("*.md")]
     current = [p for p in current if p.name != "benchmarks_archive.md"]
     wrong = []

@@ -206,7 +206,7 @@ def test_eval_cost_benchmark_times_early_stop_and_full_evaluations_alike():
     """``benchmarks/throughput.py eval`` on a fresh pendulum policy (its episodes end within a few
     steps): the evaluation with the early stop and the full one reach the same returns, and the
     row says how long the episodes were."""
-    bench = load_script("benchmarks/throughput.py")
+    bench = load_script("benchmarks/throughput.py").evaluation
     task, kwargs, policy, params, stats = bench.policy_to_evaluate(None, "inverted_pendulum")
     row = bench.eval_measure(task, kwargs, policy, params, stats, "jax", "default", episodes=2, repeats=1)
     assert row["horizon"] == 1000 and row["episodes"] == 2

@@ -858,6 +858,12 @@ def test_the_end_report_times_the_first_block(runs, capsys):
     with no MuJoCo Warp kernels to wait for, so without that clause)."""
     assert main.main([*TINY, "--iterations", "2", "--run-dir", str(runs / "first_block")]) == 0
     lines = capsys.readouterr().out.splitlines()
+    # before the first block, a line says that it compiles (a MuJoCo task on a CPU takes minutes)
+    training = next(i for i, line in enumerate(lines) if line.startswith("training: "))
+    assert re.fullmatch(
+        r"compiling: the first block of 2 iteration\(s\) compiles before its first metrics line \(.*\)",
+        lines[training + 1],
+    ), lines[training : training + 2]
     done = next(i for i, line in enumerate(lines) if line.startswith("done in "))
     assert re.fullmatch(r"first block: compiled in \d+\.\d s", lines[done + 1]), lines[done + 1]
     # then where the start-up went: pytest's process was not started for this command, so its age

@@ -190,6 +190,12 @@ def _train(plan_: Plan, ts: Any, wall_offset: float, interrupts: Interrupts) -> 
                 segments.append(min(misaligned, remaining))
             if remaining - sum(segments) > 0:
                 segments.append(remaining - sum(segments))
+            # Nothing else is printed until the first block has compiled and run, which takes
+            # minutes for a MuJoCo task on a CPU: say what the wait is.
+            show(
+                f"compiling: the first block of {min(block, segments[0])} iteration(s) compiles before its "
+                "first metrics line (minutes for a MuJoCo task on a CPU)"
+            )
             first_block.started = time.perf_counter()  # its compilation is timed from here
             for index, count in enumerate(segments):
                 ts = train.train(

@@ -30,23 +30,19 @@ from pathlib import Path
 from types import ModuleType
 from typing import Any
 
-# jaxpg task -> (the id of the Gymnasium env it reproduces, Gymnasium's step limit): the same table
-# as ``jaxpg.envs.GYMNASIUM_COUNTERPARTS`` (tests/test_gymnasium_registration.py checks it), kept here
-# so that registering imports nothing of jaxpg.
-COUNTERPARTS: dict[str, tuple[str, int]] = {
-    "hopper": ("Hopper-v5", 1000),
-    "inverted_pendulum": ("InvertedPendulum-v5", 1000),
-    "inverted_double_pendulum": ("InvertedDoublePendulum-v5", 1000),
-    "half_cheetah": ("HalfCheetah-v5", 1000),
-    "swimmer": ("Swimmer-v5", 1000),
-    "pusher": ("Pusher-v5", 100),
-    "walker2d": ("Walker2d-v5", 1000),
-    "humanoid": ("Humanoid-v5", 1000),
-    "humanoid_standup": ("HumanoidStandup-v5", 1000),
-    "reacher": ("Reacher-v5", 50),
-    "ant": ("Ant-v5", 1000),
-    "cartpole": ("CartPole-v1", 500),
-}
+
+def _builtin_counterparts() -> dict[str, tuple[str, int]]:
+    """jaxpg task -> (the id of the Gymnasium env it reproduces, Gymnasium's step limit), read from
+    ``tasks.py`` beside this file, loaded by its path: it imports only ``dataclasses``, so
+    registering still imports nothing of jaxpg's package (and none of its JAX settings)."""
+    spec = importlib.util.spec_from_file_location("_jaxpg_task_table", Path(__file__).with_name("tasks.py"))
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module  # its dataclasses look their module up there
+    spec.loader.exec_module(module)
+    return dict(module.GYMNASIUM_COUNTERPARTS)
+
+
+COUNTERPARTS: dict[str, tuple[str, int]] = _builtin_counterparts()
 
 # Tasks with no physics fidelity to choose (pure JAX, the same equations as Gymnasium's).
 NO_FIDELITY = frozenset({"cartpole"})
